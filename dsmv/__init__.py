@@ -1,0 +1,14 @@
+"""dsmv — landing sinkage of deep-sea mining vehicles on ultra-soft seabed clay.
+
+Scenes are composed from Hydra YAML (``conf/``), validated into typed objects
+(:mod:`dsmv.scene`), solved by a solver plugin (analytic energy method or the CEL
+solver) with a soil-law plugin, and tracked in MLflow (:mod:`dsmv.tracking`).
+SI units throughout: m, kg, s, Pa, N, J.
+"""
+
+from importlib.metadata import PackageNotFoundError, version
+
+try:
+    __version__ = version("dsmv")
+except PackageNotFoundError:  # running from a source tree that was never installed
+    __version__ = "0.0.0+unknown"

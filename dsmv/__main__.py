@@ -1,0 +1,6 @@
+"""``python -m dsmv`` is ``dsmv``."""
+
+from dsmv.cli import simulate
+
+if __name__ == "__main__":
+    simulate()

@@ -1,0 +1,1 @@
+"""Closed-form models: the energy method (bearing capacity, Hansbo, Bekker to come)."""

@@ -1,0 +1,182 @@
+"""The energy method for the landing of a track on clay (reference study, Eq. 3).
+
+Per track, with n tracks sharing the wet weight m·g:
+
+    ½·M·v² + W·z = ∫0^z R(z') dz',     R(z) = Nc·sc·f·A·(su0 + ks·z)
+
+M = m/n the mass per track (the study uses the wet weight m for inertia too), W = m·g/n
+the wet weight per track, A = B·L the contact area, Nc = 2 + π (Prandtl's strip
+factor), sc the shape factor and f the soil law's strength factor at an operative
+plastic strain and strain rate (1 unless asked for; always 1 for Tresca).
+
+The same resistance drives the equation of motion M·z̈ = W − R(z), whose closed-form
+solution gives the time history; its first integral is the energy equation above, so
+the two agree exactly. If ks = 0 and R(0) ≤ W the soil cannot carry the weight at any
+depth: status ``bearing_failure``.
+
+Shape factor: Skempton (1951), "The bearing capacity of clays", Building Research
+Congress, London: Nc(rectangle) = Nc(strip)·(1 + 0.2·B/L).
+Operative strain rate for the rate factor: γ̇_op = v/B, the usual normalisation of
+penetration rate by the body's size (Einav & Randolph 2005 use v/D for a T-bar).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Literal, Optional, Union
+
+import numpy as np
+from pydantic import BeforeValidator, Field
+
+from dsmv import registry
+from dsmv.results import SolveResult
+from dsmv.scene import Count, Number, Scene, Schema
+
+PRANDTL_NC = 2.0 + math.pi  # Prandtl (1920): rigid strip on weightless Tresca soil
+
+
+def _check_shape_factor(value):
+    if value == "skempton" or (isinstance(value, (int, float)) and not isinstance(value, bool) and value > 0):
+        return value
+    raise ValueError("must be 'skempton' (sc = 1 + 0.2·B/L) or a number > 0")
+
+
+class AnalyticEnergyConfig(Schema):
+    """Config of ``solver=analytic_energy``."""
+
+    name: Literal["analytic_energy"]
+    bearing_factor: Number = Field(PRANDTL_NC, gt=0, description="Nc (-); Prandtl 2 + π")
+    shape_factor: Annotated[Union[str, float], BeforeValidator(_check_shape_factor)] = "skempton"
+    operative_shear_strain: Optional[Number] = Field(
+        None, ge=0, description="ξ at which the law's softening is evaluated (-); null: no softening"
+    )
+    rate_effect: bool = Field(False, description="apply the law's rate factor at γ̇_op = v/B")
+    history_points: Count = Field(200, ge=2, description="samples in the time history (-)")
+
+
+def sinkage_from_energy(weight_n, inertia_kg, velocity_m_s, resistance_area_m2, su0_pa, ks_pa_per_m) -> float:
+    """Depth z (m) where the soil has absorbed the touchdown kinetic energy and the work of W.
+
+    Solves ½·M·v² + W·z = Ra·(su0·z + ½·ks·z²) for z ≥ 0, with Ra = Nc·sc·f·A (m²).
+    Returns ``math.inf`` when the soil cannot stop the body (ks = 0 and Ra·su0 ≤ W, moving
+    or overloaded).
+    """
+    stiffness = resistance_area_m2 * ks_pa_per_m  # dR/dz (N/m)
+    excess = resistance_area_m2 * su0_pa - weight_n  # R(0) − W (N)
+    kinetic = 0.5 * inertia_kg * velocity_m_s**2  # (J)
+    if stiffness == 0.0:
+        if excess > 0.0:
+            return kinetic / excess
+        return 0.0 if (excess == 0.0 and kinetic == 0.0) else math.inf
+    # ½·k·z² + excess·z − kinetic = 0, in the form free of cancellation for either sign.
+    root = math.sqrt(excess * excess + 2.0 * stiffness * kinetic)
+    if excess >= 0.0:
+        return 2.0 * kinetic / (excess + root)
+    return (root - excess) / stiffness
+
+
+class AnalyticEnergySolver:
+    """Solver plugin ``analytic_energy``: the energy method, closed form, microseconds."""
+
+    name = "analytic_energy"
+    config_model = AnalyticEnergyConfig
+
+    def __init__(self, scene: Scene):
+        self.scene = scene
+        cfg = scene.solver
+        body, landing, soil = scene.geometry, scene.landing, scene.soil
+        self.shape_factor = (
+            1.0 + 0.2 * body.width_m / body.contact_length_m if cfg.shape_factor == "skempton" else cfg.shape_factor
+        )
+        law = registry.load("soil_laws", soil.law, "soil.law")(soil)
+        xi = cfg.operative_shear_strain or 0.0
+        rate = landing.velocity_m_s / body.width_m if cfg.rate_effect else 0.0
+        self.strength_factor = float(law.strength_factor(np.asarray(xi), np.asarray(rate)))
+        #: Ra = Nc·sc·f·A (m²): resistance per unit of su
+        self.resistance_area_m2 = cfg.bearing_factor * self.shape_factor * self.strength_factor * body.contact_area_m2
+
+    def resistance_n(self, depth_m):
+        """Soil resistance R(z) (N) on one track at depth z (m)."""
+        soil = self.scene.soil
+        return self.resistance_area_m2 * (soil.su0_pa + soil.ks_pa_per_m * np.asarray(depth_m))
+
+    def solve(self, run_dir=None) -> SolveResult:
+        landing = self.scene.landing
+        common = {
+            "static_capacity_n": float(self.resistance_n(0.0)),
+            "weight_per_track_n": landing.weight_per_track_n,
+            "shape_factor": self.shape_factor,
+            "strength_factor": self.strength_factor,
+        }
+        units = {"static_capacity_n": "N", "weight_per_track_n": "N", "shape_factor": "-", "strength_factor": "-"}
+        if landing.kind == "push":
+            return self._push(common, units)
+        return self._drop(common, units)
+
+    def _push(self, metrics, units) -> SolveResult:
+        landing, soil, n = self.scene.landing, self.scene.soil, self.scene.solver.history_points
+        depth = np.linspace(0.0, landing.displacement_m, n)
+        force = self.resistance_n(depth)
+        metrics |= {
+            "max_sinkage_m": landing.displacement_m,
+            "max_force_n": float(force[-1]),
+            "bearing_factor_at_end": float(force[-1] / (self.scene.geometry.contact_area_m2 * soil.su0_pa)),
+        }
+        units |= {"max_sinkage_m": "m", "max_force_n": "N", "bearing_factor_at_end": "-"}
+        history = {
+            "time_s": depth / landing.velocity_m_s,
+            "sinkage_m": depth,
+            "velocity_m_s": np.full(n, landing.velocity_m_s),
+            "force_n": force,
+        }
+        return SolveResult("ok", f"pushed to {landing.displacement_m:g} m", metrics, units, history)
+
+    def _drop(self, metrics, units) -> SolveResult:
+        landing, soil, body = self.scene.landing, self.scene.soil, self.scene.geometry
+        weight, mass, v0 = landing.weight_per_track_n, landing.inertia_per_track_kg, landing.velocity_m_s
+        z_max = sinkage_from_energy(weight, mass, v0, self.resistance_area_m2, soil.su0_pa, soil.ks_pa_per_m)
+        metrics["touchdown_kinetic_energy_j"] = 0.5 * mass * v0**2
+        units["touchdown_kinetic_energy_j"] = "J"
+        if math.isinf(z_max):
+            message = (
+                f"the soil cannot carry the track at any depth: capacity Nc·sc·f·A·su0 = "
+                f"{metrics['static_capacity_n']:.4g} N ≤ wet weight per track {weight:.4g} N and ks = 0"
+            )
+            return SolveResult("bearing_failure", message, metrics, units, None)
+
+        t_rest, time, depth, velocity = self._trajectory(z_max)
+        metrics |= {
+            "max_sinkage_m": z_max,
+            "sinkage_over_width": z_max / body.width_m,
+            "time_to_rest_s": t_rest,
+            "final_resistance_n": float(self.resistance_n(z_max)),
+        }
+        units |= {"max_sinkage_m": "m", "sinkage_over_width": "-", "time_to_rest_s": "s", "final_resistance_n": "N"}
+        history = {"time_s": time, "sinkage_m": depth, "velocity_m_s": velocity, "force_n": self.resistance_n(depth)}
+        return SolveResult("ok", f"came to rest at {z_max:.4g} m after {t_rest:.3g} s", metrics, units, history)
+
+    def _trajectory(self, z_max):
+        """Closed-form motion z(t), v(t) of M·z̈ = W − R(z) from z = 0, v = v0 to rest at z_max."""
+        landing, soil = self.scene.landing, self.scene.soil
+        mass, v0 = landing.inertia_per_track_kg, landing.velocity_m_s
+        n = self.scene.solver.history_points
+        if z_max == 0.0:
+            zeros = np.zeros(1)
+            return 0.0, zeros, zeros, zeros
+        stiffness = self.resistance_area_m2 * soil.ks_pa_per_m
+        excess = self.resistance_area_m2 * soil.su0_pa - landing.weight_per_track_n
+        if stiffness == 0.0:  # constant deceleration a = (R0 − W)/M
+            decel = excess / mass
+            t_rest = v0 / decel
+            t = np.linspace(0.0, t_rest, n)
+            return t_rest, t, v0 * t - 0.5 * decel * t**2, v0 - decel * t
+        # harmonic motion about z_eq = −excess/k with ω² = k/M, reaching z_max at rest
+        omega = math.sqrt(stiffness / mass)
+        z_eq = -excess / stiffness
+        phase = math.atan2(v0 / omega, z_eq)  # z = z_eq − amp·cos(ωt + phase)
+        t_rest = (math.pi - phase) / omega
+        t = np.linspace(0.0, t_rest, n)
+        z = z_eq * (1.0 - np.cos(omega * t)) + (v0 / omega) * np.sin(omega * t)
+        v = z_eq * omega * np.sin(omega * t) + v0 * np.cos(omega * t)
+        z[-1], v[-1] = z_max, 0.0  # the end point exactly, free of round-off in the phase
+        return t_rest, t, z, v

@@ -1,0 +1,49 @@
+"""Plugin discovery through standard entry points.
+
+One entry-point group per kind of plugin; the entry-point name is the option name a
+config uses (``soil.law=tresca``, ``solver.name=analytic_energy``). Built-in plugins are
+registered in dsmv's own ``pyproject.toml`` and go through the same path as third-party
+ones. Plugins load lazily: listing them imports nothing.
+"""
+
+from __future__ import annotations
+
+import warnings
+from importlib.metadata import EntryPoint, entry_points
+
+from dsmv.errors import ConfigError
+
+GROUPS = {
+    "soil_laws": "dsmv.soil_laws",
+    "solvers": "dsmv.solvers",
+    "surrogates": "dsmv.surrogates",
+}
+
+
+def available(kind: str) -> dict[str, EntryPoint]:
+    """Installed plugins of one kind, by name (first registration wins on duplicates)."""
+    found: dict[str, EntryPoint] = {}
+    for ep in entry_points(group=GROUPS[kind]):
+        if ep.name in found and found[ep.name].value != ep.value:
+            warnings.warn(
+                f"dsmv plugin {kind}:{ep.name} is registered twice "
+                f"({found[ep.name].value} and {ep.value}); using the first",
+                stacklevel=2,
+            )
+            continue
+        found.setdefault(ep.name, ep)
+    return dict(sorted(found.items()))
+
+
+def check_name(kind: str, name: str, config_path: str) -> None:
+    """Raise a ConfigError listing what is installed when ``name`` is not a plugin of ``kind``."""
+    names = available(kind)
+    if name not in names:
+        listing = ", ".join(names) or "none installed"
+        raise ConfigError(config_path, name, f"not an installed {kind[:-1].replace('_', ' ')}; available: {listing}")
+
+
+def load(kind: str, name: str, config_path: str):
+    """Load the object registered as ``name`` in the group of ``kind``."""
+    check_name(kind, name, config_path)
+    return available(kind)[name].load()

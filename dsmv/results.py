@@ -1,0 +1,80 @@
+"""The result contract of one job: ``result.json`` and the time-history CSV.
+
+``result.json``: ``{"status", "message", "solver", "soil_law", "metrics": {name: number},
+"units": {name: unit}, "dsmv_version", "config_hash"}``. Metric names carry their unit
+where it is ambiguous (``max_sinkage_m``). Sweep-level summaries use other file names.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+import dsmv
+
+#: ok: the body came to rest (or the push finished); bearing_failure: the soil cannot stop
+#: the body; out_of_domain: the body neared the mesh edge; unstable: a numerical guard
+#: tripped; failed: the code raised.
+STATUSES = ("ok", "bearing_failure", "out_of_domain", "unstable", "failed")
+
+RESULT_FILE = "result.json"
+HISTORY_FILE = "history.csv"
+#: columns of the time history, with units in their names
+HISTORY_COLUMNS = ("time_s", "sinkage_m", "velocity_m_s", "force_n")
+
+
+@dataclass
+class SolveResult:
+    """What a solver returns. ``history`` maps HISTORY_COLUMNS to equal-length arrays."""
+
+    status: str
+    message: str
+    metrics: dict[str, float] = field(default_factory=dict)
+    units: dict[str, str] = field(default_factory=dict)
+    history: dict[str, np.ndarray] | None = None
+
+    def __post_init__(self):
+        if self.status not in STATUSES:
+            raise ValueError(f"status {self.status!r} is not one of {STATUSES}")
+        for name, value in self.metrics.items():
+            # A NaN never leaves silently: a solver must report 'unstable' instead.
+            if not math.isfinite(value):
+                raise ValueError(f"metric {name} = {value} is not finite")
+
+
+def write_result(run_dir: Path, result: SolveResult, solver: str, soil_law: str, config_hash: str) -> Path:
+    """Write ``result.json`` into ``run_dir`` and return its path."""
+    payload = {
+        "status": result.status,
+        "message": result.message,
+        "solver": solver,
+        "soil_law": soil_law,
+        "metrics": {k: float(v) for k, v in result.metrics.items()},
+        "units": dict(result.units),
+        "dsmv_version": dsmv.__version__,
+        "config_hash": config_hash,
+    }
+    path = Path(run_dir) / RESULT_FILE
+    path.write_text(json.dumps(payload, indent=2) + "\n")
+    return path
+
+
+def write_history(run_dir: Path, history: dict[str, np.ndarray]) -> Path:
+    """Write the time history as CSV with a header of HISTORY_COLUMNS."""
+    path = Path(run_dir) / HISTORY_FILE
+    columns = [np.asarray(history[c], dtype=float) for c in HISTORY_COLUMNS]
+    with path.open("w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(HISTORY_COLUMNS)
+        writer.writerows(zip(*(c.tolist() for c in columns)))
+    return path
+
+
+def read_result(run_dir: Path) -> dict:
+    """Read a job's ``result.json``."""
+    return json.loads((Path(run_dir) / RESULT_FILE).read_text())

@@ -1,0 +1,98 @@
+"""One job: validate the scene, solve it, write the result contract, track it.
+
+Nothing is lost on failure: a solver that raises still leaves result.json (status
+``failed``, the error as message), the resolved config, and a FAILED MLflow run.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import traceback
+from pathlib import Path
+
+from hydra.core.hydra_config import HydraConfig
+from hydra.types import RunMode
+from omegaconf import DictConfig, OmegaConf
+
+from dsmv import registry, tracking
+from dsmv.errors import DsmvError
+from dsmv.results import SolveResult, write_history, write_result
+from dsmv.scene import Scene, build_scene
+
+RESOLVED_CONFIG_FILE = "config_resolved.yaml"
+
+
+def pin_numba_threads(n: int) -> None:
+    """Limit Numba to ``n`` threads: two threads per job on two cores collapse in parallel sweeps."""
+    os.environ["NUMBA_NUM_THREADS"] = str(n)
+    if "numba" in sys.modules:
+        import numba
+
+        numba.set_num_threads(min(n, numba.config.NUMBA_NUM_THREADS))
+
+
+def fail_user_error(error: DsmvError) -> None:
+    """Report a user mistake in one line on stderr and exit with status 2."""
+    print(f"dsmv: error: {error}", file=sys.stderr)
+    sys.exit(2)
+
+
+def run_job(cfg: DictConfig) -> dict:
+    """Run the scene of one Hydra job; return result.json's content."""
+    hydra_cfg = HydraConfig.get()
+    run_dir = Path(hydra_cfg.runtime.output_dir)
+    multirun = hydra_cfg.mode == RunMode.MULTIRUN
+    if multirun and "joblib" in str(hydra_cfg.launcher.get("_target_", "")):
+        pin_numba_threads(1)
+
+    try:
+        scene = build_scene(cfg)
+        parent = tracking.parent_run_id(Path(hydra_cfg.sweep.dir)) if multirun else None
+        run_name = " ".join(hydra_cfg.overrides.task) or run_dir.name
+        tracker = tracking.start_job(cfg, scene, run_dir, run_name, parent)
+    except DsmvError as error:
+        fail_user_error(error)
+
+    (run_dir / RESOLVED_CONFIG_FILE).write_text(OmegaConf.to_yaml(cfg, resolve=True))
+    error_text = None
+    try:
+        solver = registry.load("solvers", scene.solver.name, "solver.name")(scene)
+        result = solver.solve(run_dir)
+    except DsmvError as error:
+        result, error_text = SolveResult("failed", str(error)), str(error)
+    except Exception as error:  # a bug: keep everything, report, re-raise below
+        result = SolveResult("failed", f"{type(error).__name__}: {error}")
+        error_text = traceback.format_exc()
+
+    files = [write_result(run_dir, result, scene.solver.name, scene.soil.law, scene.config_hash)]
+    if result.history is not None:
+        files.append(write_history(run_dir, result.history))
+    files.append(run_dir / RESOLVED_CONFIG_FILE)
+    if tracker is not None:
+        tracker.finish(result, files, error_text)
+
+    print_summary(scene, result, run_dir, tracker, multirun)
+    if error_text is not None and not multirun:
+        print(f"dsmv: the run failed: {result.message}", file=sys.stderr)
+        sys.exit(1)
+    return {"status": result.status, "metrics": result.metrics}
+
+
+def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, multirun: bool) -> None:
+    """A short human summary: status, max sinkage with units, where outputs and MLflow are."""
+    sinkage = result.metrics.get("max_sinkage_m")
+    what = f"max sinkage {sinkage:.4f} m" if sinkage is not None else result.message
+    if multirun:
+        print(f"[{run_dir.name}] {result.status}: {what}")
+        return
+    print(f"\ndsmv: {result.status} — {what}")
+    print(f"  scene   : {scene.soil.name} soil ({scene.soil.law}), {scene.geometry.name}, "
+          f"{scene.landing.kind} {scene.landing.mass_kg:g} kg at {scene.landing.velocity_m_s:g} m/s, "
+          f"solver {scene.solver.name}")
+    print(f"  message : {result.message}")
+    print(f"  outputs : {run_dir}")
+    if tracker is not None:
+        uri = tracker.client.tracking_uri
+        print(f"  MLflow  : {uri}  (experiment {tracking.experiment_name(scene.study)}, run {tracker.run_id})")
+        print(f"  browse  : .venv/bin/mlflow ui --backend-store-uri {uri} --host 127.0.0.1")

@@ -1,0 +1,306 @@
+"""Config → validated, typed scene objects.
+
+Every config group has a schema here. :func:`build_scene` validates a composed Hydra
+config group by group and raises :class:`~dsmv.errors.ConfigError` naming the config
+path, the value and what is allowed, for the first wrong value it meets. Plugins
+(``soil.law``, ``solver.name``) are checked against what is installed.
+
+Units: SI throughout; names carry them (``mass_kg``, ``su0_pa``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from typing import Annotated, Any, Literal, Optional, Union
+
+from omegaconf import DictConfig, OmegaConf
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from dsmv import registry
+from dsmv.errors import ConfigError
+
+# --------------------------------------------------------------------------- resolvers
+
+
+def register_resolvers() -> None:
+    """OmegaConf resolvers used by conf/ (``${dsmv.mul:500,${soil.su0_pa}}`` → E = 500·su0)."""
+    OmegaConf.register_new_resolver("dsmv.mul", lambda a, b: float(a) * float(b), replace=True)
+
+
+register_resolvers()
+
+# --------------------------------------------------------------------------- field types
+
+
+def _reject_bool(value):
+    # YAML `yes`/`true` must not pass as the number 1.
+    if isinstance(value, bool):
+        raise ValueError("must be a number, not a boolean")
+    return value
+
+
+Number = Annotated[float, BeforeValidator(_reject_bool)]
+Count = Annotated[int, BeforeValidator(_reject_bool)]
+
+
+class Schema(BaseModel):
+    """Base of all config schemas: unknown keys, NaN and ±inf are errors; objects are frozen."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+# --------------------------------------------------------------------------- soil
+
+
+class RateConfig(Schema):
+    """Strain-rate dependence R(γ̇) of the undrained strength (Einav & Randolph 2005 form).
+
+    ``power``: R = 1 + η·(γ̇/γ̇ref)^n (Herschel–Bulkley, the reference study's form).
+    ``log``:   R = 1 + μ·log10(max(γ̇, γ̇ref)/γ̇ref).
+    """
+
+    law: Literal["power", "log"] = "power"
+    eta: Number = Field(0.0, ge=0, description="power-law viscosity coefficient η (-), 0-0.15 in Table 3")
+    n: Number = Field(gt=0, le=1, description="shear-thinning index n (-)")
+    gamma_dot_ref: Number = Field(gt=0, description="reference shear strain rate γ̇ref (1/s)")
+    mu: Number = Field(0.0, ge=0, description="log-law rate parameter μ per decade (-)")
+
+
+class SoilConfig(Schema):
+    """A soil profile: su_intact(z) = su0 + ks·z, softening, rate, elasticity, buoyant density."""
+
+    name: str
+    law: str = Field(description="soil-law plugin (entry point in dsmv.soil_laws)")
+    su0_pa: Number = Field(gt=0, description="intact undrained shear strength at the mudline (Pa)")
+    ks_pa_per_m: Number = Field(ge=0, description="strength gradient with depth (Pa/m)")
+    sensitivity: Number = Field(ge=1, description="sensitivity St = su_intact/su_remoulded (-)")
+    xi95: Number = Field(gt=0, description="accumulated plastic shear strain for 95 % softening (-)")
+    rate: RateConfig
+    density_kg_m3: Number = Field(gt=0, description="submerged (buoyant) density ρ' (kg/m³)")
+    youngs_modulus_pa: Number = Field(gt=0, description="Young's modulus E (Pa)")
+    poisson_ratio: Number = Field(ge=0, lt=0.5, description="Poisson's ratio ν (-), < 0.5")
+
+    def su_intact_pa(self, depth_m):
+        """Intact strength (Pa) of soil that started at depth ``depth_m`` (m) below the mudline."""
+        return self.su0_pa + self.ks_pa_per_m * depth_m
+
+
+# --------------------------------------------------------------------------- geometry
+
+
+def _check_roughness(value):
+    if isinstance(value, str) and value in ("rough", "smooth"):
+        return value
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and 0.0 <= value <= 1.0:
+        return float(value)
+    raise ValueError("must be 'rough', 'smooth' or an adhesion factor α in [0, 1]")
+
+
+Roughness = Annotated[Union[str, float], BeforeValidator(_check_roughness)]
+
+
+class BodyConfig(Schema):
+    """A rigid body: width B (m) across the section, contact length L (m), interface roughness."""
+
+    name: str
+    kind: str
+    width_m: Number = Field(gt=0, description="width B (m)")
+    contact_length_m: Number = Field(gt=0, description="contact length L (m); contact area A = B·L")
+    roughness: Roughness = "rough"
+
+    @property
+    def contact_area_m2(self) -> float:
+        """Contact area A = B·L (m²) of one track."""
+        return self.width_m * self.contact_length_m
+
+    @property
+    def adhesion_factor(self) -> float:
+        """Interface shear limit as a fraction α of su: rough 1, smooth 0."""
+        return {"rough": 1.0, "smooth": 0.0}.get(self.roughness, self.roughness)
+
+
+class TrackGeometry(BodyConfig):
+    """The Pioneering-I track (section 2.3 of the reference study)."""
+
+    kind: Literal["track"]
+    view: Literal["cross_section", "longitudinal"] = "cross_section"
+    sprocket_radius_m: Number = Field(gt=0)
+    sprocket_spacing_m: Number = Field(gt=0, description="distance between sprocket centres (m)")
+    plate_pitch_m: Number = Field(gt=0)
+    plate_thickness_m: Number = Field(gt=0)
+    grouser_height_m: Number = Field(ge=0)
+
+
+class StripGeometry(BodyConfig):
+    """A rigid strip footing of width B; plane strain per metre of length by default."""
+
+    kind: Literal["strip"]
+
+
+GEOMETRY_KINDS: dict[str, type[BodyConfig]] = {"track": TrackGeometry, "strip": StripGeometry}
+
+# --------------------------------------------------------------------------- landing
+
+
+class LandingConfig(Schema):
+    """How the body meets the soil.
+
+    ``drop``: free landing at ``velocity_m_s`` under the wet weight m·g; the study uses the
+    wet weight m for inertia too (``inertial_mass_kg`` overrides that).
+    ``push``: prescribed downward velocity to ``displacement_m`` (load–displacement curves).
+    The weight is shared by ``n_tracks`` tracks; one track is modelled.
+    """
+
+    kind: Literal["drop", "push"]
+    mass_kg: Number = Field(gt=0, description="wet weight as a mass m (kg), the study's m")
+    velocity_m_s: Number = Field(ge=0, description="downward velocity at touchdown / of the push (m/s)")
+    n_tracks: Count = Field(1, ge=1, description="tracks sharing the weight (-)")
+    inertial_mass_kg: Optional[Number] = Field(None, gt=0, description="mass for inertia (kg); default m")
+    gravity_m_s2: Number = Field(9.81, ge=0, description="gravitational acceleration (m/s²)")
+    displacement_m: Optional[Number] = Field(None, gt=0, description="push: displacement to reach (m)")
+
+    @model_validator(mode="after")
+    def _push_needs_motion(self):
+        if self.kind == "push":
+            if self.velocity_m_s <= 0:
+                raise ConfigError("landing.velocity_m_s", self.velocity_m_s, "a push needs a velocity > 0 (m/s)")
+            if self.displacement_m is None:
+                raise ConfigError("landing.displacement_m", None, "a push needs a displacement > 0 (m)")
+        return self
+
+    @property
+    def weight_per_track_n(self) -> float:
+        """Wet weight carried by one track, m·g/n (N)."""
+        return self.mass_kg * self.gravity_m_s2 / self.n_tracks
+
+    @property
+    def inertia_per_track_kg(self) -> float:
+        """Mass accelerated with one track (kg)."""
+        return (self.inertial_mass_kg or self.mass_kg) / self.n_tracks
+
+
+# --------------------------------------------------------------------------- mesh, output
+
+
+class MeshConfig(Schema):
+    """Eulerian grid: uniform core cells, graded geometrically towards the far boundaries."""
+
+    name: str
+    cell_size_m: Number = Field(gt=0, description="core cell size h (m)")
+    max_cell_size_m: Number = Field(gt=0, description="largest cell at the far boundaries (m)")
+    growth_ratio: Number = Field(ge=1.0, le=1.5, description="size ratio of neighbouring graded cells (-)")
+
+    @model_validator(mode="after")
+    def _max_not_below_core(self):
+        if self.max_cell_size_m < self.cell_size_m:
+            raise ConfigError(
+                "mesh.max_cell_size_m", self.max_cell_size_m, f"must be ≥ mesh.cell_size_m = {self.cell_size_m} m"
+            )
+        return self
+
+
+class OutputConfig(Schema):
+    """What a run writes besides result.json and the history CSV."""
+
+    fields: bool = False
+    plots: bool = True
+
+
+class TrackingConfig(Schema):
+    """MLflow tracking: a local SQLite store by default."""
+
+    enabled: bool
+    uri: Optional[str] = None
+    artifact_location: Optional[str] = None
+
+
+# --------------------------------------------------------------------------- scene
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene: soil × body × landing × mesh × solver."""
+
+    study: str
+    soil: SoilConfig
+    geometry: BodyConfig
+    landing: LandingConfig
+    mesh: MeshConfig
+    solver: BaseModel
+    output: OutputConfig
+
+    @property
+    def config_hash(self) -> str:
+        """Short SHA-256 of the physics-relevant config: same scene, same hash."""
+        text = json.dumps(self.physics_dict(), sort_keys=True, default=str)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    def physics_dict(self) -> dict[str, Any]:
+        """The physics-relevant config (what the hash covers), as plain data."""
+        return {
+            "soil": self.soil.model_dump(),
+            "geometry": self.geometry.model_dump(),
+            "landing": self.landing.model_dump(),
+            "mesh": self.mesh.model_dump(),
+            "solver": self.solver.model_dump(),
+        }
+
+
+def _validate(model: type[BaseModel], data: Any, prefix: str) -> BaseModel:
+    """Validate one group; turn the first pydantic error into a one-line ConfigError."""
+    if not isinstance(data, dict):
+        raise ConfigError(prefix, data, "must be a config group (a mapping)")
+    try:
+        return model.model_validate(data)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        path = ".".join([prefix, *(str(p) for p in err["loc"])])
+        value = err.get("input")
+        if err["type"] == "missing":
+            value = None
+        message = err["msg"].replace("Input should be", "must be").replace("Value error, ", "")
+        raise ConfigError(path, value, message) from None
+
+
+def _group(container: dict, name: str) -> Any:
+    if name not in container:
+        raise ConfigError(name, None, "missing config group")
+    return container[name]
+
+
+def build_scene(cfg: DictConfig | dict) -> Scene:
+    """Validate a composed config into a :class:`Scene` (raises ConfigError on the first bad value)."""
+    container = OmegaConf.to_container(cfg, resolve=True) if isinstance(cfg, DictConfig) else dict(cfg)
+
+    soil = _validate(SoilConfig, _group(container, "soil"), "soil")
+    registry.check_name("soil_laws", soil.law, "soil.law")
+
+    geometry_data = _group(container, "geometry")
+    kind = geometry_data.get("kind") if isinstance(geometry_data, dict) else None
+    if kind not in GEOMETRY_KINDS:
+        raise ConfigError("geometry.kind", kind, f"must be one of {', '.join(GEOMETRY_KINDS)}")
+    geometry = _validate(GEOMETRY_KINDS[kind], geometry_data, "geometry")
+
+    landing = _validate(LandingConfig, _group(container, "landing"), "landing")
+    mesh = _validate(MeshConfig, _group(container, "mesh"), "mesh")
+
+    solver_data = _group(container, "solver")
+    solver_name = solver_data.get("name") if isinstance(solver_data, dict) else None
+    solver_cls = registry.load("solvers", solver_name, "solver.name")
+    solver = _validate(solver_cls.config_model, solver_data, "solver")
+
+    output = _validate(OutputConfig, container.get("output", {}), "output")
+    study = str(container.get("study", "default"))
+
+    return Scene(study, soil, geometry, landing, mesh, solver, output)
+
+
+def build_tracking(cfg: DictConfig | dict) -> TrackingConfig:
+    """Validate the ``tracking`` group."""
+    node = cfg.get("tracking", {"enabled": False})
+    # Resolve only this node: the rest (hydra.*) may not resolve outside a job.
+    data = OmegaConf.to_container(node, resolve=True) if isinstance(node, DictConfig) else node
+    return _validate(TrackingConfig, data, "tracking")
+

@@ -1,0 +1,235 @@
+"""MLflow tracking of jobs and sweeps.
+
+One MLflow experiment per study (``dsmv-<study>``). Each job is one run: the flattened
+resolved config as params, scalar results as metrics, the time history as metric
+history (step = simulated time in microseconds, so the MLflow UI overlays curves on a
+physical axis), result.json / the resolved config / the history CSV as artifacts, and
+tags for status, soil law, solver, geometry and config hash. A completed job is FINISHED
+whatever its physics status; FAILED means the code raised.
+
+A multirun gets one parent run, created by :class:`MlflowSweepCallback` before the jobs
+start; each job, in whatever process a launcher puts it, finds the parent's id in the
+sweep dir and tags itself with ``mlflow.parentRunId`` (nested runs only work within one
+process). Everything goes through ``MlflowClient`` with explicit run ids: no global
+"active run" state. ``mlflow`` is imported lazily (it costs about a second).
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import time
+from pathlib import Path
+from typing import Any, Iterable
+
+from hydra.experimental.callback import Callback
+from omegaconf import DictConfig, OmegaConf
+
+from dsmv.results import HISTORY_COLUMNS, RESULT_FILE, SolveResult
+from dsmv.scene import TrackingConfig, build_tracking
+
+PARENT_RUN_FILE = "mlflow_parent_run.json"
+SWEEP_SUMMARY_FILE = "sweep_summary.csv"
+MAX_HISTORY_POINTS = 1000  # per curve logged to MLflow; the CSV artifact keeps every sample
+
+
+def experiment_name(study: str) -> str:
+    return f"dsmv-{study}"
+
+
+def resolve_uri(uri: str) -> str:
+    """Make a relative ``sqlite:///`` store absolute, so every process and the UI agree."""
+    prefix = "sqlite:///"
+    if uri.startswith(prefix) and not uri.startswith(prefix + "/"):
+        path = Path(uri[len(prefix) :]).resolve()
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return prefix + str(path)
+    return uri
+
+
+def _client(tracking: TrackingConfig):
+    from mlflow.tracking import MlflowClient
+
+    return MlflowClient(tracking_uri=resolve_uri(tracking.uri))
+
+
+def _experiment_id(client, name: str, artifact_location: str | None) -> str:
+    found = client.get_experiment_by_name(name)
+    if found is not None:
+        return found.experiment_id
+    location = None
+    if artifact_location:
+        location = Path(artifact_location).resolve().as_uri() if "://" not in artifact_location else artifact_location
+    try:
+        return client.create_experiment(name, artifact_location=location)
+    except Exception:  # created meanwhile by a parallel job
+        found = client.get_experiment_by_name(name)
+        if found is None:
+            raise
+        return found.experiment_id
+
+
+def flatten(tree: Any, prefix: str = "") -> dict[str, str]:
+    """Nested config → ``{"soil.su0_pa": "5000.0", ...}`` (MLflow params are strings)."""
+    if isinstance(tree, dict):
+        flat: dict[str, str] = {}
+        for key, value in tree.items():
+            flat |= flatten(value, f"{prefix}{key}.")
+        return flat
+    return {prefix[:-1]: str(tree)}
+
+
+def _git_sha() -> str | None:
+    try:
+        out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, timeout=5)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return out.stdout.strip() or None
+
+
+def _chunks(items: list, size: int) -> Iterable[list]:
+    for start in range(0, len(items), size):
+        yield items[start : start + size]
+
+
+class JobTracker:
+    """The MLflow run of one job."""
+
+    def __init__(self, tracking: TrackingConfig, study: str, run_name: str, params: dict[str, str], tags: dict):
+        from mlflow.entities import Param, RunTag
+
+        self.client = _client(tracking)
+        self.experiment_id = _experiment_id(self.client, experiment_name(study), tracking.artifact_location)
+        tags = {k: str(v) for k, v in tags.items() if v is not None}
+        run = self.client.create_run(self.experiment_id, tags=tags, run_name=run_name)
+        self.run_id = run.info.run_id
+        params_list = [Param(k, v[:6000]) for k, v in params.items()]
+        for chunk in _chunks(params_list, 100):
+            self.client.log_batch(self.run_id, params=chunk)
+        self._tag = RunTag
+
+    def finish(self, result: SolveResult, files: list[Path], error: str | None = None) -> None:
+        """Log the outcome and close the run: FINISHED unless the code raised."""
+        from mlflow.entities import Metric, Param
+
+        now = int(time.time() * 1000)
+        metrics = [Metric(k, float(v), now, 0) for k, v in result.metrics.items()]
+        if result.history is not None:
+            metrics += _history_metrics(result.history, now)
+        for chunk in _chunks(metrics, 1000):
+            self.client.log_batch(self.run_id, metrics=chunk)
+        tags = [self._tag("dsmv.status", result.status), self._tag("dsmv.message", result.message[:5000])]
+        if error:
+            tags.append(self._tag("dsmv.error", error[:5000]))
+        self.client.log_batch(self.run_id, params=[Param("status", result.status)], tags=tags)
+        for path in files:
+            self.client.log_artifact(self.run_id, str(path))
+        self.client.set_terminated(self.run_id, "FAILED" if error else "FINISHED")
+
+
+def _history_metrics(history: dict, timestamp_ms: int) -> list:
+    """Histories as metric steps: step = simulated time in µs, at most MAX_HISTORY_POINTS each."""
+    import numpy as np
+    from mlflow.entities import Metric
+
+    time_s = np.asarray(history["time_s"], dtype=float)
+    keep = np.unique(np.linspace(0, len(time_s) - 1, min(len(time_s), MAX_HISTORY_POINTS)).round().astype(int))
+    steps = np.round(time_s[keep] * 1e6).astype(np.int64)
+    out = []
+    for column in HISTORY_COLUMNS[1:]:
+        values = np.asarray(history[column], dtype=float)[keep]
+        out += [Metric(f"history.{column}", float(v), timestamp_ms, int(s)) for v, s in zip(values, steps)]
+    return out
+
+
+def start_job(cfg: DictConfig, scene, run_dir: Path, run_name: str, parent_run_id: str | None) -> JobTracker | None:
+    """Open the MLflow run of a job, or return None when tracking is disabled."""
+    tracking = build_tracking(cfg)
+    if not tracking.enabled:
+        return None
+    container = OmegaConf.to_container(cfg, resolve=True)
+    params = flatten({k: v for k, v in container.items() if k not in ("tracking", "paths")})
+    tags = {
+        "mlflow.parentRunId": parent_run_id,
+        "mlflow.source.git.commit": _git_sha(),
+        "dsmv.study": scene.study,
+        "dsmv.soil_law": scene.soil.law,
+        "dsmv.solver": scene.solver.name,
+        "dsmv.geometry": scene.geometry.name,
+        "dsmv.config_hash": scene.config_hash,
+        "dsmv.run_dir": str(run_dir.resolve()),
+        "dsmv.status": "running",
+    }
+    return JobTracker(tracking, scene.study, run_name, params, tags)
+
+
+def parent_run_id(sweep_dir: Path) -> str | None:
+    """The id of the sweep's parent run, if the sweep callback made one."""
+    path = Path(sweep_dir) / PARENT_RUN_FILE
+    return json.loads(path.read_text())["run_id"] if path.exists() else None
+
+
+class MlflowSweepCallback(Callback):
+    """Hydra callback owning a multirun's parent MLflow run and its summary."""
+
+    def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
+        tracking = build_tracking(config)
+        if not tracking.enabled:
+            return
+        sweep_dir = Path(str(config.hydra.sweep.dir))
+        sweep_dir.mkdir(parents=True, exist_ok=True)
+        client = _client(tracking)  # creates the store here, before parallel jobs race for it
+        study = str(config.get("study", "default"))
+        experiment_id = _experiment_id(client, experiment_name(study), tracking.artifact_location)
+        tags = {"dsmv.study": study, "dsmv.sweep_dir": str(sweep_dir.resolve()), "dsmv.role": "sweep"}
+        sha = _git_sha()
+        if sha:
+            tags["mlflow.source.git.commit"] = sha
+        run = client.create_run(experiment_id, tags=tags, run_name=f"sweep {sweep_dir.name}")
+        overrides = list(config.hydra.overrides.task)
+        if overrides:
+            client.log_param(run.info.run_id, "sweep.overrides", " ".join(overrides)[:6000])
+        (sweep_dir / PARENT_RUN_FILE).write_text(json.dumps({"run_id": run.info.run_id, "uri": client.tracking_uri}))
+
+    def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
+        sweep_dir = Path(str(config.hydra.sweep.dir))
+        rows = summarize_sweep(sweep_dir)
+        run_id = parent_run_id(sweep_dir)
+        tracking = build_tracking(config)
+        if run_id is None or not tracking.enabled:
+            return
+        client = _client(tracking)
+        counts = {status: sum(r["status"] == status for r in rows) for status in {r["status"] for r in rows}}
+        for status, count in counts.items():
+            client.log_metric(run_id, f"jobs_{status}", count)
+        client.log_metric(run_id, "jobs_total", len(rows))
+        summary = sweep_dir / SWEEP_SUMMARY_FILE
+        if summary.exists():
+            client.log_artifact(run_id, str(summary))
+        client.set_terminated(run_id, "FINISHED")
+
+
+def summarize_sweep(sweep_dir: Path) -> list[dict]:
+    """Collect every job's result.json below a sweep dir into ``sweep_summary.csv``."""
+    import csv
+
+    rows = []
+    for path in sorted(Path(sweep_dir).glob(f"*/{RESULT_FILE}"), key=lambda p: _job_order(p.parent.name)):
+        result = json.loads(path.read_text())
+        overrides_file = path.parent / ".hydra" / "overrides.yaml"
+        overrides = " ".join(OmegaConf.load(overrides_file)) if overrides_file.exists() else ""
+        row = {"job": path.parent.name, "overrides": overrides, "status": result["status"]}
+        row |= result["metrics"]
+        row["message"] = result["message"]
+        rows.append(row)
+    if rows:
+        columns = list(dict.fromkeys(k for row in rows for k in row))
+        with (Path(sweep_dir) / SWEEP_SUMMARY_FILE).open("w", newline="") as fh:
+            writer = csv.DictWriter(fh, fieldnames=columns)
+            writer.writeheader()
+            writer.writerows(rows)
+    return rows
+
+
+def _job_order(name: str):
+    return (0, int(name)) if name.isdigit() else (1, name)

@@ -1,0 +1,1 @@
+"""dsmv's built-in plugins, registered by entry point exactly like third-party ones."""

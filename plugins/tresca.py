@@ -1,0 +1,19 @@
+"""Tresca: rigid–perfectly plastic undrained strength, su = su_intact(z0) = su0 + ks·z0.
+
+No softening and no rate effect: ``soil.sensitivity``, ``soil.xi95`` and ``soil.rate``
+are ignored, and solvers skip that arithmetic. In plane strain the J2 criterion
+√J2 ≤ su used by the CEL solver is exactly Tresca's.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dsmv.soil_law import SoilLaw
+
+
+class TrescaLaw(SoilLaw):
+    name = "tresca"
+
+    def strength_factor(self, xi, gamma_dot_per_s):
+        return np.ones(np.broadcast(np.asarray(xi), np.asarray(gamma_dot_per_s)).shape)
