@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import Annotated, Any, Literal, Optional, Union
 
 from omegaconf import DictConfig, OmegaConf
+from omegaconf.errors import OmegaConfBaseException
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from dsmv import registry
@@ -24,9 +25,33 @@ from dsmv.errors import ConfigError
 # --------------------------------------------------------------------------- resolvers
 
 
+def _multiply(a, b) -> float:
+    for value in (a, b):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ValueError(f"{value!r} is not a number")
+    return float(a) * float(b)
+
+
 def register_resolvers() -> None:
     """OmegaConf resolvers used by conf/ (``${dsmv.mul:500,${soil.su0_pa}}`` → E = 500·su0)."""
-    OmegaConf.register_new_resolver("dsmv.mul", lambda a, b: float(a) * float(b), replace=True)
+    OmegaConf.register_new_resolver("dsmv.mul", _multiply, replace=True)
+
+
+def _to_container(cfg: DictConfig) -> dict:
+    """Resolve a config (not its ``hydra`` node); a failing interpolation is a ConfigError on its key."""
+    try:
+        return {key: _resolve(cfg[key]) for key in cfg if key != "hydra"}
+    except OmegaConfBaseException as exc:
+        key = getattr(exc, "full_key", None) or "<config>"
+        raw: Any = OmegaConf.to_container(cfg, resolve=False)
+        for part in key.split("."):
+            raw = raw.get(part) if isinstance(raw, dict) else None
+        reason = str(exc).splitlines()[0].split("while resolving interpolation: ")[-1]
+        raise ConfigError(key, raw, f"cannot be resolved: {reason}") from None
+
+
+def _resolve(node: Any) -> Any:
+    return OmegaConf.to_container(node, resolve=True) if isinstance(node, DictConfig) else node
 
 
 register_resolvers()
@@ -272,7 +297,7 @@ def _group(container: dict, name: str) -> Any:
 
 def build_scene(cfg: DictConfig | dict) -> Scene:
     """Validate a composed config into a :class:`Scene` (raises ConfigError on the first bad value)."""
-    container = OmegaConf.to_container(cfg, resolve=True) if isinstance(cfg, DictConfig) else dict(cfg)
+    container = _to_container(cfg) if isinstance(cfg, DictConfig) else dict(cfg)
 
     soil = _validate(SoilConfig, _group(container, "soil"), "soil")
     registry.check_name("soil_laws", soil.law, "soil.law")
@@ -299,8 +324,7 @@ def build_scene(cfg: DictConfig | dict) -> Scene:
 
 def build_tracking(cfg: DictConfig | dict) -> TrackingConfig:
     """Validate the ``tracking`` group."""
-    node = cfg.get("tracking", {"enabled": False})
     # Resolve only this node: the rest (hydra.*) may not resolve outside a job.
-    data = OmegaConf.to_container(node, resolve=True) if isinstance(node, DictConfig) else node
+    data = _resolve(cfg.get("tracking", {"enabled": False}))
     return _validate(TrackingConfig, data, "tracking")
 

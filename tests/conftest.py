@@ -1,0 +1,57 @@
+"""Shared fixtures: compose configs in-process, run the CLI in a scratch folder."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from hydra import compose, initialize_config_dir
+from hydra.core.global_hydra import GlobalHydra
+
+from dsmv.cli import CONFIG_DIR
+
+BIN = Path(sys.executable).parent
+CONF = Path(CONFIG_DIR)
+
+
+def group_options(group: str) -> list[str]:
+    """Every option (YAML file) of a config group."""
+    return sorted(p.stem for p in (CONF / group).glob("*.yaml"))
+
+
+@pytest.fixture
+def compose_cfg():
+    """compose_cfg(overrides) -> DictConfig, composed from conf/ like the CLI does."""
+
+    def _compose(overrides=(), return_hydra_config=False):
+        GlobalHydra.instance().clear()
+        with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):
+            return compose("config", overrides=list(overrides), return_hydra_config=return_hydra_config)
+
+    yield _compose
+    GlobalHydra.instance().clear()
+
+
+@pytest.fixture
+def run_cli(tmp_path):
+    """run_cli("dsmv", *args) runs a console script in tmp_path (its runs/ lands there)."""
+
+    def _run(program: str, *args: str, timeout: float = 300) -> subprocess.CompletedProcess:
+        env = dict(os.environ, NUMBA_NUM_THREADS="1", HYDRA_FULL_ERROR="0")
+        return subprocess.run(
+            [str(BIN / program), *args], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=timeout
+        )
+
+    return _run
+
+
+def mlflow_runs(store_dir: Path):
+    """All MLflow runs of every experiment in the local store under ``store_dir``."""
+    from mlflow.tracking import MlflowClient
+
+    client = MlflowClient(f"sqlite:///{(store_dir / 'runs' / 'mlflow.db').resolve()}")
+    ids = [e.experiment_id for e in client.search_experiments()]
+    return client.search_runs(ids, max_results=1000)

@@ -1,0 +1,134 @@
+"""The CLI end to end: result.json per job, MLflow runs, parents for sweeps, failures kept."""
+
+import json
+import os
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from dsmv.results import HISTORY_COLUMNS
+from tests.conftest import mlflow_runs
+
+RESULT_KEYS = {"status", "message", "solver", "soil_law", "metrics", "units", "dsmv_version", "config_hash"}
+
+
+def job_dirs(root: Path) -> list[Path]:
+    """Hydra job dirs (runs/outputs/<day>/<time>, runs/multirun/<day>/<time>/<n>), not artifact copies."""
+    found = [*root.glob("runs/outputs/*/*/result.json"), *root.glob("runs/multirun/*/*/*/result.json")]
+    return sorted(p.parent for p in found)
+
+
+def test_single_run_writes_the_contract_and_one_finished_mlflow_run(run_cli, tmp_path):
+    proc = run_cli("dsmv")
+    assert proc.returncode == 0, proc.stderr
+    assert "dsmv: ok — max sinkage 0.2100 m" in proc.stdout
+    (job,) = job_dirs(tmp_path)
+    result = json.loads((job / "result.json").read_text())
+    assert set(result) == RESULT_KEYS
+    assert result["status"] == "ok" and result["soil_law"] == "tresca" and result["solver"] == "analytic_energy"
+    assert result["units"]["max_sinkage_m"] == "m"
+    header = (job / "history.csv").read_text().splitlines()[0]
+    assert header == ",".join(HISTORY_COLUMNS)
+    assert (job / "config_resolved.yaml").exists()
+
+    (run,) = mlflow_runs(tmp_path)
+    assert run.info.status == "FINISHED"
+    assert run.data.tags["dsmv.status"] == "ok" and run.data.params["status"] == "ok"
+    assert run.data.params["soil.su0_pa"] == "5000.0"
+    assert run.data.metrics["max_sinkage_m"] == pytest.approx(result["metrics"]["max_sinkage_m"])
+    assert "history.sinkage_m" in run.data.metrics
+
+
+def test_python_dash_m_is_the_same_app(run_cli, tmp_path):
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-m", "dsmv", "tracking=disabled", "landing.velocity_m_s=0"],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert "dsmv: ok" in proc.stdout
+
+
+@pytest.mark.parametrize("launcher", ["basic", "joblib"])
+def test_2x2_multirun_leaves_one_parent_and_four_finished_children(run_cli, tmp_path, launcher):
+    args = ["-m", "landing.velocity_m_s=0.5,1.0", "soil.su0_pa=4000,6000"]
+    if launcher == "joblib":
+        args += ["hydra/launcher=joblib", "hydra.launcher.n_jobs=2"]
+    proc = run_cli("dsmv", *args)
+    assert proc.returncode == 0, proc.stderr
+    jobs = job_dirs(tmp_path)
+    assert len(jobs) == 4
+    assert all(json.loads((j / "result.json").read_text())["status"] == "ok" for j in jobs)
+
+    runs = mlflow_runs(tmp_path)
+    parents = [r for r in runs if r.data.tags.get("dsmv.role") == "sweep"]
+    children = [r for r in runs if "mlflow.parentRunId" in r.data.tags]
+    assert len(parents) == 1 and len(children) == 4 and len(runs) == 5
+    parent = parents[0]
+    assert parent.info.status == "FINISHED" and parent.data.metrics["jobs_ok"] == 4
+    assert {c.data.tags["mlflow.parentRunId"] for c in children} == {parent.info.run_id}
+    assert all(c.info.status == "FINISHED" for c in children)
+    # nothing lost in parallel writes: every job's params and metrics arrived
+    got = sorted((c.data.params["landing.velocity_m_s"], c.data.params["soil.su0_pa"]) for c in children)
+    assert got == [("0.5", "4000"), ("0.5", "6000"), ("1.0", "4000"), ("1.0", "6000")]
+    assert all("max_sinkage_m" in c.data.metrics for c in children)
+    sweep_dir = jobs[0].parent
+    assert (sweep_dir / "sweep_summary.csv").read_text().count("\n") == 5
+
+
+BROKEN_SOLVER = '''
+from pydantic import BaseModel, ConfigDict
+
+class Config(BaseModel):
+    model_config = ConfigDict(extra="allow")
+    name: str
+
+class BrokenSolver:
+    config_model = Config
+    def __init__(self, scene):
+        self.scene = scene
+    def solve(self, run_dir=None):
+        raise RuntimeError("kaboom in the solver")
+'''
+
+
+@pytest.fixture
+def third_party_solver(tmp_path, monkeypatch):
+    """A solver plugin installed only through an entry point on PYTHONPATH."""
+    site = tmp_path / "site"
+    dist = site / "broken_solver-0.1.dist-info"
+    dist.mkdir(parents=True)
+    (site / "broken_solver.py").write_text(BROKEN_SOLVER)
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: broken-solver\nVersion: 0.1\n")
+    (dist / "entry_points.txt").write_text("[dsmv.solvers]\nbroken = broken_solver:BrokenSolver\n")
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")]))
+    return "broken"
+
+
+def test_a_solver_that_raises_leaves_result_json_and_a_failed_run(run_cli, tmp_path, third_party_solver):
+    proc = run_cli("dsmv-plugins")
+    assert "broken" in proc.stdout and "broken_solver:BrokenSolver" in proc.stdout
+    proc = run_cli("dsmv", f"solver.name={third_party_solver}")
+    assert proc.returncode == 1
+    assert "kaboom in the solver" in proc.stderr
+    (job,) = job_dirs(tmp_path)
+    result = json.loads((job / "result.json").read_text())
+    assert result["status"] == "failed" and "kaboom" in result["message"]
+    (run,) = mlflow_runs(tmp_path)
+    assert run.info.status == "FAILED"
+    assert "kaboom" in run.data.tags["dsmv.error"] and run.data.tags["dsmv.status"] == "failed"
+
+
+def test_bearing_failure_is_a_finished_run_with_its_status(run_cli, tmp_path):
+    proc = run_cli("dsmv", "soil.su0_pa=2000", "soil.ks_pa_per_m=0")
+    assert proc.returncode == 0, proc.stderr
+    assert "bearing_failure" in proc.stdout
+    (run,) = mlflow_runs(tmp_path)
+    assert run.info.status == "FINISHED" and run.data.tags["dsmv.status"] == "bearing_failure"
+
+
+def test_dsmv_plugins_lists_groups_and_builtins(run_cli):
+    out = run_cli("dsmv-plugins").stdout
+    for line in ("dsmv.soil_laws:", "dsmv.solvers:", "dsmv.surrogates:", "tresca", "analytic_energy"):
+        assert line in out

@@ -1,0 +1,61 @@
+"""Wrong values fail at composition with one line: config path, value, what is allowed."""
+
+import pytest
+
+from dsmv.errors import ConfigError
+from dsmv.scene import build_scene
+
+BAD_VALUES = [
+    ("landing.mass_kg=-1", "landing.mass_kg", "greater than 0"),
+    ("landing.velocity_m_s=-0.5", "landing.velocity_m_s", "greater than or equal to 0"),
+    ("landing.n_tracks=0", "landing.n_tracks", "greater than or equal to 1"),
+    ("landing.n_tracks=1.5", "landing.n_tracks", "integer"),
+    ("soil.sensitivity=0.9", "soil.sensitivity", "greater than or equal to 1"),
+    ("soil.poisson_ratio=0.5", "soil.poisson_ratio", "less than 0.5"),
+    ("soil.su0_pa=0", "soil.su0_pa", "greater than 0"),
+    ("soil.ks_pa_per_m=-1", "soil.ks_pa_per_m", "greater than or equal to 0"),
+    ("soil.xi95=0", "soil.xi95", "greater than 0"),
+    ("soil.rate.law=linear", "soil.rate.law", "'power' or 'log'"),
+    ("soil.rate.eta=-0.1", "soil.rate.eta", "greater than or equal to 0"),
+    ("soil.density_kg_m3=true", "soil.density_kg_m3", "not a boolean"),
+    ("soil.su0_pa=nan", "soil.su0_pa", "finite"),
+    ("geometry.contact_length_m=0", "geometry.contact_length_m", "greater than 0"),
+    ("geometry.width_m=-1", "geometry.width_m", "greater than 0"),
+    ("geometry.roughness=sticky", "geometry.roughness", "'rough', 'smooth'"),
+    ("geometry.roughness=1.5", "geometry.roughness", "adhesion factor"),
+    ("geometry.view=top", "geometry.view", "cross_section"),
+    ("mesh.cell_size_m=0", "mesh.cell_size_m", "greater than 0"),
+    ("mesh.max_cell_size_m=0.01", "mesh.max_cell_size_m", "mesh.cell_size_m"),
+    ("mesh.growth_ratio=2", "mesh.growth_ratio", "less than or equal to 1.5"),
+    ("soil.law=nope", "soil.law", "available: tresca"),
+    ("solver.name=nope", "solver.name", "available: analytic_energy"),
+    ("solver.shape_factor=-1", "solver.shape_factor", "skempton"),
+    ("+soil.su0=5", "soil.su0", "Extra inputs"),
+    ("soil.su0_pa=abc", "soil.youngs_modulus_pa", "'abc' is not a number"),
+]
+
+
+@pytest.mark.parametrize("override,path,allowed", BAD_VALUES, ids=[b[0] for b in BAD_VALUES])
+def test_bad_value_names_path_value_and_allowed(compose_cfg, override, path, allowed):
+    with pytest.raises(ConfigError) as info:
+        build_scene(compose_cfg([override]))
+    assert info.value.path == path
+    assert allowed in str(info.value)
+    assert "\n" not in str(info.value)
+
+
+def test_push_needs_a_velocity(compose_cfg):
+    with pytest.raises(ConfigError, match="landing.velocity_m_s"):
+        build_scene(compose_cfg(["landing=push", "landing.velocity_m_s=0"]))
+
+
+@pytest.mark.parametrize(
+    "override,expected",
+    [("landing.mass_kg=-1", "landing.mass_kg = -1"), ("soil.law=nope", "available: tresca")],
+)
+def test_cli_reports_one_line_without_traceback(run_cli, override, expected):
+    proc = run_cli("dsmv", override, "tracking=disabled")
+    assert proc.returncode != 0
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and expected in lines[0]
+    assert "Traceback" not in proc.stderr + proc.stdout
