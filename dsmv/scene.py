@@ -185,6 +185,7 @@ class LandingConfig(Schema):
     inertial_mass_kg: Optional[Number] = Field(None, gt=0, description="mass for inertia (kg); default m")
     gravity_m_s2: Number = Field(9.81, ge=0, description="gravitational acceleration (m/s²)")
     displacement_m: Optional[Number] = Field(None, gt=0, description="push: displacement to reach (m)")
+    initial_depth_m: Number = Field(0.0, ge=0, description="depth of the body's base below the mudline at the start (m)")
 
     @model_validator(mode="after")
     def _push_needs_motion(self):

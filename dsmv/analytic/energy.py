@@ -75,15 +75,20 @@ def sinkage_from_energy(weight_n, inertia_kg, velocity_m_s, resistance_area_m2, 
     return (root - excess) / stiffness
 
 
+def energy_estimate(scene: Scene) -> "AnalyticEnergySolver":
+    """The energy method with its default settings, for any scene (domain sizing, features)."""
+    return AnalyticEnergySolver(scene, AnalyticEnergyConfig(name="analytic_energy"))
+
+
 class AnalyticEnergySolver:
     """Solver plugin ``analytic_energy``: the energy method, closed form, microseconds."""
 
     name = "analytic_energy"
     config_model = AnalyticEnergyConfig
 
-    def __init__(self, scene: Scene):
+    def __init__(self, scene: Scene, config: AnalyticEnergyConfig | None = None):
         self.scene = scene
-        cfg = scene.solver
+        self.config = cfg = config or scene.solver
         body, landing, soil = scene.geometry, scene.landing, scene.soil
         self.shape_factor = (
             1.0 + 0.2 * body.width_m / body.contact_length_m if cfg.shape_factor == "skempton" else cfg.shape_factor
@@ -114,7 +119,7 @@ class AnalyticEnergySolver:
         return self._drop(common, units)
 
     def _push(self, metrics, units) -> SolveResult:
-        landing, soil, n = self.scene.landing, self.scene.soil, self.scene.solver.history_points
+        landing, soil, n = self.scene.landing, self.scene.soil, self.config.history_points
         depth = np.linspace(0.0, landing.displacement_m, n)
         force = self.resistance_n(depth)
         metrics |= {
@@ -159,7 +164,7 @@ class AnalyticEnergySolver:
         """Closed-form motion z(t), v(t) of M·z̈ = W − R(z) from z = 0, v = v0 to rest at z_max."""
         landing, soil = self.scene.landing, self.scene.soil
         mass, v0 = landing.inertia_per_track_kg, landing.velocity_m_s
-        n = self.scene.solver.history_points
+        n = self.config.history_points
         if z_max == 0.0:
             zeros = np.zeros(1)
             return 0.0, zeros, zeros, zeros

@@ -1,0 +1,1 @@
+"""The 2D explicit Coupled Eulerian–Lagrangian solver: grid, kernels, stepper, solver plugin."""

@@ -1,0 +1,408 @@
+"""Compiled kernels of the 2D CEL step: small, arrays and scalars only.
+
+Layout: cell arrays have shape (nx, ny), node arrays (nx+1, ny+1); cell (i, j) has nodes
+(i, j) bottom-left, (i+1, j) bottom-right, (i+1, j+1) top-right, (i, j+1) top-left. Stress
+is the soil's own (tension positive, Pa); the cell carries φ·σ. The transported cell state
+``q`` has shape (NQ, nx, ny): σxx, σyy, σxy, σzz (σθθ when axisymmetric), ξ, z0, then any
+soil-law state.
+
+Axisymmetric mode (x = r): volumes and face areas per radian are weighted by r, the hoop
+strain rate is v_r/r and the hoop stress enters the radial nodal force (one-point rule).
+
+References: Flanagan & Belytschko (1981) IJNME 17 (one-point quadrature, hourglass
+control); Benson (1992) CMAME 99 (operator split, dual-mesh momentum remap); van Leer (1977)
+(MUSCL); Hirt & Nichols (1981) (donor–acceptor volume fluxes).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+SXX, SYY, SXY, SZZ, XI, Z0 = 0, 1, 2, 3, 4, 5
+NQ_BASE = 6
+
+FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}  # never 'nnan'/'ninf': the guards need NaN
+JIT = dict(cache=True, error_model="numpy", fastmath=FAST)
+
+
+@njit(**JIT)
+def cell_volumes(x, y, axisym):
+    """Cell volume per unit thickness (plane strain) or per radian (axisymmetric), m³."""
+    nx, ny = len(x) - 1, len(y) - 1
+    vol = np.empty((nx, ny))
+    for i in range(nx):
+        r = 0.5 * (x[i] + x[i + 1]) if axisym else 1.0
+        for j in range(ny):
+            vol[i, j] = (x[i + 1] - x[i]) * (y[j + 1] - y[j]) * r
+    return vol
+
+
+@njit(**JIT)
+def nodal_mass(phi, vol, rho, mass):
+    """Lumped nodal mass: a quarter of each neighbouring cell's soil mass (kg)."""
+    mass[:] = 0.0
+    nx, ny = phi.shape
+    for i in range(nx):
+        for j in range(ny):
+            m = 0.25 * rho * phi[i, j] * vol[i, j]
+            if m > 0.0:
+                mass[i, j] += m
+                mass[i + 1, j] += m
+                mass[i + 1, j + 1] += m
+                mass[i, j + 1] += m
+
+
+@njit(**JIT)
+def nodal_forces(x, y, phi, q, vx, vy, rho, wave_speed, hourglass, bulk_lin, bulk_quad, axisym, fx, fy, work):
+    """Internal nodal forces (N per unit thickness or per radian) from the cell stresses.
+
+    One-point quadrature at the cell centre; viscous hourglass control with coefficient
+    ``hourglass`` (Flanagan–Belytschko form, force ∝ ρ·c·√A·hourglass velocity); linear and
+    quadratic bulk viscosity in compression. ``work`` accumulates the power dissipated by
+    hourglass [0] and bulk viscosity [1] (W), to be multiplied by Δt by the caller.
+    """
+    fx[:] = 0.0
+    fy[:] = 0.0
+    nx, ny = phi.shape
+    hg_power = 0.0
+    bv_power = 0.0
+    for i in range(nx):
+        dx = x[i + 1] - x[i]
+        r = 0.5 * (x[i] + x[i + 1]) if axisym else 1.0
+        for j in range(ny):
+            f = phi[i, j]
+            if f <= 0.0:
+                continue
+            dy = y[j + 1] - y[j]
+            area = dx * dy
+            vol = area * r
+            # velocity gradient at the centre
+            vx0, vx1, vx2, vx3 = vx[i, j], vx[i + 1, j], vx[i + 1, j + 1], vx[i, j + 1]
+            vy0, vy1, vy2, vy3 = vy[i, j], vy[i + 1, j], vy[i + 1, j + 1], vy[i, j + 1]
+            dvx_dx = (vx1 + vx2 - vx0 - vx3) / (2.0 * dx)
+            dvy_dy = (vy2 + vy3 - vy0 - vy1) / (2.0 * dy)
+            div = dvx_dx + dvy_dy
+            if axisym:
+                div += 0.25 * (vx0 + vx1 + vx2 + vx3) / r
+            # bulk viscosity (a pressure, Pa) in compression only
+            qb = 0.0
+            if div < 0.0:
+                h = min(dx, dy)
+                qb = rho * f * (bulk_quad * bulk_quad * h * h * div * div - bulk_lin * wave_speed * h * div)
+                bv_power += qb * (-div) * vol
+            sxx = q[SXX, i, j] - qb
+            syy = q[SYY, i, j] - qb
+            sxy = q[SXY, i, j]
+            # f_a = −V·φ·σ·∇N_a with ∇N_a = (±1/2dx, ±1/2dy)
+            ax = 0.5 * vol * f / dx
+            ay = 0.5 * vol * f / dy
+            # node 0 (−,−), 1 (+,−), 2 (+,+), 3 (−,+)
+            fx[i, j] += ax * sxx + ay * sxy
+            fy[i, j] += ax * sxy + ay * syy
+            fx[i + 1, j] += -ax * sxx + ay * sxy
+            fy[i + 1, j] += -ax * sxy + ay * syy
+            fx[i + 1, j + 1] += -ax * sxx - ay * sxy
+            fy[i + 1, j + 1] += -ax * sxy - ay * syy
+            fx[i, j + 1] += ax * sxx - ay * sxy
+            fy[i, j + 1] += ax * sxy - ay * syy
+            if axisym:  # hoop stress: −A·φ·σθθ·N_a, N_a = 1/4 at the centre
+                hoop = 0.25 * area * f * (q[SZZ, i, j] - qb)
+                fx[i, j] -= hoop
+                fx[i + 1, j] -= hoop
+                fx[i + 1, j + 1] -= hoop
+                fx[i, j + 1] -= hoop
+            # viscous hourglass control on the mode Γ = (1, −1, 1, −1)
+            if hourglass > 0.0:
+                gx = vx0 - vx1 + vx2 - vx3
+                gy = vy0 - vy1 + vy2 - vy3
+                c = 0.25 * hourglass * rho * f * wave_speed * math.sqrt(area) * (vol / area)
+                hx = c * gx
+                hy = c * gy
+                fx[i, j] -= hx
+                fy[i, j] -= hy
+                fx[i + 1, j] += hx
+                fy[i + 1, j] += hy
+                fx[i + 1, j + 1] -= hx
+                fy[i + 1, j + 1] -= hy
+                fx[i, j + 1] += hx
+                fy[i, j + 1] += hy
+                hg_power += hx * gx + hy * gy
+    work[0] += hg_power
+    work[1] += bv_power
+
+
+@njit(**JIT)
+def update_velocities(vx, vy, fx, fy, mass, gravity, dt, mass_floor):
+    """Explicit velocity update v += Δt·(f/m − g·ŷ) at nodes holding soil; empty nodes stop."""
+    n0, n1 = vx.shape
+    for i in range(n0):
+        for j in range(n1):
+            m = mass[i, j]
+            if m > mass_floor:
+                vx[i, j] += dt * fx[i, j] / m
+                vy[i, j] += dt * (fy[i, j] / m - gravity)
+            else:
+                vx[i, j] = 0.0
+                vy[i, j] = 0.0
+
+
+@njit(**JIT)
+def update_stress_tresca(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym, phi_min, out):
+    """Stress update for Tresca/J2 soil: Jaumann rotation, elastic trial, radial return to √J2 ≤ su.
+
+    su = su0 + ks·z0 (z0: the depth where the soil started). Accumulates the plastic shear
+    strain ξ += √2·|Δe^p| (equal to Δγ in simple shear). ``out`` accumulates [0] plastic work
+    (J) and [1] the largest √J2/su seen after return (a check that the return holds).
+    """
+    nx, ny = phi.shape
+    lam = bulk_mod - 2.0 * shear_mod / 3.0
+    plastic = 0.0
+    for i in range(nx):
+        dx = x[i + 1] - x[i]
+        r = 0.5 * (x[i] + x[i + 1]) if axisym else 1.0
+        for j in range(ny):
+            f = phi[i, j]
+            if f <= phi_min:
+                # a wisp of soil in a nearly empty cell carries no stress: its strain rate,
+                # taken from void nodes, means nothing
+                q[SXX, i, j] = 0.0
+                q[SYY, i, j] = 0.0
+                q[SXY, i, j] = 0.0
+                q[SZZ, i, j] = 0.0
+                continue
+            dy = y[j + 1] - y[j]
+            vx0, vx1, vx2, vx3 = vx[i, j], vx[i + 1, j], vx[i + 1, j + 1], vx[i, j + 1]
+            vy0, vy1, vy2, vy3 = vy[i, j], vy[i + 1, j], vy[i + 1, j + 1], vy[i, j + 1]
+            dxx = dt * (vx1 + vx2 - vx0 - vx3) / (2.0 * dx)
+            dyy = dt * (vy2 + vy3 - vy0 - vy1) / (2.0 * dy)
+            dvx_dy = (vx2 + vx3 - vx0 - vx1) / (2.0 * dy)
+            dvy_dx = (vy1 + vy2 - vy0 - vy3) / (2.0 * dx)
+            dxy = 0.5 * dt * (dvx_dy + dvy_dx)
+            dzz = dt * 0.25 * (vx0 + vx1 + vx2 + vx3) / r if axisym else 0.0
+            w = 0.5 * dt * (dvx_dy - dvy_dx)  # spin increment
+            sxx, syy, sxy, szz = q[SXX, i, j], q[SYY, i, j], q[SXY, i, j], q[SZZ, i, j]
+            # Jaumann rotation
+            rxx = 2.0 * w * sxy
+            rxy = w * (syy - sxx)
+            sxx += rxx
+            syy -= rxx
+            sxy += rxy
+            # elastic trial
+            tr = dxx + dyy + dzz
+            sxx += lam * tr + 2.0 * shear_mod * dxx
+            syy += lam * tr + 2.0 * shear_mod * dyy
+            szz += lam * tr + 2.0 * shear_mod * dzz
+            sxy += 2.0 * shear_mod * dxy
+            # radial return
+            p = (sxx + syy + szz) / 3.0
+            ex, ey, ez = sxx - p, syy - p, szz - p
+            norm = math.sqrt(ex * ex + ey * ey + ez * ez + 2.0 * sxy * sxy)  # |s| = √(2 J2)
+            su = su0 + ks * q[Z0, i, j]
+            if su < 0.0:
+                su = 0.0
+            limit = math.sqrt(2.0) * su
+            if norm > limit:
+                scale = limit / norm
+                dlam = (norm - limit) / (2.0 * shear_mod)  # |Δe^p|
+                ex *= scale
+                ey *= scale
+                ez *= scale
+                sxy *= scale
+                q[XI, i, j] += math.sqrt(2.0) * dlam
+                vol = dx * dy * r * f
+                plastic += limit * dlam * vol
+            q[SXX, i, j] = p + ex
+            q[SYY, i, j] = p + ey
+            q[SZZ, i, j] = p + ez
+            q[SXY, i, j] = sxy
+    out[0] += plastic
+
+
+@njit(**JIT)
+def _van_leer(d_minus, d_plus):
+    """van Leer's limited slope from the two one-sided differences (0 at extrema)."""
+    prod = d_minus * d_plus
+    if prod <= 0.0:
+        return 0.0
+    return 2.0 * prod / (d_minus + d_plus)
+
+
+@njit(**JIT)
+def _donor_acceptor(phi_d, phi_a, volume_flux, donor_volume, acceptor_first):
+    """Hirt–Nichols soil volume carried by a face volume flux |δV| from donor to acceptor."""
+    pd = min(phi_d, 1.0)
+    pad = min(phi_a, 1.0) if acceptor_first else pd
+    dv = abs(volume_flux)
+    cf = max((1.0 - pad) * dv - (1.0 - pd) * donor_volume, 0.0)
+    moved = min(pad * dv + cf, pd * donor_volume)
+    # soil compressed beyond φ = 1 carries its density along
+    return moved * phi_d / pd if phi_d > 1.0 else moved
+
+
+@njit(**JIT)
+def advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, bottom_inflow, flux, phi_min):
+    """One directional sweep of the cell state: volume fraction and transported quantities.
+
+    ``ux``, ``uy`` are nodal velocities relative to the grid (m/s). A face's volume flux
+    comes from the mean normal velocity of its two nodes. Soil volume moves by the
+    donor–acceptor rule; each transported quantity moves with it at the donor's value plus
+    a van Leer limited slope when ``order`` = 2. Domain edges carry nothing, except the base
+    (axis 1, face 0) when ``bottom_inflow`` — soil enters there in the state ``ghost[k, i]``
+    — and the top, where soil may leave. ``flux[face, line]`` receives the signed soil
+    volume through each face (for the momentum sweep). Returns the soil volume that entered
+    through the domain edges minus what left (m³).
+    """
+    nx, ny = phi.shape
+    nq = q.shape[0]
+    boundary = 0.0
+    n_lines = ny if axis == 0 else nx
+    n_faces = nx + 1 if axis == 0 else ny + 1
+    n_cells = n_faces - 1
+    qflux = np.zeros((nq, n_faces))
+    for line in range(n_lines):
+        for face in range(n_faces):
+            flux[face, line] = 0.0
+            for k in range(nq):
+                qflux[k, face] = 0.0
+            if axis == 0:
+                i, j = face, line
+                un = 0.5 * (ux[i, j] + ux[i, j + 1])
+                area = (y[j + 1] - y[j]) * (x[i] if axisym else 1.0)
+            else:
+                i, j = line, face
+                un = 0.5 * (uy[i, j] + uy[i + 1, j])
+                area = (x[i + 1] - x[i]) * (0.5 * (x[i] + x[i + 1]) if axisym else 1.0)
+            if un == 0.0:
+                continue
+            dvol = un * area * dt
+            donor = face - 1 if un > 0.0 else face
+            acceptor = face if un > 0.0 else face - 1
+            if donor < 0 or donor >= n_cells:
+                if axis == 1 and face == 0 and bottom_inflow and un > 0.0:
+                    flux[face, line] = dvol
+                    for k in range(nq):
+                        qflux[k, face] = dvol * ghost[k, i]
+                    boundary += dvol
+                continue
+            leaving = acceptor < 0 or acceptor >= n_cells
+            if leaving and not (axis == 1 and face == n_faces - 1):
+                continue  # symmetry plane, rollers and the base hold the soil in
+            di = donor if axis == 0 else i
+            dj = j if axis == 0 else donor
+            phi_d = phi[di, dj]
+            if phi_d <= phi_min:
+                continue
+            phi_a = 0.0
+            acceptor_first = False
+            if not leaving:
+                ai = acceptor if axis == 0 else i
+                aj = j if axis == 0 else acceptor
+                phi_a = phi[ai, aj]
+                # interface normal along the flow: the downwind value keeps the interface sharp
+                g_along_x = phi[min(di + 1, nx - 1), dj] - phi[max(di - 1, 0), dj]
+                g_along_y = phi[di, min(dj + 1, ny - 1)] - phi[di, max(dj - 1, 0)]
+                g_n, g_t = (g_along_x, g_along_y) if axis == 0 else (g_along_y, g_along_x)
+                acceptor_first = abs(g_n) >= abs(g_t) and phi_d < 1.0
+            moved = _donor_acceptor(phi_d, phi_a, dvol, vol[di, dj], acceptor_first)
+            signed = moved if un > 0.0 else -moved
+            flux[face, line] = signed
+            courant = moved / (phi_d * vol[di, dj])
+            for k in range(nq):
+                value = q[k, di, dj]
+                if order == 2:
+                    if axis == 0:
+                        il, ih = max(di - 1, 0), min(di + 1, nx - 1)
+                        lo = q[k, il, dj] if phi[il, dj] > phi_min else value
+                        hi = q[k, ih, dj] if phi[ih, dj] > phi_min else value
+                    else:
+                        jl, jh = max(dj - 1, 0), min(dj + 1, ny - 1)
+                        lo = q[k, di, jl] if phi[di, jl] > phi_min else value
+                        hi = q[k, di, jh] if phi[di, jh] > phi_min else value
+                    slope = _van_leer(value - lo, hi - value)
+                    value += (0.5 if un > 0.0 else -0.5) * slope * (1.0 - courant)
+                qflux[k, face] = signed * value
+            if leaving:
+                boundary -= signed
+        for c in range(n_cells):
+            ci = c if axis == 0 else line
+            cj = line if axis == 0 else c
+            v = vol[ci, cj]
+            old_soil = phi[ci, cj] * v
+            new_soil = old_soil + flux[c, line] - flux[c + 1, line]
+            if new_soil <= 1e-14 * v:
+                phi[ci, cj] = 0.0
+                for k in range(nq):
+                    q[k, ci, cj] = 0.0
+                continue
+            for k in range(nq):
+                q[k, ci, cj] = (old_soil * q[k, ci, cj] + qflux[k, c] - qflux[k, c + 1]) / new_soil
+            phi[ci, cj] = new_soil / v
+    return boundary
+
+
+@njit(**JIT)
+def advect_momentum(axis, flux, rho, mass, vx, vy, order, mass_floor):
+    """The matching sweep of nodal momentum on the dual mesh (Benson 1992).
+
+    The mass flux through a dual face is the mean of the four primal face fluxes around
+    it, so the nodal masses stay a quarter of their cells' masses. Momentum moves at the
+    upwind node's velocity (plus a van Leer slope when ``order`` = 2). ``mass`` (nodal,
+    before the sweep) is updated in place; soil entering through the base brings no
+    momentum (the base is at rest).
+    """
+    n0, n1 = vx.shape  # nodes (nx+1, ny+1)
+    n_along = n0 if axis == 0 else n1
+    n_across = n1 if axis == 0 else n0
+    n_lines_primal = flux.shape[1]  # cell rows (axis 0) or columns (axis 1)
+    gm = np.zeros(n_along + 1)
+    gx = np.zeros(n_along + 1)
+    gy = np.zeros(n_along + 1)
+    for a in range(n_across):
+        # dual faces: index d between node d−1 and node d along the sweep (d = 0..n_along)
+        for d in range(n_along + 1):
+            total = 0.0
+            for line in (a - 1, a):
+                if 0 <= line < n_lines_primal:
+                    if d - 1 >= 0:
+                        total += flux[d - 1, line] if d - 1 < flux.shape[0] else 0.0
+                    if d < flux.shape[0]:
+                        total += flux[d, line]
+            # dual face d sits between primal faces d−1 and d: mean of up to four fluxes
+            g = 0.25 * rho * total
+            gm[d] = g
+            gx[d] = 0.0
+            gy[d] = 0.0
+            if g == 0.0:
+                continue
+            up = d - 1 if g > 0.0 else d
+            if up < 0 or up >= n_along:
+                continue  # from outside: the base at rest brings mass, no momentum
+            ui, uj = (up, a) if axis == 0 else (a, up)
+            wx, wy = vx[ui, uj], vy[ui, uj]
+            if order == 2:
+                lo = max(up - 1, 0)
+                hi = min(up + 1, n_along - 1)
+                li, lj = (lo, a) if axis == 0 else (a, lo)
+                hi_i, hi_j = (hi, a) if axis == 0 else (a, hi)
+                courant = min(abs(g) / max(mass[ui, uj], mass_floor), 1.0)
+                half = (0.5 if g > 0.0 else -0.5) * (1.0 - courant)
+                wx += half * _van_leer(wx - vx[li, lj], vx[hi_i, hi_j] - wx)
+                wy += half * _van_leer(wy - vy[li, lj], vy[hi_i, hi_j] - wy)
+            gx[d] = g * wx
+            gy[d] = g * wy
+        for n in range(n_along):
+            ni, nj = (n, a) if axis == 0 else (a, n)
+            m_old = mass[ni, nj]
+            m_new = m_old + gm[n] - gm[n + 1]
+            px = m_old * vx[ni, nj] + gx[n] - gx[n + 1]
+            py = m_old * vy[ni, nj] + gy[n] - gy[n + 1]
+            mass[ni, nj] = m_new
+            if m_new > mass_floor:
+                vx[ni, nj] = px / m_new
+                vy[ni, nj] = py / m_new
+            else:
+                vx[ni, nj] = 0.0
+                vy[ni, nj] = 0.0

@@ -1,0 +1,343 @@
+"""``solver=cel2d``: the 2D explicit Coupled Eulerian–Lagrangian solver.
+
+Soil lives on a rectilinear Eulerian grid with a volume fraction per cell; the body is rigid.
+The grid translates with the body (what Abaqus/Explicit calls Eulerian mesh motion), so the
+body's boundary always lies on the same grid lines. Contact is then a kinematic tie of a
+fixed set of nodes (rough: both velocity components, smooth: the normal one), and the
+cell-crossing noise and partly filled cells under the body, the largest errors of a
+fixed-grid prototype (DESIGN.md §5), cannot arise. The price: in the grid frame the far
+soil streams upwards, so soil enters through the base, intact and geostatic at the depth it
+has there; the base stays at a fixed distance below the body (set by
+``solver.domain_depth_widths``), and the mass audit counts what entered.
+
+Modes: plane strain (a strip, or a track's cross-section, per metre of contact length; the
+load per track is spread over L) and axisymmetric (a circular plate of diameter B). A
+symmetry plane runs through the body's axis.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from typing import Literal, Optional
+
+import numpy as np
+from pydantic import Field
+
+from dsmv.analytic.energy import energy_estimate, sinkage_from_energy
+from dsmv.errors import ConfigError
+from dsmv.results import SolveResult
+from dsmv.scene import Count, Number, Scene, Schema
+
+#: s/B at which push curves are sampled for the bearing factor q/su0 (averaged over ±0.005·B)
+NC_SAMPLES = {"nc_at_0p02B": 0.02, "nc_at_0p05B": 0.05, "nc_at_0p1B": 0.1, "nc_at_1B": 1.0}
+NC_WINDOW = 0.005
+
+
+class Cel2DConfig(Schema):
+    """Config of ``solver=cel2d`` (numerical settings; the physics comes from the scene)."""
+
+    name: Literal["cel2d"]
+    mode: Literal["auto", "plane_strain", "axisymmetric"] = "auto"
+    cfl: Number = Field(0.5, gt=0, le=1, description="time step as a fraction of the CFL limit (-)")
+    hourglass: Number = Field(0.05, ge=0, le=1, description="viscous hourglass coefficient (-)")
+    bulk_viscosity_linear: Number = Field(0.06, ge=0, description="linear bulk viscosity b1 (-)")
+    bulk_viscosity_quadratic: Number = Field(1.2, ge=0, description="quadratic bulk viscosity b2 (-)")
+    advection_order: Literal[1, 2] = 2
+    stress_cutoff: Number = Field(0.01, ge=0, lt=1, description="cells with less soil carry no stress (-)")
+    remap: bool = Field(True, description="false: small-strain analysis on the undeformed grid (verification)")
+    domain_depth_widths: Number = Field(5.0, ge=1, description="soil depth below the body, in body widths B")
+    domain_half_width_widths: Number = Field(5.0, ge=1, description="half-width of the domain, in B")
+    core_margin_widths: Number = Field(1.0, gt=0, description="uniform core beyond the body, in B")
+    history_samples: Count = Field(400, ge=10, description="samples in the time history (-)")
+    max_steps: Count = Field(20_000_000, ge=1)
+    progress: Literal["auto", "on", "off"] = "auto"
+    initial_travel_m: Optional[Number] = Field(None, gt=0, description="travel to size the domain for (m)")
+
+
+class Cel2DSolver:
+    """Solver plugin ``cel2d``."""
+
+    name = "cel2d"
+    config_model = Cel2DConfig
+
+    def __init__(self, scene: Scene):
+        self.scene = scene
+        cfg, body, soil = scene.solver, scene.geometry, scene.soil
+        if body.kind not in ("strip", "track"):
+            raise ConfigError("geometry.kind", body.kind, "cel2d runs strip and track bodies for now")
+        if getattr(body, "view", "cross_section") != "cross_section":
+            raise ConfigError("geometry.view", body.view, "cel2d runs the cross_section view for now")
+        if body.roughness not in ("rough", "smooth"):
+            raise ConfigError("geometry.roughness", body.roughness, "cel2d supports 'rough' or 'smooth' for now")
+        if soil.law != "tresca":
+            raise ConfigError("soil.law", soil.law, "cel2d runs 'tresca' until the soil-law plugin kernels land")
+        self.mode = cfg.mode if cfg.mode != "auto" else "plane_strain"
+        self.axisym = self.mode == "axisymmetric"
+
+    # ------------------------------------------------------------------ setup
+
+    def expected_travel_m(self) -> float:
+        """How far the body is expected to go (m): the push displacement, or the energy method's sinkage."""
+        scene = self.scene
+        if scene.solver.initial_travel_m:
+            return scene.solver.initial_travel_m
+        if scene.landing.kind == "push":
+            return scene.landing.displacement_m
+        estimate = energy_estimate(scene)
+        z = sinkage_from_energy(
+            scene.landing.weight_per_track_n, scene.landing.inertia_per_track_kg, scene.landing.velocity_m_s,
+            estimate.resistance_area_m2, scene.soil.su0_pa, scene.soil.ks_pa_per_m,
+        )
+        return 1.5 * scene.geometry.width_m if math.isinf(z) else 1.5 * z + 0.05 * scene.geometry.width_m
+
+    def build(self):
+        """Grid, initial state and tied nodes."""
+        from dsmv.cel.grid import build_grid
+
+        scene, cfg = self.scene, self.scene.solver
+        B = scene.geometry.width_m
+        half = 0.5 * B
+        n_half = max(1, int(round(half / scene.mesh.cell_size_m)))
+        h = half / n_half  # the body's edge falls on a node line
+        travel = self.expected_travel_m()
+        core_half_width = h * math.ceil((half + cfg.core_margin_widths * B) / h)
+        # a body wished in place at depth d0: the mudline lies d0 above the base, on a node row
+        self.mudline = h * round(scene.landing.initial_depth_m / h)
+        grid = build_grid(
+            h=h,
+            core_half_width=core_half_width,
+            half_width=max(cfg.domain_half_width_widths * B, core_half_width + h),
+            core_depth=cfg.core_margin_widths * B,
+            depth=max(cfg.domain_depth_widths * B, cfg.core_margin_widths * B + h),
+            void_height=self.mudline + 1.3 * travel + 0.25 * B + 3 * h,
+            ratio=scene.mesh.growth_ratio,
+            h_max=scene.mesh.max_cell_size_m,
+        )
+        self.grid, self.h, self.n_half, self.travel = grid, h, n_half, travel
+        return grid
+
+    # ------------------------------------------------------------------ run
+
+    def solve(self, run_dir=None) -> SolveResult:
+        from dsmv.cel import kernels as K
+        from dsmv.cel import stepper as S
+
+        scene, cfg = self.scene, self.scene.solver
+        soil, body_cfg, landing = scene.soil, scene.geometry, scene.landing
+        grid = self.build()
+        x, y = grid.x, grid.y
+        nx, ny = grid.nx, grid.ny
+        j_base = grid.row_of(0.0)
+        xc, yc = grid.xc, grid.yc
+
+        rho, E, nu = soil.density_kg_m3, soil.youngs_modulus_pa, soil.poisson_ratio
+        G = E / (2 * (1 + nu))
+        Kb = E / (3 * (1 - 2 * nu))
+        c = math.sqrt((Kb + 4 * G / 3) / rho)
+        dt = cfg.cfl * self.h / c
+        grav = landing.gravity_m_s2
+        k0 = nu / (1 - nu)
+        B = body_cfg.width_m
+
+        # initial state: soil below the mudline (y = d0) and outside the body, geostatic, at rest
+        d0 = self.mudline
+        phi = np.zeros((nx, ny))
+        phi[:, yc < d0] = 1.0
+        phi[: self.n_half, j_base:] = 0.0
+        depth = np.where(yc < d0, d0 - yc, 0.0)
+        q = np.zeros((K.NQ_BASE, nx, ny))
+        q[K.SYY] = -rho * grav * depth[None, :] * phi
+        q[K.SXX] = k0 * q[K.SYY]
+        q[K.SZZ] = k0 * q[K.SYY]
+        q[K.Z0] = depth[None, :] * phi
+        vol = K.cell_volumes(x, y, self.axisym)
+
+        # nodes tied to the body: x ≤ B/2, y ≥ 0
+        ii, jj = np.meshgrid(np.arange(self.n_half + 1), np.arange(j_base, ny + 1), indexing="ij")
+        tie_i, tie_j = ii.ravel().astype(np.int64), jj.ravel().astype(np.int64)
+        if body_cfg.roughness == "rough":
+            tie_x = np.ones(len(tie_i), dtype=np.bool_)
+            tie_y = np.ones(len(tie_i), dtype=np.bool_)
+        else:  # smooth: the base holds vy only, the side vx only, interior and corner both
+            on_base = (tie_j == j_base) & (tie_i < self.n_half)
+            on_side = (tie_i == self.n_half) & (tie_j > j_base)
+            tie_x = ~on_base
+            tie_y = ~on_side
+
+        # the model carries a share of the body: plane strain per metre of L, half-section;
+        # axisymmetric per radian
+        scale = 2.0 * body_cfg.contact_length_m if not self.axisym else 2.0 * math.pi
+        par = np.zeros(S.N_PAR)
+        par[S.P_DT], par[S.P_RHO], par[S.P_G], par[S.P_K], par[S.P_C] = dt, rho, G, Kb, c
+        par[S.P_HG], par[S.P_BL], par[S.P_BQ] = cfg.hourglass, cfg.bulk_viscosity_linear, cfg.bulk_viscosity_quadratic
+        par[S.P_GRAV], par[S.P_SU0], par[S.P_KS] = grav, soil.su0_pa, soil.ks_pa_per_m
+        par[S.P_MFLOOR] = 1e-9 * rho * self.h * self.h
+        par[S.P_PHIMIN] = 1e-9
+        par[S.P_BODY_M] = landing.inertia_per_track_kg / scale
+        par[S.P_BODY_W] = landing.weight_per_track_n / scale
+        par[S.P_PUSH_V] = landing.velocity_m_s
+        par[S.P_K0] = k0
+        par[S.P_PHI_STRESS] = cfg.stress_cutoff
+        drop = landing.kind == "drop"
+        ipar = np.array([int(self.axisym), cfg.advection_order, int(drop), 1, int(cfg.remap)], dtype=np.int64)
+
+        vx = np.zeros((nx + 1, ny + 1))
+        vy = np.zeros((nx + 1, ny + 1))
+        mass = np.zeros_like(vx)
+        K.nodal_mass(phi, vol, rho, mass)
+        body = np.zeros(S.N_BODY)
+        v0 = -landing.velocity_m_s
+        if drop:  # touchdown: the body and the soil nodes it meets share momentum
+            tied_mass = float(mass[tie_i, tie_j][tie_y].sum())
+            v0 = par[S.P_BODY_M] * v0 / (par[S.P_BODY_M] + tied_mass)
+        body[S.B_VEL] = v0
+        vy[tie_i[tie_y], tie_j[tie_y]] = v0
+        energy = np.zeros(S.N_ENERGY)
+        ghost = np.zeros((K.NQ_BASE, nx))
+        ghost_depth0 = np.full(nx, d0 - (y[0] - 0.5 * (y[1] - y[0])))
+        work = dict(
+            fx=np.zeros_like(vx), fy=np.zeros_like(vx), ux=np.zeros_like(vx), uy=np.zeros_like(vx),
+            flux_x=np.zeros((nx + 1, ny)), flux_y=np.zeros((ny + 1, nx)),
+        )
+        mass0 = float(rho * (phi * vol).sum())
+
+        def advance(n):
+            return S.run_steps(
+                n, x, y, vol, phi, q, vx, vy, mass, work["fx"], work["fy"], work["ux"], work["uy"],
+                work["flux_x"], work["flux_y"], tie_i, tie_j, tie_x, tie_y, ghost, ghost_depth0,
+                par, ipar, body, energy,
+            )
+
+        # expected duration → steps per history sample
+        if drop:
+            duration = energy_estimate(scene).solve().metrics.get("time_to_rest_s", 0.0) or 0.0
+            duration = max(duration, self.travel / max(landing.velocity_m_s, 0.1))
+        else:
+            duration = landing.displacement_m / landing.velocity_m_s
+        chunk = max(1, int(duration / dt / cfg.history_samples))
+
+        t_start = time.perf_counter()
+        done, code = advance(1)  # first call compiles (or loads the cache)
+        compile_s = time.perf_counter() - t_start
+        steps = done
+        history = {"time_s": [0.0], "sinkage_m": [0.0], "velocity_m_s": [-v0], "force_n": [0.0]}
+        show = cfg.progress == "on" or (cfg.progress == "auto" and sys.stderr.isatty())
+        status, message = "ok", ""
+        t_run = time.perf_counter()
+        last_print = t_run
+        speed_limit = 50.0 * (abs(v0) + landing.velocity_m_s + math.sqrt(max(grav, 0.0) * B) + 1.0)
+        while True:
+            body[S.B_FSUM] = 0.0
+            body[S.B_FCOUNT] = 0.0
+            if code == S.RUNNING:
+                done, code = advance(min(chunk, cfg.max_steps - steps))
+                steps += done
+            sinkage = -body[S.B_OFFSET]
+            force = scale * body[S.B_FSUM] / max(body[S.B_FCOUNT], 1.0)
+            history["time_s"].append(body[S.B_TIME])
+            history["sinkage_m"].append(sinkage)
+            history["velocity_m_s"].append(-body[S.B_VEL])
+            history["force_n"].append(force)
+            if code == S.NOT_FINITE or not (np.isfinite(vy).all() and np.isfinite(q).all()):
+                status, message = "unstable", (
+                    f"a non-finite value appeared at t = {body[S.B_TIME]:.4g} s; lower solver.cfl "
+                    f"(now {cfg.cfl}) or raise solver.bulk_viscosity_linear")
+                break
+            vmax = float(np.sqrt(vx * vx + vy * vy).max())
+            if vmax > speed_limit:
+                status, message = "unstable", (
+                    f"soil speed {vmax:.3g} m/s exceeds the guard {speed_limit:.3g} m/s at t = {body[S.B_TIME]:.4g} s; "
+                    f"lower solver.cfl (now {cfg.cfl}) or raise solver.hourglass (now {cfg.hourglass})")
+                break
+            if phi[:, -2:].max() > 1e-6:
+                status, message = "out_of_domain", (
+                    f"soil reached the top of the domain at sinkage {sinkage:.4g} m; "
+                    f"raise solver.initial_travel_m (sized for {self.travel:.3g} m)")
+                break
+            if drop and code == S.AT_REST:
+                message = f"came to rest at {body[S.B_MAXDISP]:.4g} m after {body[S.B_TIME]:.4g} s"
+                break
+            if drop and sinkage > B and self._not_decelerating(history, B):
+                status, message = "bearing_failure", (
+                    f"the body kept sinking without slowing down over one width B = {B:g} m")
+                break
+            if not drop and sinkage >= landing.displacement_m - 1e-12:
+                message = f"pushed to {sinkage:.4g} m"
+                break
+            if drop and sinkage > self.travel:
+                status, message = "out_of_domain", (
+                    f"the body passed the travel the domain was sized for ({self.travel:.3g} m)")
+                break
+            if steps >= cfg.max_steps:
+                status, message = "unstable", f"no result after solver.max_steps = {cfg.max_steps} steps"
+                break
+            if show and time.perf_counter() - last_print > 1.0:
+                last_print = time.perf_counter()
+                rate = (steps - 1) / (last_print - t_run)
+                print(f"\r  t = {body[S.B_TIME]:.4f} s  sinkage {sinkage:.4f} m  "
+                      f"velocity {-body[S.B_VEL]:.3f} m/s  {rate:,.0f} steps/s", end="", file=sys.stderr)
+        wall_s = time.perf_counter() - t_run
+        if show:
+            print(file=sys.stderr)
+
+        mass_now = float(rho * (phi * vol).sum())
+        mass_expected = mass0 + rho * body[S.B_INFLOW]
+        history_arrays = {k: np.asarray(v) for k, v in history.items()}
+        metrics = {
+            "mass_error": abs(mass_now - mass_expected) / mass0,
+            "phi_max": float(phi.max()),
+            "phi_min": float(phi.min()),
+            "compile_s": compile_s,
+            "wall_s": wall_s,
+            "steps": float(steps),
+            "time_step_s": dt,
+            "cells": float(nx * ny),
+            "cell_updates_per_s": nx * ny * max(steps - 1, 1) / max(wall_s, 1e-9),
+            "core_cell_size_m": self.h,
+            "plastic_work_j": energy[0] * scale,
+            "hourglass_work_j": energy[1] * scale,
+            "bulk_viscosity_work_j": energy[2] * scale,
+        }
+        units = {"mass_error": "-", "phi_max": "-", "phi_min": "-", "compile_s": "s", "wall_s": "s", "steps": "-",
+                 "time_step_s": "s", "cells": "-", "cell_updates_per_s": "1/s", "core_cell_size_m": "m",
+                 "plastic_work_j": "J", "hourglass_work_j": "J", "bulk_viscosity_work_j": "J"}
+        if status in ("ok", "out_of_domain", "bearing_failure"):
+            metrics["max_sinkage_m"] = float(body[S.B_MAXDISP])
+            units["max_sinkage_m"] = "m"
+        if drop and status == "ok":
+            metrics["sinkage_over_width"] = metrics["max_sinkage_m"] / B
+            metrics["time_to_rest_s"] = float(body[S.B_TIME])
+            units |= {"sinkage_over_width": "-", "time_to_rest_s": "s"}
+        if not drop:
+            self._push_metrics(history_arrays, metrics, units)
+        if status == "ok" and metrics["mass_error"] > 1e-6:
+            status, message = "unstable", f"soil mass drifted by {metrics['mass_error']:.2e} (relative)"
+        return SolveResult(status, message, metrics, units, history_arrays)
+
+    def _not_decelerating(self, history, width) -> bool:
+        """True when the downward speed now is at least what it was one body width ago."""
+        s = np.asarray(history["sinkage_m"])
+        v = np.asarray(history["velocity_m_s"])
+        earlier = np.interp(s[-1] - width, s, v)
+        return v[-1] >= earlier
+
+    def _push_metrics(self, history, metrics, units) -> None:
+        """Bearing factor q/su0 along a push: samples at fixed s/B and the curve's roughness."""
+        scene = self.scene
+        B = scene.geometry.width_m
+        area = B * scene.geometry.contact_length_m
+        nc = history["force_n"] / (area * scene.soil.su0_pa)
+        s_over_b = history["sinkage_m"] / B
+        for name, at in NC_SAMPLES.items():
+            window = np.abs(s_over_b - at) <= NC_WINDOW
+            if window.any():
+                metrics[name] = float(nc[window].mean())
+                units[name] = "-"
+        beyond = s_over_b >= NC_SAMPLES["nc_at_0p02B"]
+        if beyond.sum() > 2:
+            metrics["nc_roughness"] = float(np.abs(np.diff(nc[beyond])).max())
+            units["nc_roughness"] = "-"
+        metrics["max_force_n"] = float(history["force_n"].max())
+        units["max_force_n"] = "N"

@@ -1,0 +1,144 @@
+"""The compiled time loop: N explicit CEL steps per call, Python steers between calls.
+
+A step (Benson 1992 operator split) in the grid frame that moves with the body:
+Lagrangian phase — nodal masses and forces from the cell stresses, the rigid body's motion
+with the soil nodes tied to it, explicit velocity update, boundary conditions, stress update —
+then the Eulerian phase: the soil state and momentum are carried through the grid by the
+velocity relative to the grid, in two directional sweeps whose order alternates.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from dsmv.cel.kernels import (
+    JIT,
+    advect_cells,
+    advect_momentum,
+    nodal_forces,
+    nodal_mass,
+    update_stress_tresca,
+    update_velocities,
+)
+
+# float parameters
+(P_DT, P_RHO, P_G, P_K, P_C, P_HG, P_BL, P_BQ, P_GRAV, P_SU0, P_KS, P_MFLOOR, P_PHIMIN, P_BODY_M, P_BODY_W,
+ P_PUSH_V, P_K0, P_PHI_STRESS) = range(18)
+N_PAR = 18
+# integer parameters
+I_AXISYM, I_ORDER, I_DROP, I_INFLOW, I_REMAP = range(5)
+N_IPAR = 5
+# body state (mutable floats)
+B_TIME, B_OFFSET, B_VEL, B_MAXDISP, B_FSUM, B_FCOUNT, B_INFLOW, B_STEP = range(8)
+N_BODY = 8
+# energy accumulators (J): plastic, hourglass, bulk viscosity, body work by the push, gravity work on body
+E_PLASTIC, E_HOURGLASS, E_BULK, E_PUSH, E_BODY_GRAV = range(5)
+N_ENERGY = 5
+# exit codes
+RUNNING, AT_REST, NOT_FINITE = 0, 1, 2
+
+
+@njit(**JIT)
+def run_steps(
+    n_steps, x, y, vol, phi, q, vx, vy, mass, fx, fy, ux, uy, flux_x, flux_y,
+    tie_i, tie_j, tie_x, tie_y, ghost, ghost_depth0, par, ipar, body, energy,
+):
+    """Advance up to ``n_steps`` steps; return (steps done, exit code)."""
+    dt = par[P_DT]
+    rho = par[P_RHO]
+    grav = par[P_GRAV]
+    axisym = ipar[I_AXISYM] == 1
+    order = ipar[I_ORDER]
+    drop = ipar[I_DROP] == 1
+    inflow = ipar[I_INFLOW] == 1
+    remap = ipar[I_REMAP] != 0
+    nxn, nyn = vx.shape
+    work = np.zeros(2)
+    stress_out = np.zeros(1)
+    n_tied = len(tie_i)
+    for step in range(n_steps):
+        # ---- Lagrangian phase
+        nodal_mass(phi, vol, rho, mass)
+        work[:] = 0.0
+        nodal_forces(x, y, phi, q, vx, vy, rho, par[P_C], par[P_HG], par[P_BL], par[P_BQ], axisym, fx, fy, work)
+        energy[E_HOURGLASS] += work[0] * dt
+        energy[E_BULK] += work[1] * dt
+        # rigid body with the soil nodes tied to it (vertical motion)
+        soil_on_nodes = 0.0
+        tied_mass = 0.0
+        for k in range(n_tied):
+            if tie_y[k]:
+                i, j = tie_i[k], tie_j[k]
+                soil_on_nodes += fy[i, j] - mass[i, j] * grav
+                tied_mass += mass[i, j]
+        v_old = body[B_VEL]
+        if drop:
+            accel = (soil_on_nodes - par[P_BODY_W]) / (par[P_BODY_M] + tied_mass)
+            body[B_VEL] = v_old + dt * accel
+            energy[E_BODY_GRAV] += par[P_BODY_W] * (-0.5 * (v_old + body[B_VEL])) * dt
+        else:
+            accel = 0.0
+            body[B_VEL] = -par[P_PUSH_V]
+        resistance = soil_on_nodes - tied_mass * accel  # soil force on the body (N, up +)
+        if not drop:
+            energy[E_PUSH] += -resistance * body[B_VEL] * dt
+        body[B_FSUM] += resistance
+        body[B_FCOUNT] += 1.0
+        update_velocities(vx, vy, fx, fy, mass, grav, dt, par[P_MFLOOR])
+        # boundary conditions: symmetry axis and far side are rollers, the base is fixed
+        for j in range(nyn):
+            vx[0, j] = 0.0
+            vx[nxn - 1, j] = 0.0
+        for i in range(nxn):
+            vx[i, 0] = 0.0
+            vy[i, 0] = 0.0
+        for k in range(n_tied):
+            i, j = tie_i[k], tie_j[k]
+            if tie_x[k]:
+                vx[i, j] = 0.0
+            if tie_y[k]:
+                vy[i, j] = body[B_VEL]
+        stress_out[0] = 0.0
+        update_stress_tresca(x, y, phi, q, vx, vy, dt, par[P_G], par[P_K], par[P_SU0], par[P_KS], axisym,
+                             par[P_PHI_STRESS], stress_out)
+        energy[E_PLASTIC] += stress_out[0]
+        body[B_OFFSET] += body[B_VEL] * dt
+        body[B_TIME] += dt
+        body[B_STEP] += 1.0
+        if -body[B_OFFSET] > body[B_MAXDISP]:
+            body[B_MAXDISP] = -body[B_OFFSET]
+        if not (math.isfinite(body[B_VEL]) and math.isfinite(resistance)):
+            return step + 1, NOT_FINITE
+        if drop and body[B_VEL] >= 0.0 and v_old < 0.0:
+            return step + 1, AT_REST
+        if not remap:
+            continue
+        # ---- Eulerian phase: carry soil and momentum through the grid moving at the body's velocity
+        v_grid = body[B_VEL]
+        for i in range(nxn):
+            for j in range(nyn):
+                ux[i, j] = vx[i, j]
+                uy[i, j] = vy[i, j] - v_grid
+        # soil entering at the base: intact and geostatic at the depth it has there now
+        if inflow:
+            for i in range(ghost.shape[1]):
+                depth = ghost_depth0[i] - (body[B_OFFSET] - body[B_VEL] * dt)
+                ghost[1, i] = -rho * grav * depth
+                ghost[0, i] = par[P_K0] * ghost[1, i]
+                ghost[3, i] = ghost[0, i]
+                ghost[5, i] = depth
+        first = int(body[B_STEP]) % 2
+        for sweep in range(2):
+            axis = first if sweep == 0 else 1 - first
+            if axis == 0:
+                body[B_INFLOW] += advect_cells(0, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, False,
+                                               flux_x, par[P_PHIMIN])
+                advect_momentum(0, flux_x, rho, mass, vx, vy, order, par[P_MFLOOR])
+            else:
+                body[B_INFLOW] += advect_cells(1, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, inflow,
+                                               flux_y, par[P_PHIMIN])
+                advect_momentum(1, flux_y, rho, mass, vx, vy, order, par[P_MFLOOR])
+    return n_steps, RUNNING
