@@ -249,11 +249,10 @@ def advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, bott
     ``ux``, ``uy`` are nodal velocities relative to the grid (m/s). A face's volume flux
     comes from the mean normal velocity of its two nodes. Soil volume moves by the
     donor–acceptor rule; each transported quantity moves with it at the donor's value plus
-    a van Leer limited slope when ``order`` = 2. Domain edges carry nothing, except the base
-    (axis 1, face 0) when ``bottom_inflow`` — soil enters there in the state ``ghost[k, i]``
-    — and the top, where soil may leave. ``flux[face, line]`` receives the signed soil
-    volume through each face (for the momentum sweep). Returns the soil volume that entered
-    through the domain edges minus what left (m³).
+    a van Leer limited slope when ``order`` = 2. Domain edges are closed, except the base
+    (axis 1, face 0) when ``bottom_inflow``: soil enters there in the state ``ghost[k, i]``.
+    ``flux[face, line]`` receives the signed soil volume through each face (for the momentum
+    sweep). Returns the soil volume that entered through the base (m³).
     """
     nx, ny = phi.shape
     nq = q.shape[0]
@@ -287,25 +286,21 @@ def advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, bott
                         qflux[k, face] = dvol * ghost[k, i]
                     boundary += dvol
                 continue
-            leaving = acceptor < 0 or acceptor >= n_cells
-            if leaving and not (axis == 1 and face == n_faces - 1):
-                continue  # symmetry plane, rollers and the base hold the soil in
+            if acceptor < 0 or acceptor >= n_cells:
+                continue  # closed edges: symmetry plane, rollers, base; soil near the top ends a run
             di = donor if axis == 0 else i
             dj = j if axis == 0 else donor
             phi_d = phi[di, dj]
             if phi_d <= phi_min:
                 continue
-            phi_a = 0.0
-            acceptor_first = False
-            if not leaving:
-                ai = acceptor if axis == 0 else i
-                aj = j if axis == 0 else acceptor
-                phi_a = phi[ai, aj]
-                # interface normal along the flow: the downwind value keeps the interface sharp
-                g_along_x = phi[min(di + 1, nx - 1), dj] - phi[max(di - 1, 0), dj]
-                g_along_y = phi[di, min(dj + 1, ny - 1)] - phi[di, max(dj - 1, 0)]
-                g_n, g_t = (g_along_x, g_along_y) if axis == 0 else (g_along_y, g_along_x)
-                acceptor_first = abs(g_n) >= abs(g_t) and phi_d < 1.0
+            ai = acceptor if axis == 0 else i
+            aj = j if axis == 0 else acceptor
+            phi_a = phi[ai, aj]
+            # interface normal along the flow: the downwind value keeps the interface sharp
+            g_along_x = phi[min(di + 1, nx - 1), dj] - phi[max(di - 1, 0), dj]
+            g_along_y = phi[di, min(dj + 1, ny - 1)] - phi[di, max(dj - 1, 0)]
+            g_n, g_t = (g_along_x, g_along_y) if axis == 0 else (g_along_y, g_along_x)
+            acceptor_first = abs(g_n) >= abs(g_t) and phi_d < 1.0
             moved = _donor_acceptor(phi_d, phi_a, dvol, vol[di, dj], acceptor_first)
             signed = moved if un > 0.0 else -moved
             flux[face, line] = signed
@@ -324,8 +319,6 @@ def advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, bott
                     slope = _van_leer(value - lo, hi - value)
                     value += (0.5 if un > 0.0 else -0.5) * slope * (1.0 - courant)
                 qflux[k, face] = signed * value
-            if leaving:
-                boundary -= signed
         for c in range(n_cells):
             ci = c if axis == 0 else line
             cj = line if axis == 0 else c

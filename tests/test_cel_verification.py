@@ -1,0 +1,110 @@
+"""The CEL core against independent truths, on coarse meshes (fine meshes: -m slow).
+
+Truths: conservation (soil mass, to round-off), the exact translate (advection), rest under
+gravity (geostatic), Prandtl's 2 + π for a strip on weightless Tresca soil (small strain),
+and, at large deformation, the capacity of the same strip wished in place at the depth it
+has reached: a check that the Eulerian remap adds no error of its own.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from dsmv.cel.checks import Cel2DCheckSolver
+from dsmv.cel.solver import Cel2DSolver
+from dsmv.scene import build_scene
+
+PRANDTL = 2 + math.pi
+STRIP = ["solver=cel2d", "geometry=strip", "landing=push", "landing.velocity_m_s=0.1", "landing.gravity_m_s2=0",
+         "soil.su0_pa=10000", "soil.ks_pa_per_m=0", "solver.progress=off"]
+
+
+def solve(compose_cfg, solver_cls, overrides):
+    return solver_cls(build_scene(compose_cfg(overrides))).solve()
+
+
+def nc_at(result, s_m, width_m=1.0, su_pa=1e4, area_m2=1.0):
+    """Bearing factor q/su at the history sample nearest to sinkage s (m)."""
+    h = result.history
+    return h["force_n"][np.argmin(np.abs(h["sinkage_m"] - s_m))] / (area_m2 * su_pa)
+
+
+def test_advection_conserves_bounds_and_converges(compose_cfg):
+    r = solve(compose_cfg, Cel2DCheckSolver, ["solver=cel2d_check", "solver.case=advection", "mesh.cell_size_m=0.05"])
+    m = r.metrics
+    assert m["mass_error"] < 1e-10
+    assert m["phi_min"] >= 0.0 and m["phi_max"] <= 1.0 + 1e-12
+    assert m["shape_error_fine"] < m["shape_error"] / 3  # the sharp square converges (order > 1.5 seen)
+    assert m["shape_order"] > 1.0
+    assert m["smooth_order"] > 1.6  # MUSCL on a smooth field: second order
+
+
+def test_first_order_advection_is_first_order(compose_cfg):
+    r = solve(compose_cfg, Cel2DCheckSolver,
+              ["solver=cel2d_check", "solver.case=advection", "mesh.cell_size_m=0.05", "solver.advection_order=1"])
+    assert 0.6 < r.metrics["smooth_order"] < 1.2
+
+
+def test_geostatic_soil_stays_at_rest(compose_cfg):
+    r = solve(compose_cfg, Cel2DCheckSolver, ["solver=cel2d_check", "solver.case=geostatic", "mesh=coarse"])
+    assert r.metrics["max_speed_m_s"] < 1e-4
+    assert r.metrics["mass_error"] < 1e-10
+
+
+@pytest.fixture(scope="module")
+def small_strain_prandtl():
+    """Small-strain Prandtl pushes at B/10 and B/20 (geometry fixed: the exact limit is 2 + π)."""
+    from hydra import compose, initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+
+    from dsmv.cli import CONFIG_DIR
+
+    out = {}
+    for h in (0.1, 0.05):
+        GlobalHydra.instance().clear()
+        with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):
+            cfg = compose("config", overrides=STRIP + ["solver.remap=false", "landing.displacement_m=0.06",
+                                                       f"mesh.cell_size_m={h}", "solver.initial_travel_m=0.1"])
+        out[h] = Cel2DSolver(build_scene(cfg)).solve()
+    GlobalHydra.instance().clear()
+    return out
+
+
+def test_small_strain_prandtl_converges_to_two_plus_pi(small_strain_prandtl):
+    errors = {h: r.metrics["nc_at_0p05B"] / PRANDTL - 1 for h, r in small_strain_prandtl.items()}
+    assert 0 < errors[0.05] < errors[0.1]  # from above (one-point quadrature is stiff at the edge), shrinking
+    assert errors[0.05] < 0.04  # +3.1 % at B/20; +1.4 % at B/40 (slow test)
+    for r in small_strain_prandtl.values():
+        assert r.status == "ok" and r.metrics["mass_error"] == 0.0
+
+
+@pytest.mark.parametrize("depth_m", [0.1, 0.2])
+def test_large_deformation_equals_the_strip_wished_in_place_at_that_depth(compose_cfg, depth_m):
+    """A strip pushed to s = D carries what the same strip wished in place at depth D carries once
+    it has yielded: the Eulerian remap (the only difference) adds no error of its own."""
+    pushed = solve(compose_cfg, Cel2DSolver, STRIP + ["landing.displacement_m=" + str(depth_m + 0.005),
+                                                      "mesh.cell_size_m=0.1"])
+    assert pushed.status == "ok" and pushed.metrics["mass_error"] < 1e-10
+    placed = solve(compose_cfg, Cel2DSolver, STRIP + ["solver.remap=false", f"landing.initial_depth_m={depth_m}",
+                                                      "landing.displacement_m=0.05", "solver.initial_travel_m=0.1",
+                                                      "mesh.cell_size_m=0.1"])
+    nc_pushed = nc_at(pushed, depth_m)
+    nc_placed = nc_at(placed, 0.04)  # fully yielded, geometry still that of depth D
+    assert nc_pushed == pytest.approx(nc_placed, rel=0.02)
+    assert nc_pushed > PRANDTL  # embedment raises the capacity (Salgado et al. 2004: 1 + 0.27·√(D/B))
+
+
+def test_push_speed_does_not_change_the_result(compose_cfg):
+    runs = [solve(compose_cfg, Cel2DSolver, STRIP + [f"landing.velocity_m_s={v}", "landing.displacement_m=0.06",
+                                                     "mesh.cell_size_m=0.1"]) for v in (0.05, 0.1)]
+    assert runs[0].metrics["nc_at_0p05B"] == pytest.approx(runs[1].metrics["nc_at_0p05B"], rel=0.01)
+
+
+def test_default_landing_comes_to_rest_with_mass_conserved(compose_cfg):
+    r = solve(compose_cfg, Cel2DSolver, ["solver=cel2d", "mesh=coarse", "solver.progress=off"])
+    assert r.status == "ok", r.message
+    assert r.metrics["mass_error"] < 1e-10
+    assert 0.0 <= r.metrics["phi_min"] and r.metrics["phi_max"] < 1.01
+    assert r.metrics["max_sinkage_m"] > 0.0
+    assert r.history["velocity_m_s"][-1] <= 0.0 < r.history["velocity_m_s"][0]
