@@ -108,3 +108,19 @@ def test_default_landing_comes_to_rest_with_mass_conserved(compose_cfg):
     assert 0.0 <= r.metrics["phi_min"] and r.metrics["phi_max"] < 1.01
     assert r.metrics["max_sinkage_m"] > 0.0
     assert r.history["velocity_m_s"][-1] <= 0.0 < r.history["velocity_m_s"][0]
+
+
+def test_energy_audit_closes_and_fails_when_a_term_is_dropped(compose_cfg):
+    r = solve(compose_cfg, Cel2DSolver, ["solver=cel2d", "mesh=coarse", "solver.progress=off"])
+    m = r.metrics
+    assert m["energy_error"] < 0.02
+    inputs = {k: v for k, v in m.items() if k.startswith("energy_in_")}
+    outputs = {k: v for k, v in m.items() if k.startswith("energy_") and k not in inputs and k != "energy_error"}
+    delivered = sum(abs(v) for v in inputs.values())
+    # the balance recomputed from the reported terms is the reported error
+    assert abs(sum(inputs.values()) - sum(outputs.values())) / delivered == pytest.approx(m["energy_error"], abs=1e-9)
+    big = [k for k, v in outputs.items() if abs(v) > 0.03 * delivered]
+    assert {"energy_plastic_j", "energy_elastic_change_j", "energy_hourglass_j"} <= set(big)
+    for dropped in big:  # leaving out any term that matters breaks the 2 % bound
+        rest = sum(v for k, v in outputs.items() if k != dropped)
+        assert abs(sum(inputs.values()) - rest) / delivered > 0.02, dropped

@@ -78,12 +78,14 @@ def advect_square(n_cells: int, courant: float, travel: float, order: int) -> di
     flux_x = np.zeros((n_cells + 1, n_cells))
     flux_y = np.zeros((n_cells + 1, n_cells))
     mass0 = float((phi * vol).sum())
+    audit = np.zeros(2)
     for step in range(n_steps):
         for sweep in range(2):
             axis = (step + sweep) % 2
             flux = flux_x if axis == 0 else flux_y
-            K.advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, False, ghost, False, flux, 1e-12)
-            K.advect_cells(axis, x, y, vol, phi_full, q_full, ux, uy, dt, order, False, ghost, False, flux, 1e-12)
+            K.advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, False, ghost, False, flux, 1e-12, 1.0, 1.0, audit)
+            K.advect_cells(axis, x, y, vol, phi_full, q_full, ux, uy, dt, order, False, ghost, False, flux, 1e-12,
+                           1.0, 1.0, audit)
     exact_phi = _exact_square_fraction(x, y, lo + travel, hi + travel)
     exact_bump = _smooth(xc, xc, 0.3 + travel, 0.3 + travel, 0.1)
     return {

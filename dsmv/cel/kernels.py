@@ -222,6 +222,27 @@ def update_stress_tresca(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks,
 
 
 @njit(**JIT)
+def elastic_energy_density(sxx, syy, sxy, szz, shear_mod, bulk_mod):
+    """Linear elastic energy per unit volume, s:s/(4G) + p²/(2K) (J/m³)."""
+    p = (sxx + syy + szz) / 3.0
+    ex, ey, ez = sxx - p, syy - p, szz - p
+    return (ex * ex + ey * ey + ez * ez + 2.0 * sxy * sxy) / (4.0 * shear_mod) + p * p / (2.0 * bulk_mod)
+
+
+@njit(**JIT)
+def elastic_energy(phi, q, vol, shear_mod, bulk_mod):
+    """Elastic energy stored in the soil (J per unit thickness or per radian)."""
+    total = 0.0
+    nx, ny = phi.shape
+    for i in range(nx):
+        for j in range(ny):
+            if phi[i, j] > 0.0:
+                total += vol[i, j] * phi[i, j] * elastic_energy_density(
+                    q[SXX, i, j], q[SYY, i, j], q[SXY, i, j], q[SZZ, i, j], shear_mod, bulk_mod)
+    return total
+
+
+@njit(**JIT)
 def _van_leer(d_minus, d_plus):
     """van Leer's limited slope from the two one-sided differences (0 at extrema)."""
     prod = d_minus * d_plus
@@ -243,7 +264,8 @@ def _donor_acceptor(phi_d, phi_a, volume_flux, donor_volume, acceptor_first):
 
 
 @njit(**JIT)
-def advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, bottom_inflow, flux, phi_min):
+def advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, bottom_inflow, flux, phi_min,
+                 shear_mod, bulk_mod, audit):
     """One directional sweep of the cell state: volume fraction and transported quantities.
 
     ``ux``, ``uy`` are nodal velocities relative to the grid (m/s). A face's volume flux
@@ -252,7 +274,8 @@ def advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, bott
     a van Leer limited slope when ``order`` = 2. Domain edges are closed, except the base
     (axis 1, face 0) when ``bottom_inflow``: soil enters there in the state ``ghost[k, i]``.
     ``flux[face, line]`` receives the signed soil volume through each face (for the momentum
-    sweep). Returns the soil volume that entered through the base (m³).
+    sweep). Returns the soil volume that entered through the base (m³). ``audit[0]``
+    accumulates the change of stored elastic energy the sweep makes (J), inflow included.
     """
     nx, ny = phi.shape
     nq = q.shape[0]
@@ -325,6 +348,11 @@ def advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, bott
             v = vol[ci, cj]
             old_soil = phi[ci, cj] * v
             new_soil = old_soil + flux[c, line] - flux[c + 1, line]
+            if flux[c, line] == 0.0 and flux[c + 1, line] == 0.0:
+                continue
+            if old_soil > 0.0:
+                audit[0] -= old_soil * elastic_energy_density(
+                    q[SXX, ci, cj], q[SYY, ci, cj], q[SXY, ci, cj], q[SZZ, ci, cj], shear_mod, bulk_mod)
             if new_soil <= 1e-14 * v:
                 phi[ci, cj] = 0.0
                 for k in range(nq):
@@ -333,18 +361,20 @@ def advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, bott
             for k in range(nq):
                 q[k, ci, cj] = (old_soil * q[k, ci, cj] + qflux[k, c] - qflux[k, c + 1]) / new_soil
             phi[ci, cj] = new_soil / v
+            audit[0] += new_soil * elastic_energy_density(
+                q[SXX, ci, cj], q[SYY, ci, cj], q[SXY, ci, cj], q[SZZ, ci, cj], shear_mod, bulk_mod)
     return boundary
 
 
 @njit(**JIT)
-def advect_momentum(axis, flux, rho, mass, vx, vy, order, mass_floor):
+def advect_momentum(axis, flux, rho, mass, vx, vy, order, mass_floor, audit):
     """The matching sweep of nodal momentum on the dual mesh (Benson 1992).
 
     The mass flux through a dual face is the mean of the four primal face fluxes around
     it, so the nodal masses stay a quarter of their cells' masses. Momentum moves at the
     upwind node's velocity (plus a van Leer slope when ``order`` = 2). ``mass`` (nodal,
     before the sweep) is updated in place; soil entering through the base brings no
-    momentum (the base is at rest).
+    momentum (the base is at rest). ``audit[1]`` accumulates the kinetic energy change (J).
     """
     n0, n1 = vx.shape  # nodes (nx+1, ny+1)
     n_along = n0 if axis == 0 else n1
@@ -392,6 +422,7 @@ def advect_momentum(axis, flux, rho, mass, vx, vy, order, mass_floor):
             m_new = m_old + gm[n] - gm[n + 1]
             px = m_old * vx[ni, nj] + gx[n] - gx[n + 1]
             py = m_old * vy[ni, nj] + gy[n] - gy[n + 1]
+            audit[1] -= 0.5 * m_old * (vx[ni, nj] ** 2 + vy[ni, nj] ** 2)
             mass[ni, nj] = m_new
             if m_new > mass_floor:
                 vx[ni, nj] = px / m_new
@@ -399,3 +430,4 @@ def advect_momentum(axis, flux, rho, mass, vx, vy, order, mass_floor):
             else:
                 vx[ni, nj] = 0.0
                 vy[ni, nj] = 0.0
+            audit[1] += 0.5 * m_new * (vx[ni, nj] ** 2 + vy[ni, nj] ** 2)

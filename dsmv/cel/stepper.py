@@ -34,9 +34,11 @@ N_IPAR = 5
 # body state (mutable floats)
 B_TIME, B_OFFSET, B_VEL, B_MAXDISP, B_FSUM, B_FCOUNT, B_INFLOW, B_STEP = range(8)
 N_BODY = 8
-# energy accumulators (J): plastic, hourglass, bulk viscosity, body work by the push, gravity work on body
-E_PLASTIC, E_HOURGLASS, E_BULK, E_PUSH, E_BODY_GRAV = range(5)
-N_ENERGY = 5
+# energy accumulators of the model (J per unit thickness or per radian): plastic, hourglass and
+# bulk-viscosity dissipation, work of the push, of gravity on the body and on the soil, and the
+# changes of elastic and kinetic energy that the remap makes
+E_PLASTIC, E_HOURGLASS, E_BULK, E_PUSH, E_BODY_GRAV, E_SOIL_GRAV, E_REMAP_ELASTIC, E_REMAP_KINETIC = range(8)
+N_ENERGY = 8
 # exit codes
 RUNNING, AT_REST, NOT_FINITE = 0, 1, 2
 
@@ -58,6 +60,7 @@ def run_steps(
     nxn, nyn = vx.shape
     work = np.zeros(2)
     stress_out = np.zeros(1)
+    audit = np.zeros(2)
     n_tied = len(tie_i)
     for step in range(n_steps):
         # ---- Lagrangian phase
@@ -87,6 +90,10 @@ def run_steps(
             energy[E_PUSH] += -resistance * body[B_VEL] * dt
         body[B_FSUM] += resistance
         body[B_FCOUNT] += 1.0
+        momentum_before = 0.0
+        for i in range(nxn):
+            for j in range(nyn):
+                momentum_before += mass[i, j] * vy[i, j]
         update_velocities(vx, vy, fx, fy, mass, grav, dt, par[P_MFLOOR])
         # boundary conditions: symmetry axis and far side are rollers, the base is fixed
         for j in range(nyn):
@@ -101,6 +108,11 @@ def run_steps(
                 vx[i, j] = 0.0
             if tie_y[k]:
                 vy[i, j] = body[B_VEL]
+        momentum_after = 0.0
+        for i in range(nxn):
+            for j in range(nyn):
+                momentum_after += mass[i, j] * vy[i, j]
+        energy[E_SOIL_GRAV] += -grav * dt * 0.5 * (momentum_before + momentum_after)
         stress_out[0] = 0.0
         update_stress_tresca(x, y, phi, q, vx, vy, dt, par[P_G], par[P_K], par[P_SU0], par[P_KS], axisym,
                              par[P_PHI_STRESS], stress_out)
@@ -130,15 +142,18 @@ def run_steps(
                 ghost[0, i] = par[P_K0] * ghost[1, i]
                 ghost[3, i] = ghost[0, i]
                 ghost[5, i] = depth
+        audit[:] = 0.0
         first = int(body[B_STEP]) % 2
         for sweep in range(2):
             axis = first if sweep == 0 else 1 - first
             if axis == 0:
                 body[B_INFLOW] += advect_cells(0, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, False,
-                                               flux_x, par[P_PHIMIN])
-                advect_momentum(0, flux_x, rho, mass, vx, vy, order, par[P_MFLOOR])
+                                               flux_x, par[P_PHIMIN], par[P_G], par[P_K], audit)
+                advect_momentum(0, flux_x, rho, mass, vx, vy, order, par[P_MFLOOR], audit)
             else:
                 body[B_INFLOW] += advect_cells(1, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, inflow,
-                                               flux_y, par[P_PHIMIN])
-                advect_momentum(1, flux_y, rho, mass, vx, vy, order, par[P_MFLOOR])
+                                               flux_y, par[P_PHIMIN], par[P_G], par[P_K], audit)
+                advect_momentum(1, flux_y, rho, mass, vx, vy, order, par[P_MFLOOR], audit)
+        energy[E_REMAP_ELASTIC] += audit[0]
+        energy[E_REMAP_KINETIC] += audit[1]
     return n_steps, RUNNING
