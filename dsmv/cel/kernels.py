@@ -319,12 +319,16 @@ def advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, bott
             ai = acceptor if axis == 0 else i
             aj = j if axis == 0 else acceptor
             phi_a = phi[ai, aj]
-            # interface normal along the flow: the downwind value keeps the interface sharp
-            g_along_x = phi[min(di + 1, nx - 1), dj] - phi[max(di - 1, 0), dj]
-            g_along_y = phi[di, min(dj + 1, ny - 1)] - phi[di, max(dj - 1, 0)]
-            g_n, g_t = (g_along_x, g_along_y) if axis == 0 else (g_along_y, g_along_x)
-            acceptor_first = abs(g_n) >= abs(g_t) and phi_d < 1.0
-            moved = _donor_acceptor(phi_d, phi_a, dvol, vol[di, dj], acceptor_first)
+            if phi_d >= 1.0 and phi_a >= 1.0:
+                moved = abs(dvol) * phi_d  # full to full: no interface here
+            else:
+                # interface normal along the flow: the downwind value keeps the interface sharp
+                g_along_x = phi[min(di + 1, nx - 1), dj] - phi[max(di - 1, 0), dj]
+                g_along_y = phi[di, min(dj + 1, ny - 1)] - phi[di, max(dj - 1, 0)]
+                g_n = g_along_x if axis == 0 else g_along_y
+                g_t = g_along_y if axis == 0 else g_along_x
+                acceptor_first = abs(g_n) >= abs(g_t) and phi_d < 1.0
+                moved = _donor_acceptor(phi_d, phi_a, dvol, vol[di, dj], acceptor_first)
             signed = moved if un > 0.0 else -moved
             flux[face, line] = signed
             courant = moved / (phi_d * vol[di, dj])
