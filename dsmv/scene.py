@@ -164,7 +164,14 @@ class StripGeometry(BodyConfig):
     kind: Literal["strip"]
 
 
-GEOMETRY_KINDS: dict[str, type[BodyConfig]] = {"track": TrackGeometry, "strip": StripGeometry}
+class TbarGeometry(BodyConfig):
+    """A rigid cylinder of diameter B (``width_m``): a T-bar penetrometer in plane strain, a ball
+    in axisymmetry. ``landing.initial_depth_m`` is the depth of its lowest point."""
+
+    kind: Literal["tbar"]
+
+
+GEOMETRY_KINDS: dict[str, type[BodyConfig]] = {"track": TrackGeometry, "strip": StripGeometry, "tbar": TbarGeometry}
 
 # --------------------------------------------------------------------------- landing
 

@@ -79,13 +79,15 @@ def advect_square(n_cells: int, courant: float, travel: float, order: int) -> di
     flux_y = np.zeros((n_cells + 1, n_cells))
     mass0 = float((phi * vol).sum())
     audit = np.zeros(2)
+    solid = np.zeros((n_cells, n_cells), dtype=np.bool_)
     for step in range(n_steps):
         for sweep in range(2):
             axis = (step + sweep) % 2
             flux = flux_x if axis == 0 else flux_y
-            K.advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, False, ghost, False, flux, 1e-12, 1.0, 1.0, audit)
+            K.advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, False, ghost, False, flux, 1e-12, 1.0, 1.0, audit,
+                           solid)
             K.advect_cells(axis, x, y, vol, phi_full, q_full, ux, uy, dt, order, False, ghost, False, flux, 1e-12,
-                           1.0, 1.0, audit)
+                           1.0, 1.0, audit, solid)
     exact_phi = _exact_square_fraction(x, y, lo + travel, hi + travel)
     exact_bump = _smooth(xc, xc, 0.3 + travel, 0.3 + travel, 0.1)
     return {
@@ -182,7 +184,8 @@ class Cel2DCheckSolver:
         energy = np.zeros(S.N_ENERGY)
         args = (x, y, vol, phi, q, vx, vy, np.zeros_like(vx), np.zeros_like(vx), np.zeros_like(vx),
                 np.zeros_like(vx), np.zeros_like(vx), np.zeros((nx + 1, ny)), np.zeros((ny + 1, nx)),
-                none, none, none.astype(np.bool_), none.astype(np.bool_), np.zeros((K.NQ_BASE, nx)), np.zeros(nx),
+                none, none, none.astype(np.bool_), np.zeros(0), np.zeros(0), np.zeros((nx, ny), dtype=np.bool_),
+                np.zeros((K.NQ_BASE, nx)), np.zeros(nx),
                 par, ipar, body, energy)
         n_steps = int(math.ceil(cfg.duration_s / dt))
         samples = 100

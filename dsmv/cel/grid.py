@@ -87,13 +87,16 @@ def build_grid(
     void_height: float,
     ratio: float,
     h_max: float,
+    core_height: float | None = None,
 ) -> Grid:
-    """A grid with uniform h on [0, core_half_width] × [−core_depth, void_height], graded outwards.
+    """A grid with uniform h on [0, core_half_width] × [−core_depth, core_height], graded outwards.
 
-    ``core_half_width`` should be a multiple of h so the body's edge falls on a node line.
+    Above y = 0 the cells stay uniform up to ``core_height`` (default: all the way to
+    ``void_height``, where a surface body heaves soil) and grade beyond it. ``core_half_width``
+    should be a multiple of h so the body's edge falls on a node line.
     """
     x = graded_coordinates(0.0, core_half_width, half_width, h, ratio, h_max)
     below = graded_coordinates(0.0, -core_depth, -depth, h, ratio, h_max)[::-1]
-    n_void = max(1, int(np.ceil(void_height / h - 1e-9)))
-    above = h * np.arange(1, n_void + 1)
+    top_of_core = void_height if core_height is None else min(core_height, void_height)
+    above = graded_coordinates(0.0, h * np.ceil(top_of_core / h - 1e-9), void_height, h, ratio, h_max)[1:]
     return Grid(x=x, y=np.concatenate([below, above]), h=h)

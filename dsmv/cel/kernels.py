@@ -265,7 +265,7 @@ def _donor_acceptor(phi_d, phi_a, volume_flux, donor_volume, acceptor_first):
 
 @njit(**JIT)
 def advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, bottom_inflow, flux, phi_min,
-                 shear_mod, bulk_mod, audit):
+                 shear_mod, bulk_mod, audit, solid):
     """One directional sweep of the cell state: volume fraction and transported quantities.
 
     ``ux``, ``uy`` are nodal velocities relative to the grid (m/s). A face's volume flux
@@ -274,7 +274,8 @@ def advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, bott
     a van Leer limited slope when ``order`` = 2. Domain edges are closed, except the base
     (axis 1, face 0) when ``bottom_inflow``: soil enters there in the state ``ghost[k, i]``.
     ``flux[face, line]`` receives the signed soil volume through each face (for the momentum
-    sweep). Returns the soil volume that entered through the base (m³). ``audit[0]``
+    sweep). Cells marked ``solid`` (inside the body) exchange nothing. Returns the soil volume
+    that entered through the base (m³). ``audit[0]``
     accumulates the change of stored elastic energy the sweep makes (J), inflow included.
     """
     nx, ny = phi.shape
@@ -318,6 +319,8 @@ def advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, bott
                 continue
             ai = acceptor if axis == 0 else i
             aj = j if axis == 0 else acceptor
+            if solid[ai, aj] or solid[di, dj]:
+                continue
             phi_a = phi[ai, aj]
             if phi_d >= 1.0 and phi_a >= 1.0:
                 moved = abs(dvol) * phi_d  # full to full: no interface here

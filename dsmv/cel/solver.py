@@ -65,8 +65,8 @@ class Cel2DSolver:
     def __init__(self, scene: Scene):
         self.scene = scene
         cfg, body, soil = scene.solver, scene.geometry, scene.soil
-        if body.kind not in ("strip", "track"):
-            raise ConfigError("geometry.kind", body.kind, "cel2d runs strip and track bodies for now")
+        if body.kind not in ("strip", "track", "tbar"):
+            raise ConfigError("geometry.kind", body.kind, "cel2d runs strip, track and tbar bodies for now")
         if getattr(body, "view", "cross_section") != "cross_section":
             raise ConfigError("geometry.view", body.view, "cel2d runs the cross_section view for now")
         if body.roughness not in ("rough", "smooth"):
@@ -75,6 +75,52 @@ class Cel2DSolver:
             raise ConfigError("soil.law", soil.law, "cel2d runs 'tresca' until the soil-law plugin kernels land")
         self.mode = cfg.mode if cfg.mode != "auto" else "plane_strain"
         self.axisym = self.mode == "axisymmetric"
+        self.circular = body.kind == "tbar"  # a cylinder (plane strain) or a ball (axisymmetric)
+
+    def contact_area_m2(self) -> float:
+        """The area a bearing factor refers to: B·L in plane strain, π·B²/4 in axisymmetry (m²)."""
+        B = self.scene.geometry.width_m
+        return math.pi * B * B / 4 if self.axisym else B * self.scene.geometry.contact_length_m
+
+    def body_cells_and_ties(self, grid, j_base):
+        """Cells inside the body, and the nodes tied to it.
+
+        A node of a body cell is tied fully (moves with the body) when the contact is rough or
+        the node is inside; on a smooth surface only its normal velocity is tied, n being the
+        surface normal. Returns (solid, tie_i, tie_j, tie_full, tie_nx, tie_ny).
+        """
+        B = self.scene.geometry.width_m
+        xc, yc = grid.xc, grid.yc
+        if self.circular:
+            R = 0.5 * B
+            solid = xc[:, None] ** 2 + (yc[None, :] - R) ** 2 < R * R
+        else:
+            solid = (xc[:, None] < 0.5 * B) & (yc[None, :] > 0.0)
+        touching = np.zeros((grid.nx + 1, grid.ny + 1), dtype=int)
+        for di in (0, 1):
+            for dj in (0, 1):
+                touching[di : di + grid.nx, dj : dj + grid.ny] += solid
+        tie_i, tie_j = np.nonzero(touching)
+        # a node is inside when all its cells are solid (on the axis: both of its two cells)
+        cells_around = np.full_like(touching, 4)
+        cells_around[0, :] = cells_around[-1, :] = 2
+        cells_around[:, 0] = cells_around[:, -1] = 2
+        inside = touching[tie_i, tie_j] == cells_around[tie_i, tie_j]
+        tie_full = np.ones(len(tie_i), dtype=np.bool_)
+        nx_, ny_ = np.zeros(len(tie_i)), np.zeros(len(tie_i))
+        if self.scene.geometry.roughness == "smooth":
+            xs, ys = grid.x[tie_i], grid.y[tie_j]
+            if self.circular:
+                r = np.hypot(xs, ys - 0.5 * B)
+                nx_, ny_ = xs / np.maximum(r, 1e-300), (ys - 0.5 * B) / np.maximum(r, 1e-300)
+                tie_full = inside.copy()
+            else:
+                on_base = (tie_j == j_base) & (xs < 0.5 * B - 1e-12)
+                on_side = (tie_j > j_base) & np.isclose(xs, 0.5 * B) & ~inside
+                ny_[on_base] = 1.0
+                nx_[on_side] = 1.0
+                tie_full = ~(on_base | on_side)
+        return solid, tie_i.astype(np.int64), tie_j.astype(np.int64), tie_full, nx_, ny_
 
     # ------------------------------------------------------------------ setup
 
@@ -114,6 +160,8 @@ class Cel2DSolver:
             void_height=self.mudline + 1.3 * travel + 0.25 * B + 3 * h,
             ratio=scene.mesh.growth_ratio,
             h_max=scene.mesh.max_cell_size_m,
+            # a deep body (a T-bar) needs the uniform core only around itself
+            core_height=B + cfg.core_margin_widths * B if self.circular else None,
         )
         self.grid, self.h, self.n_half, self.travel = grid, h, n_half, travel
         return grid
@@ -145,7 +193,8 @@ class Cel2DSolver:
         d0 = self.mudline
         phi = np.zeros((nx, ny))
         phi[:, yc < d0] = 1.0
-        phi[: self.n_half, j_base:] = 0.0
+        solid, tie_i, tie_j, tie_full, tie_nx, tie_ny = self.body_cells_and_ties(grid, j_base)
+        phi[solid] = 0.0
         depth = np.where(yc < d0, d0 - yc, 0.0)
         q = np.zeros((K.NQ_BASE, nx, ny))
         q[K.SYY] = -rho * grav * depth[None, :] * phi
@@ -154,21 +203,9 @@ class Cel2DSolver:
         q[K.Z0] = depth[None, :] * phi
         vol = K.cell_volumes(x, y, self.axisym)
 
-        # nodes tied to the body: x ≤ B/2, y ≥ 0
-        ii, jj = np.meshgrid(np.arange(self.n_half + 1), np.arange(j_base, ny + 1), indexing="ij")
-        tie_i, tie_j = ii.ravel().astype(np.int64), jj.ravel().astype(np.int64)
-        if body_cfg.roughness == "rough":
-            tie_x = np.ones(len(tie_i), dtype=np.bool_)
-            tie_y = np.ones(len(tie_i), dtype=np.bool_)
-        else:  # smooth: the base holds vy only, the side vx only, interior and corner both
-            on_base = (tie_j == j_base) & (tie_i < self.n_half)
-            on_side = (tie_i == self.n_half) & (tie_j > j_base)
-            tie_x = ~on_base
-            tie_y = ~on_side
-
         # the model carries a share of the body: plane strain per metre of L, half-section;
         # axisymmetric per radian
-        scale = 2.0 * body_cfg.contact_length_m if not self.axisym else 2.0 * math.pi
+        scale = 2.0 * math.pi if self.axisym else 2.0 * body_cfg.contact_length_m
         par = np.zeros(S.N_PAR)
         par[S.P_DT], par[S.P_RHO], par[S.P_G], par[S.P_K], par[S.P_C] = dt, rho, G, Kb, c
         par[S.P_HG], par[S.P_BL], par[S.P_BQ] = cfg.hourglass, cfg.bulk_viscosity_linear, cfg.bulk_viscosity_quadratic
@@ -190,14 +227,16 @@ class Cel2DSolver:
         body = np.zeros(S.N_BODY)
         v0 = -landing.velocity_m_s
         if drop:  # touchdown: the body and the soil nodes it meets share momentum
-            tied_mass = float(mass[tie_i, tie_j][tie_y].sum())
+            tied_mass = float((mass[tie_i, tie_j] * np.where(tie_full, 1.0, tie_ny**2)).sum())
             v0 = par[S.P_BODY_M] * v0 / (par[S.P_BODY_M] + tied_mass)
         touchdown_loss = 0.0
         if drop:
             body_m = par[S.P_BODY_M]
             touchdown_loss = 0.5 * body_m * landing.velocity_m_s**2 - 0.5 * (body_m + tied_mass) * v0**2
         body[S.B_VEL] = v0
-        vy[tie_i[tie_y], tie_j[tie_y]] = v0
+        vy[tie_i[tie_full], tie_j[tie_full]] = v0
+        vx[tie_i[~tie_full], tie_j[~tie_full]] = v0 * tie_ny[~tie_full] * tie_nx[~tie_full]
+        vy[tie_i[~tie_full], tie_j[~tie_full]] = v0 * tie_ny[~tie_full] ** 2
         energy = np.zeros(S.N_ENERGY)
         elastic0 = K.elastic_energy(phi, q, vol, G, Kb)
         ghost = np.zeros((K.NQ_BASE, nx))
@@ -211,7 +250,7 @@ class Cel2DSolver:
         def advance(n):
             return S.run_steps(
                 n, x, y, vol, phi, q, vx, vy, mass, work["fx"], work["fy"], work["ux"], work["uy"],
-                work["flux_x"], work["flux_y"], tie_i, tie_j, tie_x, tie_y, ghost, ghost_depth0,
+                work["flux_x"], work["flux_y"], tie_i, tie_j, tie_full, tie_nx, tie_ny, solid, ghost, ghost_depth0,
                 par, ipar, body, energy,
             )
 
@@ -256,7 +295,7 @@ class Cel2DSolver:
                     f"soil speed {vmax:.3g} m/s exceeds the guard {speed_limit:.3g} m/s at t = {body[S.B_TIME]:.4g} s; "
                     f"lower solver.cfl (now {cfg.cfl}) or raise solver.hourglass (now {cfg.hourglass})")
                 break
-            if phi[:, -2:].max() > 1e-6:
+            if phi[:, -1].max() > 1e-6:  # soil in the top row of cells
                 status, message = "out_of_domain", (
                     f"soil reached the top of the domain at sinkage {sinkage:.4g} m; "
                     f"raise solver.initial_travel_m (sized for {self.travel:.3g} m)")
@@ -369,8 +408,7 @@ class Cel2DSolver:
         """Bearing factor q/su0 along a push: samples at fixed s/B and the curve's roughness."""
         scene = self.scene
         B = scene.geometry.width_m
-        area = B * scene.geometry.contact_length_m
-        nc = history["force_n"] / (area * scene.soil.su0_pa)
+        nc = history["force_n"] / (self.contact_area_m2() * scene.soil.su0_pa)
         s_over_b = history["sinkage_m"] / B
         for name, at in NC_SAMPLES.items():
             window = np.abs(s_over_b - at) <= NC_WINDOW

@@ -46,7 +46,7 @@ RUNNING, AT_REST, NOT_FINITE = 0, 1, 2
 @njit(**JIT)
 def run_steps(
     n_steps, x, y, vol, phi, q, vx, vy, mass, fx, fy, ux, uy, flux_x, flux_y,
-    tie_i, tie_j, tie_x, tie_y, ghost, ghost_depth0, par, ipar, body, energy,
+    tie_i, tie_j, tie_full, tie_nx, tie_ny, solid, ghost, ghost_depth0, par, ipar, body, energy,
 ):
     """Advance up to ``n_steps`` steps; return (steps done, exit code)."""
     dt = par[P_DT]
@@ -69,14 +69,19 @@ def run_steps(
         nodal_forces(x, y, phi, q, vx, vy, rho, par[P_C], par[P_HG], par[P_BL], par[P_BQ], axisym, fx, fy, work)
         energy[E_HOURGLASS] += work[0] * dt
         energy[E_BULK] += work[1] * dt
-        # rigid body with the soil nodes tied to it (vertical motion)
+        # rigid body with the soil nodes tied to it (vertical motion): a fully tied node moves
+        # with the body, a normally tied one (smooth contact) only along its normal n
         soil_on_nodes = 0.0
         tied_mass = 0.0
         for k in range(n_tied):
-            if tie_y[k]:
-                i, j = tie_i[k], tie_j[k]
+            i, j = tie_i[k], tie_j[k]
+            if tie_full[k]:
                 soil_on_nodes += fy[i, j] - mass[i, j] * grav
                 tied_mass += mass[i, j]
+            else:
+                nxk, nyk = tie_nx[k], tie_ny[k]
+                soil_on_nodes += (fx[i, j] * nxk + (fy[i, j] - mass[i, j] * grav) * nyk) * nyk
+                tied_mass += mass[i, j] * nyk * nyk
         v_old = body[B_VEL]
         if drop:
             accel = (soil_on_nodes - par[P_BODY_W]) / (par[P_BODY_M] + tied_mass)
@@ -104,10 +109,13 @@ def run_steps(
             vy[i, 0] = 0.0
         for k in range(n_tied):
             i, j = tie_i[k], tie_j[k]
-            if tie_x[k]:
+            if tie_full[k]:
                 vx[i, j] = 0.0
-            if tie_y[k]:
                 vy[i, j] = body[B_VEL]
+            else:
+                gap = body[B_VEL] * tie_ny[k] - (vx[i, j] * tie_nx[k] + vy[i, j] * tie_ny[k])
+                vx[i, j] += gap * tie_nx[k]
+                vy[i, j] += gap * tie_ny[k]
         momentum_after = 0.0
         for i in range(nxn):
             for j in range(nyn):
@@ -148,11 +156,11 @@ def run_steps(
             axis = first if sweep == 0 else 1 - first
             if axis == 0:
                 body[B_INFLOW] += advect_cells(0, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, False,
-                                               flux_x, par[P_PHIMIN], par[P_G], par[P_K], audit)
+                                               flux_x, par[P_PHIMIN], par[P_G], par[P_K], audit, solid)
                 advect_momentum(0, flux_x, rho, mass, vx, vy, order, par[P_MFLOOR], audit)
             else:
                 body[B_INFLOW] += advect_cells(1, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, inflow,
-                                               flux_y, par[P_PHIMIN], par[P_G], par[P_K], audit)
+                                               flux_y, par[P_PHIMIN], par[P_G], par[P_K], audit, solid)
                 advect_momentum(1, flux_y, rho, mass, vx, vy, order, par[P_MFLOOR], audit)
         energy[E_REMAP_ELASTIC] += audit[0]
         energy[E_REMAP_KINETIC] += audit[1]
