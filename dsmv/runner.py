@@ -68,6 +68,12 @@ def run_job(cfg: DictConfig) -> dict:
     files = [write_result(run_dir, result, scene.solver.name, scene.soil.law, scene.config_hash)]
     if result.history is not None:
         files.append(write_history(run_dir, result.history))
+        if scene.output.plots and len(result.history["time_s"]) > 1:
+            from dsmv.plots import HISTORY_PLOT_FILE, plot_history
+
+            title = (f"{scene.solver.name}: {scene.soil.name} ({scene.soil.law}), {scene.geometry.name}, "
+                     f"{scene.landing.kind} — {result.status}")
+            files.append(plot_history(result.history, run_dir / HISTORY_PLOT_FILE, title))
     files.append(run_dir / RESOLVED_CONFIG_FILE)
     if tracker is not None:
         tracker.finish(result, files, error_text)
