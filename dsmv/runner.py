@@ -101,4 +101,7 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
     if tracker is not None:
         uri = tracker.client.tracking_uri
         print(f"  MLflow  : {uri}  (experiment {tracking.experiment_name(scene.study)}, run {tracker.run_id})")
-        print(f"  browse  : .venv/bin/mlflow ui --backend-store-uri {uri} --host 127.0.0.1")
+        if uri.startswith("http"):
+            print(f"  browse  : {uri}")
+        else:
+            print(f"  browse  : .venv/bin/mlflow ui --backend-store-uri {uri} --host 127.0.0.1")

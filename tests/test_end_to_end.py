@@ -132,3 +132,52 @@ def test_dsmv_plugins_lists_groups_and_builtins(run_cli):
     out = run_cli("dsmv-plugins").stdout
     for line in ("dsmv.soil_laws:", "dsmv.solvers:", "dsmv.surrogates:", "tresca", "analytic_energy"):
         assert line in out
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def test_tracking_server_option_logs_to_a_local_server(run_cli, tmp_path):
+    """tracking=server with tracking.uri pointing at an MLflow server on the loopback address."""
+    import subprocess
+    import sys
+    import time
+    import urllib.request
+
+    from mlflow.tracking import MlflowClient
+
+    port = _free_port()
+    env = dict(os.environ, MLFLOW_SERVER_ENABLE_JOB_EXECUTION="false")
+    server = subprocess.Popen(
+        [str(Path(sys.executable).parent / "mlflow"), "server", "--host", "127.0.0.1", "--port", str(port),
+         "--workers", "1", "--backend-store-uri", f"sqlite:///{tmp_path / 'server.db'}",
+         "--artifacts-destination", str(tmp_path / "server_artifacts")],
+        cwd=tmp_path, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )
+    uri = f"http://127.0.0.1:{port}"
+    try:
+        deadline = time.time() + 60
+        while True:
+            try:
+                urllib.request.urlopen(f"{uri}/health", timeout=1)
+                break
+            except OSError:
+                if time.time() > deadline or server.poll() is not None:
+                    pytest.fail("the MLflow server did not start within 60 s")
+                time.sleep(0.5)
+        proc = run_cli("dsmv", "tracking=server", f"tracking.uri={uri}")
+        assert proc.returncode == 0, proc.stderr
+        assert f"browse  : {uri}" in proc.stdout
+        client = MlflowClient(uri)
+        (experiment,) = [e for e in client.search_experiments() if e.name == "dsmv-default_scene"]
+        (run,) = client.search_runs([experiment.experiment_id])
+        assert run.info.status == "FINISHED" and run.data.tags["dsmv.status"] == "ok"
+        assert {"result.json", "history.csv"} <= {a.path for a in client.list_artifacts(run.info.run_id)}
+    finally:
+        server.terminate()
+        server.wait(timeout=30)
