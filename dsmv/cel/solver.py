@@ -90,12 +90,15 @@ class Cel2DSolver:
         surface normal. Returns (solid, tie_i, tie_j, tie_full, tie_nx, tie_ny).
         """
         B = self.scene.geometry.width_m
-        xc, yc = grid.xc, grid.yc
         if self.circular:
+            # the staircase inscribed in the circle: a cell is solid when its four nodes are
+            # inside. (Cells chosen by their centre stick out by up to 0.7·h and read a rough
+            # T-bar 15 % high at D/10; inscribed, +1 %.)
             R = 0.5 * B
-            solid = xc[:, None] ** 2 + (yc[None, :] - R) ** 2 < R * R
+            inside_node = grid.x[:, None] ** 2 + (grid.y[None, :] - R) ** 2 <= R * R * (1 + 1e-12)
+            solid = inside_node[:-1, :-1] & inside_node[1:, :-1] & inside_node[1:, 1:] & inside_node[:-1, 1:]
         else:
-            solid = (xc[:, None] < 0.5 * B) & (yc[None, :] > 0.0)
+            solid = (grid.xc[:, None] < 0.5 * B) & (grid.yc[None, :] > 0.0)
         touching = np.zeros((grid.nx + 1, grid.ny + 1), dtype=int)
         for di in (0, 1):
             for dj in (0, 1):
@@ -419,5 +422,9 @@ class Cel2DSolver:
         if beyond.sum() > 2:
             metrics["nc_roughness"] = float(np.abs(np.diff(nc[beyond])).max())
             units["nc_roughness"] = "-"
+        if self.circular:  # a T-bar (or ball): the deep factor is the mean over the last diameter pushed
+            last = history["sinkage_m"] >= history["sinkage_m"][-1] - B
+            metrics["nc_deep"] = float(nc[last & (history["sinkage_m"] > 0)].mean())
+            units["nc_deep"] = "-"
         metrics["max_force_n"] = float(history["force_n"].max())
         units["max_force_n"] = "N"
