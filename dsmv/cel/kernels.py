@@ -150,12 +150,49 @@ def update_velocities(vx, vy, fx, fy, mass, gravity, dt, mass_floor):
 
 
 @njit(**JIT)
-def update_stress_tresca(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym, phi_min, out):
-    """Stress update for Tresca/J2 soil: Jaumann rotation, elastic trial, radial return to √J2 ≤ su.
+def tresca_return(s1, s2, s3, su, shear_mod):
+    """Return of sorted principal stresses s1 ≥ s2 ≥ s3 to Tresca's hexagon, s1 − s3 ≤ 2·su.
 
-    su = su0 + ks·z0 (z0: the depth where the soil started). Accumulates the plastic shear
-    strain ξ += √2·|Δe^p| (equal to Δγ in simple shear). ``out`` accumulates [0] plastic work
-    (J) and [1] the largest √J2/su seen after return (a check that the return holds).
+    Perfect plasticity, closed form (de Souza Neto, Perić & Owen 2008, Computational Methods
+    for Plasticity, Boxes 8.1–8.3): the one-vector return to the main plane, or the two-vector
+    return to the right (s1 = s2) or left (s2 = s3) corner. Returns the new principal stresses,
+    the plastic shear strain increment Δε1^p − Δε3^p, and the multiplier sum (work = 2su·that).
+    """
+    yield_stress = 2.0 * su
+    phi = s1 - s3 - yield_stress
+    if phi <= 0.0:
+        return s1, s2, s3, 0.0, 0.0
+    two_g = 2.0 * shear_mod
+    dg = phi / (2.0 * two_g)
+    n1, n2, n3 = s1 - two_g * dg, s2, s3 + two_g * dg
+    if n1 >= n2 >= n3:
+        return n1, n2, n3, 2.0 * dg, dg
+    ra = s1 - s3 - yield_stress
+    if n2 > n1:  # right corner: s1 = s2
+        rb = s2 - s3 - yield_stress
+        dga = (2.0 * ra - rb) / (3.0 * two_g)
+        dgb = (2.0 * rb - ra) / (3.0 * two_g)
+        e1, e2, e3 = dga, dgb, -(dga + dgb)
+        n1, n2, n3 = s1 - two_g * dga, s2 - two_g * dgb, s3 + two_g * (dga + dgb)
+    else:  # left corner: s2 = s3
+        rb = s1 - s2 - yield_stress
+        dga = (2.0 * ra - rb) / (3.0 * two_g)
+        dgb = (2.0 * rb - ra) / (3.0 * two_g)
+        e1, e2, e3 = dga + dgb, -dgb, -dga
+        n1, n2, n3 = s1 - two_g * (dga + dgb), s2 + two_g * dgb, s3 + two_g * dga
+    return n1, n2, n3, max(e1, e2, e3) - min(e1, e2, e3), dga + dgb
+
+
+@njit(**JIT)
+def update_stress_tresca(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym, phi_min, exact_tresca,
+                         out):
+    """Stress update for undrained soil of strength su: Jaumann rotation, elastic trial, return.
+
+    su = su0 + ks·z0 (z0: the depth where the soil started). The return is J2's radial return
+    to √J2 ≤ su, or with ``exact_tresca`` the return to Tresca's hexagon s1 − s3 ≤ 2·su. Both
+    are the same in plane strain; in axisymmetry only Tresca matches Tresca's exact solutions
+    (J2 matched in shear is weaker in triaxial states by √3/2). Accumulates the plastic shear
+    strain ξ += Δε1^p − Δε3^p (Δγ in simple shear); ``out[0]`` accumulates plastic work (J).
     """
     nx, ny = phi.shape
     lam = bulk_mod - 2.0 * shear_mod / 3.0
@@ -196,13 +233,50 @@ def update_stress_tresca(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks,
             syy += lam * tr + 2.0 * shear_mod * dyy
             szz += lam * tr + 2.0 * shear_mod * dzz
             sxy += 2.0 * shear_mod * dxy
+            su = su0 + ks * q[Z0, i, j]
+            if su < 0.0:
+                su = 0.0
+            if exact_tresca:
+                # principal stresses: the in-plane pair and the out-of-plane one
+                centre = 0.5 * (sxx + syy)
+                radius = math.sqrt(0.25 * (sxx - syy) ** 2 + sxy * sxy)
+                a, b = centre + radius, centre - radius
+                # sort (a, b, szz) descending, remembering where the in-plane ones went
+                if szz >= a:
+                    s1, s2, s3 = szz, a, b
+                elif szz >= b:
+                    s1, s2, s3 = a, szz, b
+                else:
+                    s1, s2, s3 = a, b, szz
+                n1, n2, n3, dxi, dg = tresca_return(s1, s2, s3, su, shear_mod)
+                if dg > 0.0:
+                    if szz >= a:
+                        szz, a2, b2 = n1, n2, n3
+                    elif szz >= b:
+                        a2, szz, b2 = n1, n2, n3
+                    else:
+                        a2, b2, szz = n1, n2, n3
+                    if radius > 0.0:
+                        c2 = 0.5 * (sxx - syy) / radius  # cos 2θ
+                        s2t = sxy / radius  # sin 2θ
+                    else:
+                        c2, s2t = 1.0, 0.0
+                    half = 0.5 * (a2 - b2)
+                    mid = 0.5 * (a2 + b2)
+                    sxx = mid + half * c2
+                    syy = mid - half * c2
+                    sxy = half * s2t
+                    q[XI, i, j] += dxi
+                    plastic += 2.0 * su * dg * dx * dy * r * f
+                q[SXX, i, j] = sxx
+                q[SYY, i, j] = syy
+                q[SZZ, i, j] = szz
+                q[SXY, i, j] = sxy
+                continue
             # radial return
             p = (sxx + syy + szz) / 3.0
             ex, ey, ez = sxx - p, syy - p, szz - p
             norm = math.sqrt(ex * ex + ey * ey + ez * ez + 2.0 * sxy * sxy)  # |s| = √(2 J2)
-            su = su0 + ks * q[Z0, i, j]
-            if su < 0.0:
-                su = 0.0
             limit = math.sqrt(2.0) * su
             if norm > limit:
                 scale = limit / norm

@@ -45,6 +45,9 @@ class Cel2DConfig(Schema):
     bulk_viscosity_linear: Number = Field(0.06, ge=0, description="linear bulk viscosity b1 (-)")
     bulk_viscosity_quadratic: Number = Field(1.2, ge=0, description="quadratic bulk viscosity b2 (-)")
     advection_order: Literal[1, 2] = 2
+    yield_surface: Literal["auto", "tresca", "von_mises"] = Field(
+        "auto", description="auto: von Mises (J2) in plane strain, where it equals Tresca; Tresca in axisymmetry"
+    )
     stress_cutoff: Number = Field(0.01, ge=0, lt=1, description="cells with less soil carry no stress (-)")
     remap: bool = Field(True, description="false: small-strain analysis on the undeformed grid (verification)")
     domain_depth_widths: Number = Field(5.0, ge=1, description="soil depth below the body, in body widths B")
@@ -221,7 +224,9 @@ class Cel2DSolver:
         par[S.P_K0] = k0
         par[S.P_PHI_STRESS] = cfg.stress_cutoff
         drop = landing.kind == "drop"
-        ipar = np.array([int(self.axisym), cfg.advection_order, int(drop), 1, int(cfg.remap)], dtype=np.int64)
+        exact_tresca = cfg.yield_surface == "tresca" or (cfg.yield_surface == "auto" and self.axisym)
+        ipar = np.array([int(self.axisym), cfg.advection_order, int(drop), 1, int(cfg.remap), int(exact_tresca)],
+                        dtype=np.int64)
 
         vx = np.zeros((nx + 1, ny + 1))
         vy = np.zeros((nx + 1, ny + 1))

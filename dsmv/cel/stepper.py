@@ -29,8 +29,8 @@ from dsmv.cel.kernels import (
  P_PUSH_V, P_K0, P_PHI_STRESS) = range(18)
 N_PAR = 18
 # integer parameters
-I_AXISYM, I_ORDER, I_DROP, I_INFLOW, I_REMAP = range(5)
-N_IPAR = 5
+I_AXISYM, I_ORDER, I_DROP, I_INFLOW, I_REMAP, I_TRESCA = range(6)
+N_IPAR = 6
 # body state (mutable floats)
 B_TIME, B_OFFSET, B_VEL, B_MAXDISP, B_FSUM, B_FCOUNT, B_INFLOW, B_STEP = range(8)
 N_BODY = 8
@@ -123,7 +123,7 @@ def run_steps(
         energy[E_SOIL_GRAV] += -grav * dt * 0.5 * (momentum_before + momentum_after)
         stress_out[0] = 0.0
         update_stress_tresca(x, y, phi, q, vx, vy, dt, par[P_G], par[P_K], par[P_SU0], par[P_KS], axisym,
-                             par[P_PHI_STRESS], stress_out)
+                             par[P_PHI_STRESS], ipar[I_TRESCA] == 1, stress_out)
         energy[E_PLASTIC] += stress_out[0]
         body[B_OFFSET] += body[B_VEL] * dt
         body[B_TIME] += dt
