@@ -88,7 +88,8 @@ def run_job(cfg: DictConfig) -> dict:
 def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, multirun: bool) -> None:
     """A short human summary: status, max sinkage with units, where outputs and MLflow are."""
     sinkage = result.metrics.get("max_sinkage_m")
-    what = f"max sinkage {sinkage:.4f} m" if sinkage is not None else result.message
+    # only an 'ok' sinkage is an answer; otherwise say what happened
+    what = f"max sinkage {sinkage:.4f} m" if sinkage is not None and result.status == "ok" else result.message
     if multirun:
         print(f"[{run_dir.name}] {result.status}: {what}")
         return

@@ -151,3 +151,20 @@ def test_rough_circular_plate_converges_to_eason_and_shield(compose_cfg):
         errors[h] = r.metrics["nc_at_0p1B"] / 6.05 - 1
     assert 0 < errors[0.05] < 0.6 * errors[0.1]
     assert errors[0.05] < 0.07
+
+
+@pytest.mark.parametrize(
+    "overrides,status,says",
+    [
+        (["solver.cfl=1.0"], "unstable", "solver.cfl"),  # beyond the 2D stability limit (≈ 1/√2)
+        (["solver.initial_travel_m=0.03"], "out_of_domain", "travel the domain was sized for"),
+        # 500 Pa: even with embedment and side shear the soil cannot stop the track
+        (["soil.su0_pa=500", "soil.ks_pa_per_m=0"], "bearing_failure", "without slowing down"),
+    ],
+)
+def test_landings_end_with_the_right_status_and_no_nan(compose_cfg, overrides, status, says):
+    r = solve(compose_cfg, Cel2DSolver, ["solver=cel2d", "mesh=coarse", "solver.progress=off", *overrides])
+    assert r.status == status, r.message
+    assert says in r.message
+    assert all(np.isfinite(v) for v in r.metrics.values())
+    assert r.metrics["mass_error"] < 1e-10

@@ -297,6 +297,14 @@ class Cel2DSolver:
                     f"a non-finite value appeared at t = {body[S.B_TIME]:.4g} s; lower solver.cfl "
                     f"(now {cfg.cfl}) or raise solver.bulk_viscosity_linear")
                 break
+            kinetic = float(0.5 * (mass * (vx * vx + vy * vy)).sum())
+            delivered = (0.5 * par[S.P_BODY_M] * landing.velocity_m_s**2 if drop else 0.0) + abs(
+                energy[S.E_BODY_GRAV]) + abs(energy[S.E_SOIL_GRAV]) + abs(energy[S.E_PUSH])
+            if kinetic > 10.0 * delivered + 1e-9:
+                status, message = "unstable", (
+                    f"the soil's kinetic energy ({kinetic * scale:.3g} J) ran away past ten times the energy "
+                    f"put in at t = {body[S.B_TIME]:.4g} s; lower solver.cfl (now {cfg.cfl})")
+                break
             vmax = float(np.sqrt(vx * vx + vy * vy).max())
             if vmax > speed_limit:
                 status, message = "unstable", (
