@@ -1,15 +1,29 @@
 """The soil-law plugin interface.
 
 A soil law turns the intact strength of a piece of soil, su_intact(z0) = su0 + ks·z0
-(z0: the depth where that soil started), into its current undrained strength
+(z0: the depth where that soil started, carried with the material), into its current
+undrained strength
 
-    su = su_intact(z0) · strength_factor(ξ, γ̇)
+    su = su_intact(z0) · factor(ξ, γ̇)
 
-with ξ the accumulated plastic shear strain (-) and γ̇ the shear strain rate (1/s).
-Plugins subclass :class:`SoilLaw` and register under the entry-point group
-``dsmv.soil_laws``; ``soil.law`` picks one by name. The solvers never know which law
-they run. Laws that neither soften nor depend on rate say so (``softens``,
-``rate_dependent``) so that solvers skip that arithmetic.
+with ξ the accumulated plastic shear strain (-) and γ̇ = (Δε1 − Δε3)/Δt the shear strain
+rate (1/s). The solvers never know which law they run; ``soil.law`` picks one by its
+entry-point name in the group ``dsmv.soil_laws``.
+
+A law is one class with three things:
+
+- ``parameters()``: its parameters packed as up to ``N_PARAMS`` floats (from the ``soil``
+  config);
+- ``factor(xi, gamma_dot, p0, …, p7)``: the strength factor for one material point, in plain
+  Python with ``math`` (no NumPy). dsmv compiles it with Numba into a C callback of a fixed
+  signature, so the CEL kernels call any law through the same cached machine code;
+- ``strength_factor(xi, gamma_dot)``: the same law written with NumPy arrays. It is the
+  reference ("twin") that the tests hold the compiled kernel to, and what the analytic
+  solver uses.
+
+A law that neither softens nor depends on rate for the given soil says so (``softens``,
+``rate_dependent``): the solvers then skip the call and the strain-rate arithmetic, so it
+costs exactly what Tresca costs.
 """
 
 from __future__ import annotations
@@ -20,22 +34,72 @@ import numpy as np
 
 from dsmv.scene import SoilConfig
 
+#: the number of float parameters a compiled law receives
+N_PARAMS = 8
+
+
+def _signature():
+    from numba import types
+
+    return types.float64(*([types.float64] * (2 + N_PARAMS)))
+
+
+_COMPILED: dict[type, object] = {}
+
 
 class SoilLaw:
-    """Base class of soil laws. Subclasses set ``name`` and override :meth:`strength_factor`."""
+    """Base class of soil laws. Subclasses set ``name`` and define ``factor`` and ``strength_factor``."""
 
     name: ClassVar[str]
-    #: per-cell state variables the solver advects with the material (beyond ξ and z0)
-    state_names: ClassVar[tuple[str, ...]] = ()
-    softens: ClassVar[bool] = False
-    rate_dependent: ClassVar[bool] = False
 
     def __init__(self, soil: SoilConfig):
         self.soil = soil
 
-    def strength_factor(self, xi: np.ndarray, gamma_dot_per_s: np.ndarray) -> np.ndarray:
-        """su/su_intact (-) at accumulated plastic shear strain ξ and shear strain rate γ̇ (1/s).
+    #: True when the strength falls with ξ for this soil
+    @property
+    def softens(self) -> bool:
+        return False
 
-        The plain NumPy reference ("twin") of the law; compiled kernels must agree with it.
-        """
+    #: True when the strength depends on γ̇ for this soil
+    @property
+    def rate_dependent(self) -> bool:
+        return False
+
+    @property
+    def active(self) -> bool:
+        """Whether solvers must evaluate the law at all (else factor ≡ 1)."""
+        return self.softens or self.rate_dependent
+
+    def parameters(self) -> np.ndarray:
+        """The law's parameters as ``N_PARAMS`` floats (unused ones zero)."""
+        return np.zeros(N_PARAMS)
+
+    @staticmethod
+    def factor(xi, gamma_dot, p0, p1, p2, p3, p4, p5, p6, p7):
+        """su/su_intact at one material point (scalar, plain Python + math)."""
+        return 1.0
+
+    def strength_factor(self, xi: np.ndarray, gamma_dot_per_s: np.ndarray) -> np.ndarray:
+        """su/su_intact (-) at accumulated plastic shear strain ξ and shear strain rate γ̇ (1/s): NumPy twin."""
         raise NotImplementedError
+
+    @classmethod
+    def compiled(cls):
+        """The law's ``factor`` compiled as a C callback (cached on disk by Numba)."""
+        if cls not in _COMPILED:
+            from numba import cfunc
+
+            _COMPILED[cls] = cfunc(_signature(), cache=True)(cls.factor)
+        return _COMPILED[cls]
+
+    def packed(self) -> np.ndarray:
+        """``parameters()`` checked and padded to ``N_PARAMS`` floats."""
+        params = np.zeros(N_PARAMS)
+        given = np.asarray(self.parameters(), dtype=float)
+        if given.size > N_PARAMS:
+            raise ValueError(f"soil law {self.name} packs {given.size} parameters; at most {N_PARAMS}")
+        params[: given.size] = given
+        if not np.all(np.isfinite(params)):
+            raise ValueError(f"soil law {self.name} packed non-finite parameters {params}")
+        return params
+

@@ -1,8 +1,7 @@
 """Tresca: rigid–perfectly plastic undrained strength, su = su_intact(z0) = su0 + ks·z0.
 
-No softening and no rate effect: ``soil.sensitivity``, ``soil.xi95`` and ``soil.rate``
-are ignored, and solvers skip that arithmetic. In plane strain the J2 criterion
-√J2 ≤ su used by the CEL solver is exactly Tresca's.
+No softening and no rate effect: ``soil.sensitivity``, ``soil.xi95`` and ``soil.rate`` are
+ignored, and solvers skip that arithmetic altogether.
 """
 
 from __future__ import annotations

@@ -20,6 +20,7 @@ import numpy as np
 from pydantic import Field
 
 from dsmv.results import SolveResult
+from dsmv_plugins.tresca import TrescaLaw
 from dsmv.scene import Number, Scene, Schema
 
 
@@ -176,7 +177,7 @@ class Cel2DCheckSolver:
         par[S.P_HG], par[S.P_BL], par[S.P_BQ], par[S.P_GRAV] = 0.05, 0.06, 1.2, grav
         par[S.P_SU0], par[S.P_KS], par[S.P_MFLOOR], par[S.P_PHIMIN] = soil.su0_pa, soil.ks_pa_per_m, 1e-9 * rho * h * h, 1e-9
         par[S.P_BODY_M], par[S.P_K0], par[S.P_PHI_STRESS] = 1.0, k0, 0.01
-        ipar = np.array([0, 2, 0, 0, 1, 0], dtype=np.int64)  # plane strain, order 2, at rest, no inflow, remap, J2
+        ipar = np.array([0, 2, 0, 0, 1, 0, 0], dtype=np.int64)  # plane strain, order 2, at rest, no inflow, remap, J2, no law
         vx = np.zeros((nx + 1, ny + 1))
         vy = np.zeros_like(vx)
         none = np.zeros(0, dtype=np.int64)
@@ -186,7 +187,7 @@ class Cel2DCheckSolver:
                 np.zeros_like(vx), np.zeros_like(vx), np.zeros((nx + 1, ny)), np.zeros((ny + 1, nx)),
                 none, none, none.astype(np.bool_), np.zeros(0), np.zeros(0), np.zeros((nx, ny), dtype=np.bool_),
                 np.zeros((K.NQ_BASE, nx)), np.zeros(nx),
-                par, ipar, body, energy)
+                par, ipar, body, energy, TrescaLaw.compiled(), np.zeros(8))
         n_steps = int(math.ceil(cfg.duration_s / dt))
         samples = 100
         times, speeds = [0.0], [0.0]

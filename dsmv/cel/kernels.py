@@ -184,11 +184,14 @@ def tresca_return(s1, s2, s3, su, shear_mod):
 
 
 @njit(**JIT)
-def update_stress_tresca(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym, phi_min, exact_tresca,
-                         out):
+def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym, phi_min, exact_tresca,
+                  law, law_params, law_active, out):
     """Stress update for undrained soil of strength su: Jaumann rotation, elastic trial, return.
 
-    su = su0 + ks·z0 (z0: the depth where the soil started). The return is J2's radial return
+    su = (su0 + ks·z0)·law(ξ, γ̇, params) with z0 the depth where the soil started and
+    γ̇ = (Δε1 − Δε3)/Δt; the soil law ``law`` (a compiled callback, see dsmv.soil_law) is
+    called only when ``law_active``, so laws without softening or rate cost nothing. The
+    return is J2's radial return
     to √J2 ≤ su, or with ``exact_tresca`` the return to Tresca's hexagon s1 − s3 ≤ 2·su. Both
     are the same in plane strain; in axisymmetry only Tresca matches Tresca's exact solutions
     (J2 matched in shear is weaker in triaxial states by √3/2). Accumulates the plastic shear
@@ -236,6 +239,14 @@ def update_stress_tresca(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks,
             su = su0 + ks * q[Z0, i, j]
             if su < 0.0:
                 su = 0.0
+            if law_active:
+                # shear strain rate (Δε1 − Δε3)/Δt from the principal total strain increments
+                ring = math.sqrt(0.25 * (dxx - dyy) ** 2 + dxy * dxy)
+                e_hi = max(0.5 * (dxx + dyy) + ring, dzz)
+                e_lo = min(0.5 * (dxx + dyy) - ring, dzz)
+                gamma_dot = (e_hi - e_lo) / dt if dt > 0.0 else 0.0
+                su *= law(q[XI, i, j], gamma_dot, law_params[0], law_params[1], law_params[2], law_params[3],
+                          law_params[4], law_params[5], law_params[6], law_params[7])
             if exact_tresca:
                 # principal stresses: the in-plane pair and the out-of-plane one
                 centre = 0.5 * (sxx + syy)

@@ -26,6 +26,7 @@ import numpy as np
 from pydantic import Field
 
 from dsmv.analytic.energy import energy_estimate, sinkage_from_energy
+from dsmv import registry
 from dsmv.errors import ConfigError
 from dsmv.results import SolveResult
 from dsmv.scene import Count, Number, Scene, Schema
@@ -74,8 +75,7 @@ class Cel2DSolver:
             raise ConfigError("geometry.view", body.view, "cel2d runs the cross_section view for now")
         if body.roughness not in ("rough", "smooth"):
             raise ConfigError("geometry.roughness", body.roughness, "cel2d supports 'rough' or 'smooth' for now")
-        if soil.law != "tresca":
-            raise ConfigError("soil.law", soil.law, "cel2d runs 'tresca' until the soil-law plugin kernels land")
+        self.law = registry.load("soil_laws", soil.law, "soil.law")(soil)
         self.mode = cfg.mode if cfg.mode != "auto" else "plane_strain"
         self.axisym = self.mode == "axisymmetric"
         self.circular = body.kind == "tbar"  # a cylinder (plane strain) or a ball (axisymmetric)
@@ -225,8 +225,9 @@ class Cel2DSolver:
         par[S.P_PHI_STRESS] = cfg.stress_cutoff
         drop = landing.kind == "drop"
         exact_tresca = cfg.yield_surface == "tresca" or (cfg.yield_surface == "auto" and self.axisym)
-        ipar = np.array([int(self.axisym), cfg.advection_order, int(drop), 1, int(cfg.remap), int(exact_tresca)],
-                        dtype=np.int64)
+        ipar = np.array([int(self.axisym), cfg.advection_order, int(drop), 1, int(cfg.remap), int(exact_tresca),
+                         int(self.law.active)], dtype=np.int64)
+        law_fn, law_params = self.law.compiled(), self.law.packed()
 
         vx = np.zeros((nx + 1, ny + 1))
         vy = np.zeros((nx + 1, ny + 1))
@@ -259,7 +260,7 @@ class Cel2DSolver:
             return S.run_steps(
                 n, x, y, vol, phi, q, vx, vy, mass, work["fx"], work["fy"], work["ux"], work["uy"],
                 work["flux_x"], work["flux_y"], tie_i, tie_j, tie_full, tie_nx, tie_ny, solid, ghost, ghost_depth0,
-                par, ipar, body, energy,
+                par, ipar, body, energy, law_fn, law_params,
             )
 
         # expected duration → steps per history sample

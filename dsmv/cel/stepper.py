@@ -20,7 +20,7 @@ from dsmv.cel.kernels import (
     advect_momentum,
     nodal_forces,
     nodal_mass,
-    update_stress_tresca,
+    update_stress,
     update_velocities,
 )
 
@@ -29,8 +29,8 @@ from dsmv.cel.kernels import (
  P_PUSH_V, P_K0, P_PHI_STRESS) = range(18)
 N_PAR = 18
 # integer parameters
-I_AXISYM, I_ORDER, I_DROP, I_INFLOW, I_REMAP, I_TRESCA = range(6)
-N_IPAR = 6
+I_AXISYM, I_ORDER, I_DROP, I_INFLOW, I_REMAP, I_TRESCA, I_LAW = range(7)
+N_IPAR = 7
 # body state (mutable floats)
 B_TIME, B_OFFSET, B_VEL, B_MAXDISP, B_FSUM, B_FCOUNT, B_INFLOW, B_STEP = range(8)
 N_BODY = 8
@@ -47,8 +47,13 @@ RUNNING, AT_REST, NOT_FINITE = 0, 1, 2
 def run_steps(
     n_steps, x, y, vol, phi, q, vx, vy, mass, fx, fy, ux, uy, flux_x, flux_y,
     tie_i, tie_j, tie_full, tie_nx, tie_ny, solid, ghost, ghost_depth0, par, ipar, body, energy,
+    law, law_params,
 ):
-    """Advance up to ``n_steps`` steps; return (steps done, exit code)."""
+    """Advance up to ``n_steps`` steps; return (steps done, exit code).
+
+    ``law`` is the soil law's compiled strength factor (dsmv.soil_law), ``law_params`` its
+    packed parameters; it is called only when ``ipar[I_LAW]`` is set.
+    """
     dt = par[P_DT]
     rho = par[P_RHO]
     grav = par[P_GRAV]
@@ -122,8 +127,8 @@ def run_steps(
                 momentum_after += mass[i, j] * vy[i, j]
         energy[E_SOIL_GRAV] += -grav * dt * 0.5 * (momentum_before + momentum_after)
         stress_out[0] = 0.0
-        update_stress_tresca(x, y, phi, q, vx, vy, dt, par[P_G], par[P_K], par[P_SU0], par[P_KS], axisym,
-                             par[P_PHI_STRESS], ipar[I_TRESCA] == 1, stress_out)
+        update_stress(x, y, phi, q, vx, vy, dt, par[P_G], par[P_K], par[P_SU0], par[P_KS], axisym,
+                      par[P_PHI_STRESS], ipar[I_TRESCA] == 1, law, law_params, ipar[I_LAW] == 1, stress_out)
         energy[E_PLASTIC] += stress_out[0]
         body[B_OFFSET] += body[B_VEL] * dt
         body[B_TIME] += dt

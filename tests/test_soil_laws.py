@@ -1,0 +1,135 @@
+"""Every registered soil law against its own NumPy twin, closed forms, limits and monotonicity."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.optimize import brentq
+
+from dsmv import registry
+from dsmv.cel import kernels as K
+from dsmv.scene import build_scene
+
+LAWS = list(registry.available("soil_laws"))
+
+
+def make_law(compose_cfg, name, *overrides):
+    scene = build_scene(compose_cfg([f"soil.law={name}", *overrides]))
+    return registry.load("soil_laws", name, "soil.law")(scene.soil), scene
+
+
+def test_builtin_laws_are_registered():
+    assert {"tresca", "einav_randolph"} <= set(LAWS)
+
+
+@pytest.mark.parametrize("name", LAWS)
+@pytest.mark.parametrize("rate_law", ["power", "log"])
+def test_compiled_kernel_equals_numpy_twin(compose_cfg, name, rate_law):
+    law, _ = make_law(compose_cfg, name, f"soil.rate.law={rate_law}", "soil.rate.eta=0.1", "soil.rate.mu=0.15",
+                      "soil.sensitivity=4", "soil.xi95=15")
+    rng = np.random.default_rng(7)
+    xi = rng.uniform(0, 100, 500)
+    gamma_dot = 10 ** rng.uniform(-9, 3, 500)
+    kernel, params = law.compiled(), law.packed()
+    compiled = np.array([kernel.ctypes(a, b, *params) for a, b in zip(xi, gamma_dot)])
+    np.testing.assert_allclose(compiled, law.strength_factor(xi, gamma_dot), rtol=1e-13)
+
+
+def test_einav_randolph_limits(compose_cfg):
+    law, scene = make_law(compose_cfg, "einav_randolph", "soil.sensitivity=5", "soil.rate.eta=0.1")
+    assert law.strength_factor(1e6, 0.0) == pytest.approx(1 / 5)  # fully remoulded: 1/St
+    assert law.strength_factor(0.0, 0.0) == 1.0  # intact, γ̇ → 0: R = 1 (power)
+    assert law.strength_factor(scene.soil.xi95, 0.0) == pytest.approx(1 / 5 + (4 / 5) * math.exp(-3))  # 95 % lost
+    log_law, log_scene = make_law(compose_cfg, "einav_randolph", "soil.rate.law=log", "soil.rate.mu=0.2")
+    ref = log_scene.soil.rate.gamma_dot_ref
+    assert log_law.strength_factor(0.0, 0.5 * ref) == 1.0  # γ̇ ≤ γ̇ref: R = 1 (log)
+    assert log_law.strength_factor(0.0, 1000 * ref) == pytest.approx(1 + 0.2 * 3)  # three decades
+
+
+def test_inactive_law_is_the_tresca_path(compose_cfg):
+    law, _ = make_law(compose_cfg, "einav_randolph", "soil.sensitivity=1", "soil.rate.eta=0")
+    assert not law.active
+    assert make_law(compose_cfg, "einav_randolph")[0].active
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st_=st.floats(1.0, 10.0), xi95=st.floats(10.0, 50.0), eta=st.floats(0.0, 0.15), n=st.floats(0.05, 1.0),
+    xi=st.floats(0.0, 200.0), dxi=st.floats(0.0, 50.0), g=st.floats(0.0, 1e3), dg_decades=st.floats(0.0, 6.0),
+)
+def test_einav_randolph_monotone_in_strain_and_rate(st_, xi95, eta, n, xi, dxi, g, dg_decades):
+    from dsmv.scene import SoilConfig
+    from dsmv_plugins.einav_randolph import EinavRandolphLaw
+
+    soil = SoilConfig(name="h", law="einav_randolph", su0_pa=5e3, ks_pa_per_m=0, sensitivity=st_, xi95=xi95,
+                      rate={"law": "power", "eta": eta, "n": n, "gamma_dot_ref": 3e-6}, density_kg_m3=600,
+                      youngs_modulus_pa=2.5e6, poisson_ratio=0.49)
+    law = EinavRandolphLaw(soil)
+    assert law.strength_factor(xi + dxi, g) <= law.strength_factor(xi, g) * (1 + 1e-12)  # softens with ξ
+    assert law.strength_factor(xi, g * 10**dg_decades) >= law.strength_factor(xi, g) * (1 - 1e-12)  # faster: stronger
+
+
+def simple_shear(law, soil, gamma_dot, gamma_total, n_steps=4000):
+    """Drive one cell in simple shear at constant γ̇ through the CEL stress kernel; return γ and τ."""
+    h = 1.0
+    x = np.array([0.0, h])
+    y = np.array([0.0, h])
+    phi = np.ones((1, 1))
+    q = np.zeros((K.NQ_BASE, 1, 1))
+    vx = np.array([[0.0, gamma_dot * h], [0.0, gamma_dot * h]])  # nodes (i, j): top row moves
+    vy = np.zeros((2, 2))
+    G = soil.youngs_modulus_pa / (2 * (1 + soil.poisson_ratio))
+    Kb = soil.youngs_modulus_pa / (3 * (1 - 2 * soil.poisson_ratio))
+    dt = gamma_total / gamma_dot / n_steps
+    out = np.zeros(1)
+    gammas, taus = [], []
+    for step in range(n_steps):
+        K.update_stress(x, y, phi, q, vx, vy, dt, G, Kb, soil.su0_pa, 0.0, False, 0.01, True,
+                        law.compiled(), law.packed(), law.active, out)
+        gammas.append((step + 1) * gamma_dot * dt)
+        taus.append(q[K.SXY, 0, 0])
+    return np.array(gammas), np.array(taus), G
+
+
+@pytest.mark.parametrize("overrides", [["soil.sensitivity=4", "soil.xi95=2", "soil.rate.eta=0"],
+                                       ["soil.sensitivity=3", "soil.xi95=3", "soil.rate.eta=0.1"],
+                                       ["soil.sensitivity=2", "soil.xi95=2", "soil.rate.law=log", "soil.rate.mu=0.1"]])
+def test_single_element_simple_shear_follows_the_closed_form(compose_cfg, overrides):
+    """τ(γ) solves τ = su0·f(ξ = γ − τ/G, γ̇): the law's strength curve along the applied strain."""
+    law, scene = make_law(compose_cfg, "einav_randolph", "soil.youngs_modulus_pa=2.5e6", *overrides)
+    soil, gamma_dot = scene.soil, 0.5
+    gammas, taus, G = simple_shear(law, soil, gamma_dot, gamma_total=6.0)
+    for gamma, tau in zip(gammas[::200], taus[::200]):
+        exact = brentq(lambda t: t - min(G * gamma, soil.su0_pa * float(law.strength_factor(max(gamma - t / G, 0.0),
+                                                                                             gamma_dot))),
+                       -1.0, 10 * soil.su0_pa)
+        assert tau == pytest.approx(exact, rel=0.01, abs=1e-3 * soil.su0_pa)
+    assert taus[-1] < taus.max()  # it softened
+
+
+def test_einav_randolph_at_st1_eta0_lands_like_tresca(compose_cfg):
+    from dsmv.cel.solver import Cel2DSolver
+
+    common = ["solver=cel2d", "mesh=coarse", "solver.progress=off"]
+    er = Cel2DSolver(build_scene(compose_cfg(common + ["soil.law=einav_randolph", "soil.sensitivity=1",
+                                                      "soil.rate.eta=0"]))).solve()
+    tresca = Cel2DSolver(build_scene(compose_cfg(common + ["soil.law=tresca"]))).solve()
+    assert er.metrics["max_sinkage_m"] == pytest.approx(tresca.metrics["max_sinkage_m"], rel=1e-9)
+
+
+def test_einav_randolph_landing_trends(compose_cfg):
+    """The reference study's Figure 9 directions: sinkage grows with St, falls with ξ95 and with η."""
+    from dsmv.cel.solver import Cel2DSolver
+
+    def sinkage(*overrides):
+        scene = build_scene(compose_cfg(["solver=cel2d", "mesh=coarse", "solver.progress=off",
+                                         "soil.law=einav_randolph", *overrides]))
+        result = Cel2DSolver(scene).solve()
+        assert result.status == "ok", result.message
+        return result.metrics["max_sinkage_m"]
+
+    assert sinkage("soil.sensitivity=1.5") < sinkage("soil.sensitivity=6")
+    assert sinkage("soil.xi95=50") < sinkage("soil.xi95=10")
+    assert sinkage("soil.rate.eta=0.15") < sinkage("soil.rate.eta=0")
