@@ -27,7 +27,7 @@ BAD_VALUES = [
     ("mesh.cell_size_m=0", "mesh.cell_size_m", "greater than 0"),
     ("mesh.max_cell_size_m=0.01", "mesh.max_cell_size_m", "mesh.cell_size_m"),
     ("mesh.growth_ratio=2", "mesh.growth_ratio", "less than or equal to 1.5"),
-    ("soil.law=nope", "soil.law", "available: tresca"),
+    ("soil.law=nope", "soil.law", "tresca"),
     ("solver.name=nope", "solver.name", "available: analytic_energy"),
     ("solver.shape_factor=-1", "solver.shape_factor", "skempton"),
     ("+soil.su0=5", "soil.su0", "Extra inputs"),
@@ -41,6 +41,8 @@ def test_bad_value_names_path_value_and_allowed(compose_cfg, override, path, all
         build_scene(compose_cfg([override]))
     assert info.value.path == path
     assert allowed in str(info.value)
+    if path == "soil.law":  # an unknown plugin lists what is installed
+        assert "available: " in str(info.value) and "einav_randolph" in str(info.value)
     assert "\n" not in str(info.value)
 
 
@@ -51,7 +53,7 @@ def test_push_needs_a_velocity(compose_cfg):
 
 @pytest.mark.parametrize(
     "override,expected",
-    [("landing.mass_kg=-1", "landing.mass_kg = -1"), ("soil.law=nope", "available: tresca")],
+    [("landing.mass_kg=-1", "landing.mass_kg = -1"), ("soil.law=nope", "tresca")],
 )
 def test_cli_reports_one_line_without_traceback(run_cli, override, expected):
     proc = run_cli("dsmv", override, "tracking=disabled")
