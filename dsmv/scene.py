@@ -106,6 +106,7 @@ class SoilConfig(Schema):
     density_kg_m3: Number = Field(gt=0, description="submerged (buoyant) density ρ' (kg/m³)")
     youngs_modulus_pa: Number = Field(gt=0, description="Young's modulus E (Pa)")
     poisson_ratio: Number = Field(ge=0, lt=0.5, description="Poisson's ratio ν (-), < 0.5")
+    params: dict[str, Number] = Field(default_factory=dict, description="law-specific parameters (see the law)")
 
     def su_intact_pa(self, depth_m):
         """Intact strength (Pa) of soil that started at depth ``depth_m`` (m) below the mudline."""

@@ -133,3 +133,50 @@ def test_einav_randolph_landing_trends(compose_cfg):
     assert sinkage("soil.sensitivity=1.5") < sinkage("soil.sensitivity=6")
     assert sinkage("soil.xi95=50") < sinkage("soil.xi95=10")
     assert sinkage("soil.rate.eta=0.15") < sinkage("soil.rate.eta=0")
+
+
+NEW_LAW = '''
+"""A linear-softening law, written as the README's plugin guide says."""
+import numpy as np
+from dsmv.soil_law import SoilLaw
+
+
+class LinearSofteningLaw(SoilLaw):
+    name = "linear_softening"
+
+    @property
+    def softens(self):
+        return True
+
+    def parameters(self):
+        return np.array([self.soil.params["slope"], 1.0 / self.soil.sensitivity])
+
+    @staticmethod
+    def factor(xi, gamma_dot, slope, floor, p2, p3, p4, p5, p6, p7):
+        return max(1.0 - slope * xi, floor)
+
+    def strength_factor(self, xi, gamma_dot_per_s):
+        return np.maximum(1.0 - self.soil.params["slope"] * np.asarray(xi), 1.0 / self.soil.sensitivity)
+'''
+
+
+def test_a_new_law_in_its_own_package_is_picked_up_by_name(tmp_path, run_cli):
+    """One module, one entry-point line (and its parameters under soil.params): no change to dsmv/."""
+    import os
+
+    site = tmp_path / "site"
+    dist = site / "my_soil_laws-0.1.dist-info"
+    dist.mkdir(parents=True)
+    (site / "my_soil_laws.py").write_text(NEW_LAW)
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: my-soil-laws\nVersion: 0.1\n")
+    (dist / "entry_points.txt").write_text("[dsmv.soil_laws]\nlinear_softening = my_soil_laws:LinearSofteningLaw\n")
+    os.environ["PYTHONPATH"] = os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")])
+    try:
+        assert "linear_softening" in run_cli("dsmv-plugins").stdout
+        args = ["soil.law=linear_softening", "+soil.params.slope=0.05", "solver=cel2d", "mesh=coarse",
+                "tracking=disabled"]
+        proc = run_cli("dsmv", *args)
+        assert proc.returncode == 0, proc.stderr
+        assert "dsmv: ok" in proc.stdout and "(linear_softening)" in proc.stdout
+    finally:
+        os.environ["PYTHONPATH"] = os.environ["PYTHONPATH"].split(os.pathsep, 1)[1]
