@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 from dataclasses import dataclass
 from typing import Annotated, Any, Literal, Optional, Union
 
@@ -172,7 +173,26 @@ class TbarGeometry(BodyConfig):
     kind: Literal["tbar"]
 
 
-GEOMETRY_KINDS: dict[str, type[BodyConfig]] = {"track": TrackGeometry, "strip": StripGeometry, "tbar": TbarGeometry}
+class ConeGeometry(BodyConfig):
+    """A fall cone (axisymmetric): apex angle, tip down; ``width_m`` is its diameter at the top."""
+
+    kind: Literal["cone"]
+    apex_angle_deg: Number = Field(gt=0, lt=180, description="full apex angle (degrees)")
+    contact_length_m: Optional[Number] = Field(None, description="not used by a cone")
+
+    @property
+    def height_m(self) -> float:
+        """Height of the conical part (m)."""
+        return 0.5 * self.width_m / math.tan(math.radians(0.5 * self.apex_angle_deg))
+
+    @property
+    def contact_area_m2(self) -> float:
+        return math.pi * self.width_m**2 / 4
+
+
+GEOMETRY_KINDS: dict[str, type[BodyConfig]] = {
+    "track": TrackGeometry, "strip": StripGeometry, "tbar": TbarGeometry, "cone": ConeGeometry,
+}
 
 # --------------------------------------------------------------------------- landing
 

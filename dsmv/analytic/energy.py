@@ -29,6 +29,7 @@ import numpy as np
 from pydantic import BeforeValidator, Field
 
 from dsmv import registry
+from dsmv.errors import ConfigError
 from dsmv.results import SolveResult
 from dsmv.scene import Count, Number, Scene, Schema
 
@@ -90,6 +91,9 @@ class AnalyticEnergySolver:
         self.scene = scene
         self.config = cfg = config or scene.solver
         body, landing, soil = scene.geometry, scene.landing, scene.soil
+        if body.kind == "cone":
+            raise ConfigError("geometry.kind", body.kind, "the energy method models tracks, strips and T-bars; "
+                                                          "a cone needs solver=cel2d")
         self.shape_factor = (
             1.0 + 0.2 * body.width_m / body.contact_length_m if cfg.shape_factor == "skempton" else cfg.shape_factor
         )

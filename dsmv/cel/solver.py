@@ -58,6 +58,7 @@ class Cel2DConfig(Schema):
     max_steps: Count = Field(20_000_000, ge=1)
     progress: Literal["auto", "on", "off"] = "auto"
     initial_travel_m: Optional[Number] = Field(None, gt=0, description="travel to size the domain for (m)")
+    cone_cells_per_depth: Count = Field(16, ge=4, description="cone: core cells across the expected penetration")
 
 
 class Cel2DSolver:
@@ -69,16 +70,31 @@ class Cel2DSolver:
     def __init__(self, scene: Scene):
         self.scene = scene
         cfg, body, soil = scene.solver, scene.geometry, scene.soil
-        if body.kind not in ("strip", "track", "tbar"):
-            raise ConfigError("geometry.kind", body.kind, "cel2d runs strip, track and tbar bodies for now")
+        if body.kind not in ("strip", "track", "tbar", "cone"):
+            raise ConfigError("geometry.kind", body.kind, "cel2d runs strip, track, tbar and cone bodies")
         if getattr(body, "view", "cross_section") != "cross_section":
             raise ConfigError("geometry.view", body.view, "cel2d runs the cross_section view for now")
         if body.roughness not in ("rough", "smooth"):
             raise ConfigError("geometry.roughness", body.roughness, "cel2d supports 'rough' or 'smooth' for now")
         self.law = registry.load("soil_laws", soil.law, "soil.law")(soil)
-        self.mode = cfg.mode if cfg.mode != "auto" else "plane_strain"
+        self.cone = body.kind == "cone"
+        self.mode = cfg.mode if cfg.mode != "auto" else ("axisymmetric" if self.cone else "plane_strain")
+        if self.cone and self.mode != "axisymmetric":
+            raise ConfigError("solver.mode", cfg.mode, "a cone is axisymmetric")
         self.axisym = self.mode == "axisymmetric"
         self.circular = body.kind == "tbar"  # a cylinder (plane strain) or a ball (axisymmetric)
+
+    def hansbo_depth_m(self) -> float:
+        """Hansbo's penetration d = √(K·m·g/su) with K = 0.8 (30° cone): the cone's scale (m)."""
+        landing = self.scene.landing
+        return math.sqrt(0.8 * landing.mass_kg * max(landing.gravity_m_s2, 1e-9) / self.scene.soil.su0_pa)
+
+    def characteristic_width_m(self, travel: float) -> float:
+        """The body's width for sizing the domain (m): B, or a cone's diameter at the expected depth."""
+        body = self.scene.geometry
+        if self.cone:
+            return 2.0 * travel * math.tan(math.radians(0.5 * body.apex_angle_deg))
+        return body.width_m
 
     def contact_area_m2(self) -> float:
         """The area a bearing factor refers to: B·L in plane strain, π·B²/4 in axisymmetry (m²)."""
@@ -93,7 +109,12 @@ class Cel2DSolver:
         surface normal. Returns (solid, tie_i, tie_j, tie_full, tie_nx, tie_ny).
         """
         B = self.scene.geometry.width_m
-        if self.circular:
+        if self.cone:  # the inscribed staircase of the cone (tip at the origin) and its shaft
+            body = self.scene.geometry
+            radius = np.minimum(grid.y * math.tan(math.radians(0.5 * body.apex_angle_deg)), 0.5 * body.width_m)
+            inside_node = (grid.y[None, :] >= 0.0) & (grid.x[:, None] <= radius[None, :] * (1 + 1e-12))
+            solid = inside_node[:-1, :-1] & inside_node[1:, :-1] & inside_node[1:, 1:] & inside_node[:-1, 1:]
+        elif self.circular:
             # the staircase inscribed in the circle: a cell is solid when its four nodes are
             # inside. (Cells chosen by their centre stick out by up to 0.7·h and read a rough
             # T-bar 15 % high at D/10; inscribed, +1 %.)
@@ -137,6 +158,8 @@ class Cel2DSolver:
             return scene.solver.initial_travel_m
         if scene.landing.kind == "push":
             return scene.landing.displacement_m
+        if self.cone:
+            return 1.5 * self.hansbo_depth_m()
         estimate = energy_estimate(scene)
         z = sinkage_from_energy(
             scene.landing.weight_per_track_n, scene.landing.inertia_per_track_kg, scene.landing.velocity_m_s,
@@ -149,11 +172,15 @@ class Cel2DSolver:
         from dsmv.cel.grid import build_grid
 
         scene, cfg = self.scene, self.scene.solver
-        B = scene.geometry.width_m
-        half = 0.5 * B
-        n_half = max(1, int(round(half / scene.mesh.cell_size_m)))
-        h = half / n_half  # the body's edge falls on a node line
         travel = self.expected_travel_m()
+        B = self.characteristic_width_m(travel)
+        half = 0.5 * B
+        if self.cone:  # cells sized to the cone: a fixed number across its expected penetration
+            h = min(scene.mesh.cell_size_m, self.hansbo_depth_m() / cfg.cone_cells_per_depth)
+            n_half = max(1, int(math.ceil(half / h)))
+        else:
+            n_half = max(1, int(round(half / scene.mesh.cell_size_m)))
+            h = half / n_half  # the body's edge falls on a node line
         core_half_width = h * math.ceil((half + cfg.core_margin_widths * B) / h)
         # a body wished in place at depth d0: the mudline lies d0 above the base, on a node row
         self.mudline = h * round(scene.landing.initial_depth_m / h)
@@ -193,7 +220,7 @@ class Cel2DSolver:
         dt = cfg.cfl * self.h / c
         grav = landing.gravity_m_s2
         k0 = nu / (1 - nu)
-        B = body_cfg.width_m
+        B = self.characteristic_width_m(self.travel)  # the width that scales guards and ratios (m)
 
         # initial state: soil below the mudline (y = d0) and outside the body, geostatic, at rest
         d0 = self.mudline
@@ -264,7 +291,9 @@ class Cel2DSolver:
             )
 
         # expected duration → steps per history sample
-        if drop:
+        if drop and self.cone:
+            duration = 4.0 * math.sqrt(2.0 * self.travel / max(grav, 1e-9))
+        elif drop:
             duration = energy_estimate(scene).solve().metrics.get("time_to_rest_s", 0.0) or 0.0
             duration = max(duration, self.travel / max(landing.velocity_m_s, 0.1))
         else:
@@ -320,9 +349,10 @@ class Cel2DSolver:
             if drop and code == S.AT_REST:
                 message = f"came to rest at {body[S.B_MAXDISP]:.4g} m after {body[S.B_TIME]:.4g} s"
                 break
-            if drop and sinkage > B and self._not_decelerating(history, B):
+            width = body_cfg.width_m  # the body's own width (a cone's top diameter)
+            if drop and sinkage > width and self._not_decelerating(history, width):
                 status, message = "bearing_failure", (
-                    f"the body kept sinking without slowing down over one width B = {B:g} m")
+                    f"the body kept sinking without slowing down over one width B = {width:g} m")
                 break
             if not drop and sinkage >= landing.displacement_m - 1e-12:
                 message = f"pushed to {sinkage:.4g} m"
@@ -367,6 +397,9 @@ class Cel2DSolver:
         if status in ("ok", "out_of_domain", "bearing_failure"):
             metrics["max_sinkage_m"] = float(body[S.B_MAXDISP])
             units["max_sinkage_m"] = "m"
+        if drop and status == "ok" and self.cone:  # Hansbo's factor implied by the penetration
+            metrics["hansbo_k"] = soil.su0_pa * metrics["max_sinkage_m"] ** 2 / (landing.mass_kg * grav)
+            units["hansbo_k"] = "-"
         if drop and status == "ok":
             metrics["sinkage_over_width"] = metrics["max_sinkage_m"] / B
             metrics["time_to_rest_s"] = float(body[S.B_TIME])
