@@ -58,3 +58,13 @@ def test_config_hash_tracks_physics_only(compose_cfg):
     base = build_scene(compose_cfg()).config_hash
     assert build_scene(compose_cfg(["study=other", "tracking=disabled"])).config_hash == base
     assert build_scene(compose_cfg(["landing.velocity_m_s=1.0"])).config_hash != base
+
+
+@pytest.mark.parametrize("option", group_options("solver"))
+def test_solver_yaml_documents_every_setting_of_its_schema(compose_cfg, option):
+    """Each solver's YAML lists exactly its schema's fields, so every knob is visible and overridable."""
+    from dsmv import registry
+
+    cfg = compose_cfg([f"solver={option}"])
+    schema = registry.load("solvers", cfg.solver.name, "solver.name").config_model
+    assert set(cfg.solver.keys()) == set(schema.model_fields)
