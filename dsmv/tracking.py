@@ -194,6 +194,7 @@ class MlflowSweepCallback(Callback):
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
         sweep_dir = Path(str(config.hydra.sweep.dir))
         rows = summarize_sweep(sweep_dir)
+        plot = sweep_plot(config, sweep_dir)
         run_id = parent_run_id(sweep_dir)
         tracking = build_tracking(config)
         if run_id is None or not tracking.enabled:
@@ -203,10 +204,20 @@ class MlflowSweepCallback(Callback):
         for status, count in counts.items():
             client.log_metric(run_id, f"jobs_{status}", count)
         client.log_metric(run_id, "jobs_total", len(rows))
-        summary = sweep_dir / SWEEP_SUMMARY_FILE
-        if summary.exists():
-            client.log_artifact(run_id, str(summary))
+        for path in (sweep_dir / SWEEP_SUMMARY_FILE, plot):
+            if path is not None and Path(path).exists():
+                client.log_artifact(run_id, str(path))
         client.set_terminated(run_id, "FINISHED")
+
+
+def sweep_plot(config: DictConfig, sweep_dir: Path) -> Path | None:
+    """The sweep-level plot the experiment asks for (``sweep_plot: <name>``), written into the sweep dir."""
+    name = config.get("sweep_plot")
+    if not name:
+        return None
+    from dsmv.plots import SWEEP_PLOTS
+
+    return SWEEP_PLOTS[name](sweep_dir, sweep_dir / f"{name}.png")
 
 
 def summarize_sweep(sweep_dir: Path) -> list[dict]:

@@ -180,3 +180,22 @@ def test_a_new_law_in_its_own_package_is_picked_up_by_name(tmp_path, run_cli):
         assert "dsmv: ok" in proc.stdout and "(linear_softening)" in proc.stdout
     finally:
         os.environ["PYTHONPATH"] = os.environ["PYTHONPATH"].split(os.pathsep, 1)[1]
+
+
+def test_fall_cone_implied_hansbo_factor(compose_cfg):
+    """GEONOR 30° cone, 0.1 kg, sample I, coarse cells. Einav–Randolph with the default rate
+    parameters lands inside the 0.5–1.33 range published for 30° cones; Tresca, with no rate
+    effect, penetrates deeper (K = su·d²/(m·g) is larger)."""
+    from dsmv.cel.solver import Cel2DSolver
+
+    def hansbo_k(law):
+        scene = build_scene(compose_cfg(["geometry=fall_cone_30deg", "soil=sample_I", f"soil.law={law}",
+                                         "solver.cone_cells_per_depth=6", "solver.progress=off"]))
+        result = Cel2DSolver(scene).solve()
+        assert result.status == "ok", result.message
+        assert result.metrics["mass_error"] < 1e-10 and result.metrics["energy_error"] < 0.02
+        return result.metrics["hansbo_k"]
+
+    k_er, k_tresca = hansbo_k("einav_randolph"), hansbo_k("tresca")
+    assert 0.5 <= k_er <= 1.33
+    assert k_tresca > k_er
