@@ -55,3 +55,23 @@ def mlflow_runs(store_dir: Path):
     client = MlflowClient(f"sqlite:///{(store_dir / 'runs' / 'mlflow.db').resolve()}")
     ids = [e.experiment_id for e in client.search_experiments()]
     return client.search_runs(ids, max_results=1000)
+
+
+@pytest.fixture
+def install_plugin(tmp_path, monkeypatch):
+    """install_plugin(module, source, group, name, target): a one-module package registered by entry point.
+
+    It goes into a folder on PYTHONPATH for the CLI subprocesses, with its dist-info, exactly as
+    `pip install` would leave a third-party plugin.
+    """
+    site = tmp_path / "site"
+
+    def _install(module: str, source: str, group: str, name: str, target: str) -> None:
+        dist = site / f"{module}-0.1.dist-info"
+        dist.mkdir(parents=True)
+        (site / f"{module}.py").write_text(source)
+        (dist / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {module.replace('_', '-')}\nVersion: 0.1\n")
+        (dist / "entry_points.txt").write_text(f"[{group}]\n{name} = {module}:{target}\n")
+        monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")]))
+
+    return _install

@@ -2,7 +2,6 @@
 
 import json
 import os
-import textwrap
 from pathlib import Path
 
 import pytest
@@ -93,23 +92,11 @@ class BrokenSolver:
 '''
 
 
-@pytest.fixture
-def third_party_solver(tmp_path, monkeypatch):
-    """A solver plugin installed only through an entry point on PYTHONPATH."""
-    site = tmp_path / "site"
-    dist = site / "broken_solver-0.1.dist-info"
-    dist.mkdir(parents=True)
-    (site / "broken_solver.py").write_text(BROKEN_SOLVER)
-    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: broken-solver\nVersion: 0.1\n")
-    (dist / "entry_points.txt").write_text("[dsmv.solvers]\nbroken = broken_solver:BrokenSolver\n")
-    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")]))
-    return "broken"
-
-
-def test_a_solver_that_raises_leaves_result_json_and_a_failed_run(run_cli, tmp_path, third_party_solver):
+def test_a_solver_that_raises_leaves_result_json_and_a_failed_run(run_cli, tmp_path, install_plugin):
+    install_plugin("broken_solver", BROKEN_SOLVER, "dsmv.solvers", "broken", "BrokenSolver")
     proc = run_cli("dsmv-plugins")
     assert "broken" in proc.stdout and "broken_solver:BrokenSolver" in proc.stdout
-    proc = run_cli("dsmv", f"solver.name={third_party_solver}")
+    proc = run_cli("dsmv", "solver.name=broken")
     assert proc.returncode == 1
     assert "kaboom in the solver" in proc.stderr
     (job,) = job_dirs(tmp_path)

@@ -160,26 +160,14 @@ class LinearSofteningLaw(SoilLaw):
 '''
 
 
-def test_a_new_law_in_its_own_package_is_picked_up_by_name(tmp_path, run_cli):
+def test_a_new_law_in_its_own_package_is_picked_up_by_name(run_cli, install_plugin):
     """One module, one entry-point line (and its parameters under soil.params): no change to dsmv/."""
-    import os
-
-    site = tmp_path / "site"
-    dist = site / "my_soil_laws-0.1.dist-info"
-    dist.mkdir(parents=True)
-    (site / "my_soil_laws.py").write_text(NEW_LAW)
-    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: my-soil-laws\nVersion: 0.1\n")
-    (dist / "entry_points.txt").write_text("[dsmv.soil_laws]\nlinear_softening = my_soil_laws:LinearSofteningLaw\n")
-    os.environ["PYTHONPATH"] = os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")])
-    try:
-        assert "linear_softening" in run_cli("dsmv-plugins").stdout
-        args = ["soil.law=linear_softening", "+soil.params.slope=0.05", "solver=cel2d", "mesh=coarse",
-                "tracking=disabled"]
-        proc = run_cli("dsmv", *args)
-        assert proc.returncode == 0, proc.stderr
-        assert "dsmv: ok" in proc.stdout and "(linear_softening)" in proc.stdout
-    finally:
-        os.environ["PYTHONPATH"] = os.environ["PYTHONPATH"].split(os.pathsep, 1)[1]
+    install_plugin("my_soil_laws", NEW_LAW, "dsmv.soil_laws", "linear_softening", "LinearSofteningLaw")
+    assert "linear_softening" in run_cli("dsmv-plugins").stdout
+    proc = run_cli("dsmv", "soil.law=linear_softening", "+soil.params.slope=0.05", "solver=cel2d", "mesh=coarse",
+                   "tracking=disabled")
+    assert proc.returncode == 0, proc.stderr
+    assert "dsmv: ok" in proc.stdout and "(linear_softening)" in proc.stdout
 
 
 def test_fall_cone_implied_hansbo_factor(compose_cfg):

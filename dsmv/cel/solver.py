@@ -211,7 +211,7 @@ class Cel2DSolver:
         x, y = grid.x, grid.y
         nx, ny = grid.nx, grid.ny
         j_base = grid.row_of(0.0)
-        xc, yc = grid.xc, grid.yc
+        yc = grid.yc
 
         rho, E, nu = soil.density_kg_m3, soil.youngs_modulus_pa, soil.poisson_ratio
         G = E / (2 * (1 + nu))
