@@ -26,6 +26,7 @@ import numpy as np
 from pydantic import Field
 
 from dsmv.analytic.energy import energy_estimate, sinkage_from_energy
+from dsmv.cel.state import Elastic, geostatic_state, stepper_flags, stepper_parameters
 from dsmv import registry
 from dsmv.errors import ConfigError
 from dsmv.results import SolveResult
@@ -211,49 +212,34 @@ class Cel2DSolver:
         x, y = grid.x, grid.y
         nx, ny = grid.nx, grid.ny
         j_base = grid.row_of(0.0)
-        yc = grid.yc
 
-        rho, E, nu = soil.density_kg_m3, soil.youngs_modulus_pa, soil.poisson_ratio
-        G = E / (2 * (1 + nu))
-        Kb = E / (3 * (1 - 2 * nu))
-        c = math.sqrt((Kb + 4 * G / 3) / rho)
-        dt = cfg.cfl * self.h / c
-        grav = landing.gravity_m_s2
-        k0 = nu / (1 - nu)
+        rho, grav = soil.density_kg_m3, landing.gravity_m_s2
+        elastic = Elastic.of(soil)
+        G, Kb = elastic.shear_pa, elastic.bulk_pa
+        dt = cfg.cfl * self.h / elastic.wave_speed_m_s
         B = self.characteristic_width_m(self.travel)  # the width that scales guards and ratios (m)
 
-        # initial state: soil below the mudline (y = d0) and outside the body, geostatic, at rest
         d0 = self.mudline
-        phi = np.zeros((nx, ny))
-        phi[:, yc < d0] = 1.0
         solid, tie_i, tie_j, tie_full, tie_nx, tie_ny = self.body_cells_and_ties(grid, j_base)
-        phi[solid] = 0.0
-        depth = np.where(yc < d0, d0 - yc, 0.0)
-        q = np.zeros((K.NQ_BASE, nx, ny))
-        q[K.SYY] = -rho * grav * depth[None, :] * phi
-        q[K.SXX] = k0 * q[K.SYY]
-        q[K.SZZ] = k0 * q[K.SYY]
-        q[K.Z0] = depth[None, :] * phi
+        phi, q = geostatic_state(grid, rho, grav, elastic.k0, d0, solid)
         vol = K.cell_volumes(x, y, self.axisym)
 
         # the model carries a share of the body: plane strain per metre of L, half-section;
         # axisymmetric per radian
         scale = 2.0 * math.pi if self.axisym else 2.0 * body_cfg.contact_length_m
-        par = np.zeros(S.N_PAR)
-        par[S.P_DT], par[S.P_RHO], par[S.P_G], par[S.P_K], par[S.P_C] = dt, rho, G, Kb, c
-        par[S.P_HG], par[S.P_BL], par[S.P_BQ] = cfg.hourglass, cfg.bulk_viscosity_linear, cfg.bulk_viscosity_quadratic
-        par[S.P_GRAV], par[S.P_SU0], par[S.P_KS] = grav, soil.su0_pa, soil.ks_pa_per_m
-        par[S.P_MFLOOR] = 1e-9 * rho * self.h * self.h
-        par[S.P_PHIMIN] = 1e-9
-        par[S.P_BODY_M] = landing.inertia_per_track_kg / scale
-        par[S.P_BODY_W] = landing.weight_per_track_n / scale
-        par[S.P_PUSH_V] = landing.velocity_m_s
-        par[S.P_K0] = k0
-        par[S.P_PHI_STRESS] = cfg.stress_cutoff
         drop = landing.kind == "drop"
-        exact_tresca = cfg.yield_surface == "tresca" or (cfg.yield_surface == "auto" and self.axisym)
-        ipar = np.array([int(self.axisym), cfg.advection_order, int(drop), 1, int(cfg.remap), int(exact_tresca),
-                         int(self.law.active)], dtype=np.int64)
+        par = stepper_parameters(
+            dt=dt, density=rho, elastic=elastic, h=self.h, gravity=grav, su0=soil.su0_pa, ks=soil.ks_pa_per_m,
+            hourglass=cfg.hourglass, bulk_linear=cfg.bulk_viscosity_linear,
+            bulk_quadratic=cfg.bulk_viscosity_quadratic, stress_cutoff=cfg.stress_cutoff,
+            body_mass=landing.inertia_per_track_kg / scale, body_weight=landing.weight_per_track_n / scale,
+            push_velocity=landing.velocity_m_s,
+        )
+        ipar = stepper_flags(
+            axisym=self.axisym, advection_order=cfg.advection_order, drop=drop, bottom_inflow=True,
+            remap=cfg.remap, law_active=self.law.active,
+            exact_tresca=cfg.yield_surface == "tresca" or (cfg.yield_surface == "auto" and self.axisym),
+        )
         law_fn, law_params = self.law.compiled(), self.law.packed()
 
         vx = np.zeros((nx + 1, ny + 1))
