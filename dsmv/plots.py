@@ -64,9 +64,11 @@ def plot_fall_cone(sweep_dir: Path, path: Path) -> Path | None:
     ax.plot(d, d, color="k", lw=1, label="Hansbo, K = 0.8")
     ax.fill_between(d, d * math.sqrt(0.5 / 0.8), d * math.sqrt(1.33 / 0.8), color="0.85",
                     label="K = 0.5 – 1.33 (30° cones)")
-    markers = {"tresca": "o", "einav_randolph": "s"}
+    markers = {"tresca": "o", "einav_randolph": "s"}  # the law by its marker, the soil by its colour
+    soils = sorted({p[0] for p in points})
+    colours = {soil: plt.cm.tab10(k % 10) for k, soil in enumerate(soils)}
     for soil, law, hansbo, depth in points:
-        ax.plot(hansbo * 1e3, depth * 1e3, markers.get(law, "^"), ms=7, label=f"{soil}, {law}")
+        ax.plot(hansbo * 1e3, depth * 1e3, markers.get(law, "^"), color=colours[soil], ms=7, label=f"{soil}, {law}")
     ax.set_xlabel("Hansbo depth √(0.8·m·g/su) (mm)")
     ax.set_ylabel("simulated depth (mm)")
     ax.set_xlim(0, top)
