@@ -168,3 +168,30 @@ def test_landings_end_with_the_right_status_and_no_nan(compose_cfg, overrides, s
     assert says in r.message
     assert all(np.isfinite(v) for v in r.metrics.values())
     assert r.metrics["mass_error"] < 1e-10
+
+
+def test_same_result_with_one_thread_and_with_two():
+    """Parallel kernels never let two threads write one place and sum in a fixed order."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    script = """
+from hydra import compose, initialize_config_dir
+from dsmv.cli import CONFIG_DIR
+from dsmv.scene import build_scene
+from dsmv.cel.solver import Cel2DSolver
+import json
+with initialize_config_dir(config_dir=CONFIG_DIR, version_base='1.3'):
+    cfg = compose('config', overrides=['solver=cel2d', 'mesh=coarse', 'solver.progress=off'])
+r = Cel2DSolver(build_scene(cfg)).solve()
+print(json.dumps({k: r.metrics[k] for k in ('max_sinkage_m', 'energy_error', 'steps')}))
+"""
+    results = []
+    for threads in ("1", "2"):
+        env = dict(os.environ, NUMBA_NUM_THREADS=threads)
+        proc = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=600)
+        assert proc.returncode == 0, proc.stderr
+        results.append(json.loads(proc.stdout.strip().splitlines()[-1]))
+    assert results[0] == results[1]
