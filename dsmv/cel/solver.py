@@ -335,7 +335,9 @@ class Cel2DSolver:
             if drop and code == S.AT_REST:
                 message = f"came to rest at {body[S.B_MAXDISP]:.4g} m after {body[S.B_TIME]:.4g} s"
                 break
-            width = body_cfg.width_m  # the body's own width (a cone's top diameter)
+            # a body must slow down within one width of its own; a cone dropped from rest
+            # accelerates for a while, so it gets the travel the domain was sized for
+            width = max(body_cfg.width_m, self.travel) if self.cone else body_cfg.width_m
             if drop and sinkage > width and self._not_decelerating(history, width):
                 status, message = "bearing_failure", (
                     f"the body kept sinking without slowing down over one width B = {width:g} m")
