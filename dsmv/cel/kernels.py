@@ -19,16 +19,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 SXX, SYY, SXY, SZZ, XI, Z0 = 0, 1, 2, 3, 4, 5
 NQ_BASE = 6
 
 FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}  # never 'nnan'/'ninf': the guards need NaN
 JIT = dict(cache=True, error_model="numpy", fastmath=FAST)
-# Parallel kernels split work so that no two threads write the same place and sum their
-# partial results in a fixed order: the answer is the same with 1 thread or with 2.
-PARALLEL = dict(JIT, parallel=True)
 
 
 @njit(**JIT)
@@ -43,29 +40,22 @@ def cell_volumes(x, y, axisym):
     return vol
 
 
-@njit(**PARALLEL)
+@njit(**JIT)
 def nodal_mass(phi, vol, rho, mass):
     """Lumped nodal mass: a quarter of each neighbouring cell's soil mass (kg)."""
     mass[:] = 0.0
     nx, ny = phi.shape
-    for parity in range(2):  # columns i and i + 2 share no nodes
-        for k in prange((nx - parity + 1) // 2):
-            i = np.int64(2 * k + parity)
-            _mass_column(phi, vol, rho, mass, i, ny)
+    for i in range(nx):
+        for j in range(ny):
+            m = 0.25 * rho * phi[i, j] * vol[i, j]
+            if m > 0.0:
+                mass[i, j] += m
+                mass[i + 1, j] += m
+                mass[i + 1, j + 1] += m
+                mass[i, j + 1] += m
 
 
 @njit(**JIT)
-def _mass_column(phi, vol, rho, mass, i, ny):
-    for j in range(ny):
-        m = 0.25 * rho * phi[i, j] * vol[i, j]
-        if m > 0.0:
-            mass[i, j] += m
-            mass[i + 1, j] += m
-            mass[i + 1, j + 1] += m
-            mass[i, j + 1] += m
-
-
-@njit(**PARALLEL)
 def nodal_forces(x, y, phi, q, vx, vy, rho, wave_speed, hourglass, bulk_lin, bulk_quad, axisym, fx, fy, work):
     """Internal nodal forces (N per unit thickness or per radian) from the cell stresses.
 
@@ -77,92 +67,78 @@ def nodal_forces(x, y, phi, q, vx, vy, rho, wave_speed, hourglass, bulk_lin, bul
     fx[:] = 0.0
     fy[:] = 0.0
     nx, ny = phi.shape
-    powers = np.zeros((nx, 2))
-    for parity in range(2):  # columns i and i + 2 share no nodes
-        for k in prange((nx - parity + 1) // 2):
-            i = np.int64(2 * k + parity)
-            _forces_column(x, y, phi, q, vx, vy, rho, wave_speed, hourglass, bulk_lin, bulk_quad, axisym, fx, fy,
-                           powers, i, ny)
+    hg_power = 0.0
+    bv_power = 0.0
     for i in range(nx):
-        work[0] += powers[i, 0]
-        work[1] += powers[i, 1]
+        dx = x[i + 1] - x[i]
+        r = 0.5 * (x[i] + x[i + 1]) if axisym else 1.0
+        for j in range(ny):
+            f = phi[i, j]
+            if f <= 0.0:
+                continue
+            dy = y[j + 1] - y[j]
+            area = dx * dy
+            vol = area * r
+            # velocity gradient at the centre
+            vx0, vx1, vx2, vx3 = vx[i, j], vx[i + 1, j], vx[i + 1, j + 1], vx[i, j + 1]
+            vy0, vy1, vy2, vy3 = vy[i, j], vy[i + 1, j], vy[i + 1, j + 1], vy[i, j + 1]
+            dvx_dx = (vx1 + vx2 - vx0 - vx3) / (2.0 * dx)
+            dvy_dy = (vy2 + vy3 - vy0 - vy1) / (2.0 * dy)
+            div = dvx_dx + dvy_dy
+            if axisym:
+                div += 0.25 * (vx0 + vx1 + vx2 + vx3) / r
+            # bulk viscosity (a pressure, Pa) in compression only
+            qb = 0.0
+            if div < 0.0:
+                h = min(dx, dy)
+                qb = rho * f * (bulk_quad * bulk_quad * h * h * div * div - bulk_lin * wave_speed * h * div)
+                bv_power += qb * (-div) * vol
+            sxx = q[SXX, i, j] - qb
+            syy = q[SYY, i, j] - qb
+            sxy = q[SXY, i, j]
+            # f_a = −V·φ·σ·∇N_a with ∇N_a = (±1/2dx, ±1/2dy)
+            ax = 0.5 * vol * f / dx
+            ay = 0.5 * vol * f / dy
+            # node 0 (−,−), 1 (+,−), 2 (+,+), 3 (−,+)
+            fx[i, j] += ax * sxx + ay * sxy
+            fy[i, j] += ax * sxy + ay * syy
+            fx[i + 1, j] += -ax * sxx + ay * sxy
+            fy[i + 1, j] += -ax * sxy + ay * syy
+            fx[i + 1, j + 1] += -ax * sxx - ay * sxy
+            fy[i + 1, j + 1] += -ax * sxy - ay * syy
+            fx[i, j + 1] += ax * sxx - ay * sxy
+            fy[i, j + 1] += ax * sxy - ay * syy
+            if axisym:  # hoop stress: −A·φ·σθθ·N_a, N_a = 1/4 at the centre
+                hoop = 0.25 * area * f * (q[SZZ, i, j] - qb)
+                fx[i, j] -= hoop
+                fx[i + 1, j] -= hoop
+                fx[i + 1, j + 1] -= hoop
+                fx[i, j + 1] -= hoop
+            # viscous hourglass control on the mode Γ = (1, −1, 1, −1)
+            if hourglass > 0.0:
+                gx = vx0 - vx1 + vx2 - vx3
+                gy = vy0 - vy1 + vy2 - vy3
+                c = 0.25 * hourglass * rho * f * wave_speed * math.sqrt(area) * (vol / area)
+                hx = c * gx
+                hy = c * gy
+                fx[i, j] -= hx
+                fy[i, j] -= hy
+                fx[i + 1, j] += hx
+                fy[i + 1, j] += hy
+                fx[i + 1, j + 1] -= hx
+                fy[i + 1, j + 1] -= hy
+                fx[i, j + 1] += hx
+                fy[i, j + 1] += hy
+                hg_power += hx * gx + hy * gy
+    work[0] += hg_power
+    work[1] += bv_power
 
 
 @njit(**JIT)
-def _forces_column(x, y, phi, q, vx, vy, rho, wave_speed, hourglass, bulk_lin, bulk_quad, axisym, fx, fy, powers,
-                   i, ny):
-    """The forces of the cells of column i on their nodes; hourglass and bulk-viscosity power into powers[i]."""
-    hg_power = 0.0
-    bv_power = 0.0
-    dx = x[i + 1] - x[i]
-    r = 0.5 * (x[i] + x[i + 1]) if axisym else 1.0
-    for j in range(ny):
-        f = phi[i, j]
-        if f <= 0.0:
-            continue
-        dy = y[j + 1] - y[j]
-        area = dx * dy
-        vol = area * r
-        # velocity gradient at the centre
-        vx0, vx1, vx2, vx3 = vx[i, j], vx[i + 1, j], vx[i + 1, j + 1], vx[i, j + 1]
-        vy0, vy1, vy2, vy3 = vy[i, j], vy[i + 1, j], vy[i + 1, j + 1], vy[i, j + 1]
-        dvx_dx = (vx1 + vx2 - vx0 - vx3) / (2.0 * dx)
-        dvy_dy = (vy2 + vy3 - vy0 - vy1) / (2.0 * dy)
-        div = dvx_dx + dvy_dy
-        if axisym:
-            div += 0.25 * (vx0 + vx1 + vx2 + vx3) / r
-        # bulk viscosity (a pressure, Pa) in compression only
-        qb = 0.0
-        if div < 0.0:
-            h = min(dx, dy)
-            qb = rho * f * (bulk_quad * bulk_quad * h * h * div * div - bulk_lin * wave_speed * h * div)
-            bv_power += qb * (-div) * vol
-        sxx = q[SXX, i, j] - qb
-        syy = q[SYY, i, j] - qb
-        sxy = q[SXY, i, j]
-        # f_a = −V·φ·σ·∇N_a with ∇N_a = (±1/2dx, ±1/2dy)
-        ax = 0.5 * vol * f / dx
-        ay = 0.5 * vol * f / dy
-        # node 0 (−,−), 1 (+,−), 2 (+,+), 3 (−,+)
-        fx[i, j] += ax * sxx + ay * sxy
-        fy[i, j] += ax * sxy + ay * syy
-        fx[i + 1, j] += -ax * sxx + ay * sxy
-        fy[i + 1, j] += -ax * sxy + ay * syy
-        fx[i + 1, j + 1] += -ax * sxx - ay * sxy
-        fy[i + 1, j + 1] += -ax * sxy - ay * syy
-        fx[i, j + 1] += ax * sxx - ay * sxy
-        fy[i, j + 1] += ax * sxy - ay * syy
-        if axisym:  # hoop stress: −A·φ·σθθ·N_a, N_a = 1/4 at the centre
-            hoop = 0.25 * area * f * (q[SZZ, i, j] - qb)
-            fx[i, j] -= hoop
-            fx[i + 1, j] -= hoop
-            fx[i + 1, j + 1] -= hoop
-            fx[i, j + 1] -= hoop
-        # viscous hourglass control on the mode Γ = (1, −1, 1, −1)
-        if hourglass > 0.0:
-            gx = vx0 - vx1 + vx2 - vx3
-            gy = vy0 - vy1 + vy2 - vy3
-            c = 0.25 * hourglass * rho * f * wave_speed * math.sqrt(area) * (vol / area)
-            hx = c * gx
-            hy = c * gy
-            fx[i, j] -= hx
-            fy[i, j] -= hy
-            fx[i + 1, j] += hx
-            fy[i + 1, j] += hy
-            fx[i + 1, j + 1] -= hx
-            fy[i + 1, j + 1] -= hy
-            fx[i, j + 1] += hx
-            fy[i, j + 1] += hy
-            hg_power += hx * gx + hy * gy
-    powers[i, 0] = hg_power
-    powers[i, 1] = bv_power
-
-
-@njit(**PARALLEL)
 def update_velocities(vx, vy, fx, fy, mass, gravity, dt, mass_floor):
     """Explicit velocity update v += Δt·(f/m − g·ŷ) at nodes holding soil; empty nodes stop."""
     n0, n1 = vx.shape
-    for i in prange(n0):
+    for i in range(n0):
         for j in range(n1):
             m = mass[i, j]
             if m > mass_floor:
@@ -207,7 +183,7 @@ def tresca_return(s1, s2, s3, su, shear_mod):
     return n1, n2, n3, max(e1, e2, e3) - min(e1, e2, e3), dga + dgb
 
 
-@njit(**PARALLEL)
+@njit(**JIT)
 def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym, phi_min, exact_tresca,
                   law, law_params, law_active, out):
     """Stress update for undrained soil of strength su: Jaumann rotation, elastic trial, return.
@@ -223,10 +199,8 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
     """
     nx, ny = phi.shape
     lam = bulk_mod - 2.0 * shear_mod / 3.0
-    plastic_of_column = np.zeros(nx)
-    for i_ in prange(nx):
-        i = np.int64(i_)
-        plastic = 0.0
+    plastic = 0.0
+    for i in range(nx):
         dx = x[i + 1] - x[i]
         r = 0.5 * (x[i] + x[i + 1]) if axisym else 1.0
         for j in range(ny):
@@ -329,9 +303,7 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
             q[SYY, i, j] = p + ey
             q[SZZ, i, j] = p + ez
             q[SXY, i, j] = sxy
-        plastic_of_column[i] = plastic
-    for i in range(nx):
-        out[0] += plastic_of_column[i]
+    out[0] += plastic
 
 
 @njit(**JIT)
@@ -376,7 +348,7 @@ def _donor_acceptor(phi_d, phi_a, volume_flux, donor_volume, acceptor_first):
     return moved * phi_d / pd if phi_d > 1.0 else moved
 
 
-@njit(**PARALLEL)
+@njit(**JIT)
 def advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, bottom_inflow, flux, phi_min,
                  shear_mod, bulk_mod, audit, solid):
     """One directional sweep of the cell state: volume fraction and transported quantities.
@@ -388,123 +360,105 @@ def advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, bott
     (axis 1, face 0) when ``bottom_inflow``: soil enters there in the state ``ghost[k, i]``.
     ``flux[face, line]`` receives the signed soil volume through each face (for the momentum
     sweep). Cells marked ``solid`` (inside the body) exchange nothing. Returns the soil volume
-    that entered through the base (m³); ``audit[0]`` accumulates the change of stored elastic
-    energy the sweep makes (J), inflow included. Lines along the sweep are independent and run
-    in parallel; the interface orientation is read from the volume fractions before the sweep.
+    that entered through the base (m³). ``audit[0]``
+    accumulates the change of stored elastic energy the sweep makes (J), inflow included.
     """
     nx, ny = phi.shape
     nq = q.shape[0]
+    boundary = 0.0
     n_lines = ny if axis == 0 else nx
     n_faces = nx + 1 if axis == 0 else ny + 1
-    qflux = np.zeros((n_lines, nq, n_faces))
-    sums = np.zeros((n_lines, 2))  # inflow volume, elastic energy change
-    phi_before = phi.copy()
-    for line_ in prange(n_lines):
-        line = np.int64(line_)
-        _advect_line(axis, line, x, y, vol, phi, phi_before, q, ux, uy, dt, order, axisym, ghost, bottom_inflow,
-                     flux, qflux[line], phi_min, shear_mod, bulk_mod, solid, sums[line])
-    boundary = 0.0
+    n_cells = n_faces - 1
+    qflux = np.zeros((nq, n_faces))
     for line in range(n_lines):
-        boundary += sums[line, 0]
-        audit[0] += sums[line, 1]
+        for face in range(n_faces):
+            flux[face, line] = 0.0
+            for k in range(nq):
+                qflux[k, face] = 0.0
+            if axis == 0:
+                i, j = face, line
+                un = 0.5 * (ux[i, j] + ux[i, j + 1])
+                area = (y[j + 1] - y[j]) * (x[i] if axisym else 1.0)
+            else:
+                i, j = line, face
+                un = 0.5 * (uy[i, j] + uy[i + 1, j])
+                area = (x[i + 1] - x[i]) * (0.5 * (x[i] + x[i + 1]) if axisym else 1.0)
+            if un == 0.0:
+                continue
+            dvol = un * area * dt
+            donor = face - 1 if un > 0.0 else face
+            acceptor = face if un > 0.0 else face - 1
+            if donor < 0 or donor >= n_cells:
+                if axis == 1 and face == 0 and bottom_inflow and un > 0.0:
+                    flux[face, line] = dvol
+                    for k in range(nq):
+                        qflux[k, face] = dvol * ghost[k, i]
+                    boundary += dvol
+                continue
+            if acceptor < 0 or acceptor >= n_cells:
+                continue  # closed edges: symmetry plane, rollers, base; soil near the top ends a run
+            di = donor if axis == 0 else i
+            dj = j if axis == 0 else donor
+            phi_d = phi[di, dj]
+            if phi_d <= phi_min:
+                continue
+            ai = acceptor if axis == 0 else i
+            aj = j if axis == 0 else acceptor
+            if solid[ai, aj] or solid[di, dj]:
+                continue
+            phi_a = phi[ai, aj]
+            if phi_d >= 1.0 and phi_a >= 1.0:
+                moved = abs(dvol) * phi_d  # full to full: no interface here
+            else:
+                # interface normal along the flow: the downwind value keeps the interface sharp
+                g_along_x = phi[min(di + 1, nx - 1), dj] - phi[max(di - 1, 0), dj]
+                g_along_y = phi[di, min(dj + 1, ny - 1)] - phi[di, max(dj - 1, 0)]
+                g_n = g_along_x if axis == 0 else g_along_y
+                g_t = g_along_y if axis == 0 else g_along_x
+                acceptor_first = abs(g_n) >= abs(g_t) and phi_d < 1.0
+                moved = _donor_acceptor(phi_d, phi_a, dvol, vol[di, dj], acceptor_first)
+            signed = moved if un > 0.0 else -moved
+            flux[face, line] = signed
+            courant = moved / (phi_d * vol[di, dj])
+            for k in range(nq):
+                value = q[k, di, dj]
+                if order == 2:
+                    if axis == 0:
+                        il, ih = max(di - 1, 0), min(di + 1, nx - 1)
+                        lo = q[k, il, dj] if phi[il, dj] > phi_min else value
+                        hi = q[k, ih, dj] if phi[ih, dj] > phi_min else value
+                    else:
+                        jl, jh = max(dj - 1, 0), min(dj + 1, ny - 1)
+                        lo = q[k, di, jl] if phi[di, jl] > phi_min else value
+                        hi = q[k, di, jh] if phi[di, jh] > phi_min else value
+                    slope = _van_leer(value - lo, hi - value)
+                    value += (0.5 if un > 0.0 else -0.5) * slope * (1.0 - courant)
+                qflux[k, face] = signed * value
+        for c in range(n_cells):
+            ci = c if axis == 0 else line
+            cj = line if axis == 0 else c
+            v = vol[ci, cj]
+            old_soil = phi[ci, cj] * v
+            new_soil = old_soil + flux[c, line] - flux[c + 1, line]
+            if flux[c, line] == 0.0 and flux[c + 1, line] == 0.0:
+                continue
+            if old_soil > 0.0:
+                audit[0] -= old_soil * elastic_energy_density(
+                    q[SXX, ci, cj], q[SYY, ci, cj], q[SXY, ci, cj], q[SZZ, ci, cj], shear_mod, bulk_mod)
+            if new_soil <= 1e-14 * v:
+                phi[ci, cj] = 0.0
+                for k in range(nq):
+                    q[k, ci, cj] = 0.0
+                continue
+            for k in range(nq):
+                q[k, ci, cj] = (old_soil * q[k, ci, cj] + qflux[k, c] - qflux[k, c + 1]) / new_soil
+            phi[ci, cj] = new_soil / v
+            audit[0] += new_soil * elastic_energy_density(
+                q[SXX, ci, cj], q[SYY, ci, cj], q[SXY, ci, cj], q[SZZ, ci, cj], shear_mod, bulk_mod)
     return boundary
 
 
 @njit(**JIT)
-def _advect_line(axis, line, x, y, vol, phi, phi_before, q, ux, uy, dt, order, axisym, ghost, bottom_inflow, flux,
-                 qflux, phi_min, shear_mod, bulk_mod, solid, sums):
-    """The fluxes through the faces of one line of cells, then their update (see advect_cells)."""
-    nx, ny = phi.shape
-    nq = q.shape[0]
-    n_faces = nx + 1 if axis == 0 else ny + 1
-    n_cells = n_faces - 1
-    for face in range(n_faces):
-        flux[face, line] = 0.0
-        for k in range(nq):
-            qflux[k, face] = 0.0
-        if axis == 0:
-            i, j = face, line
-            un = 0.5 * (ux[i, j] + ux[i, j + 1])
-            area = (y[j + 1] - y[j]) * (x[i] if axisym else 1.0)
-        else:
-            i, j = line, face
-            un = 0.5 * (uy[i, j] + uy[i + 1, j])
-            area = (x[i + 1] - x[i]) * (0.5 * (x[i] + x[i + 1]) if axisym else 1.0)
-        if un == 0.0:
-            continue
-        dvol = un * area * dt
-        donor = face - 1 if un > 0.0 else face
-        acceptor = face if un > 0.0 else face - 1
-        if donor < 0 or donor >= n_cells:
-            if axis == 1 and face == 0 and bottom_inflow and un > 0.0:
-                flux[face, line] = dvol
-                for k in range(nq):
-                    qflux[k, face] = dvol * ghost[k, i]
-                sums[0] += dvol
-            continue
-        if acceptor < 0 or acceptor >= n_cells:
-            continue  # closed edges: symmetry plane, rollers, base; soil near the top ends a run
-        di = donor if axis == 0 else i
-        dj = j if axis == 0 else donor
-        phi_d = phi[di, dj]
-        if phi_d <= phi_min:
-            continue
-        ai = acceptor if axis == 0 else i
-        aj = j if axis == 0 else acceptor
-        if solid[ai, aj] or solid[di, dj]:
-            continue
-        phi_a = phi[ai, aj]
-        if phi_d >= 1.0 and phi_a >= 1.0:
-            moved = abs(dvol) * phi_d  # full to full: no interface here
-        else:
-            # interface normal along the flow: the downwind value keeps the interface sharp
-            g_along_x = phi_before[min(di + 1, nx - 1), dj] - phi_before[max(di - 1, 0), dj]
-            g_along_y = phi_before[di, min(dj + 1, ny - 1)] - phi_before[di, max(dj - 1, 0)]
-            g_n = g_along_x if axis == 0 else g_along_y
-            g_t = g_along_y if axis == 0 else g_along_x
-            acceptor_first = abs(g_n) >= abs(g_t) and phi_d < 1.0
-            moved = _donor_acceptor(phi_d, phi_a, dvol, vol[di, dj], acceptor_first)
-        signed = moved if un > 0.0 else -moved
-        flux[face, line] = signed
-        courant = moved / (phi_d * vol[di, dj])
-        for k in range(nq):
-            value = q[k, di, dj]
-            if order == 2:
-                if axis == 0:
-                    il, ih = max(di - 1, 0), min(di + 1, nx - 1)
-                    lo = q[k, il, dj] if phi[il, dj] > phi_min else value
-                    hi = q[k, ih, dj] if phi[ih, dj] > phi_min else value
-                else:
-                    jl, jh = max(dj - 1, 0), min(dj + 1, ny - 1)
-                    lo = q[k, di, jl] if phi[di, jl] > phi_min else value
-                    hi = q[k, di, jh] if phi[di, jh] > phi_min else value
-                slope = _van_leer(value - lo, hi - value)
-                value += (0.5 if un > 0.0 else -0.5) * slope * (1.0 - courant)
-            qflux[k, face] = signed * value
-    for c in range(n_cells):
-        ci = c if axis == 0 else line
-        cj = line if axis == 0 else c
-        if flux[c, line] == 0.0 and flux[c + 1, line] == 0.0:
-            continue
-        v = vol[ci, cj]
-        old_soil = phi[ci, cj] * v
-        new_soil = old_soil + flux[c, line] - flux[c + 1, line]
-        if old_soil > 0.0:
-            sums[1] -= old_soil * elastic_energy_density(
-                q[SXX, ci, cj], q[SYY, ci, cj], q[SXY, ci, cj], q[SZZ, ci, cj], shear_mod, bulk_mod)
-        if new_soil <= 1e-14 * v:
-            phi[ci, cj] = 0.0
-            for k in range(nq):
-                q[k, ci, cj] = 0.0
-            continue
-        for k in range(nq):
-            q[k, ci, cj] = (old_soil * q[k, ci, cj] + qflux[k, c] - qflux[k, c + 1]) / new_soil
-        phi[ci, cj] = new_soil / v
-        sums[1] += new_soil * elastic_energy_density(
-            q[SXX, ci, cj], q[SYY, ci, cj], q[SXY, ci, cj], q[SZZ, ci, cj], shear_mod, bulk_mod)
-
-
-@njit(**PARALLEL)
 def advect_momentum(axis, flux, rho, mass, vx, vy, order, mass_floor, audit):
     """The matching sweep of nodal momentum on the dual mesh (Benson 1992).
 
@@ -513,73 +467,59 @@ def advect_momentum(axis, flux, rho, mass, vx, vy, order, mass_floor, audit):
     upwind node's velocity (plus a van Leer slope when ``order`` = 2). ``mass`` (nodal,
     before the sweep) is updated in place; soil entering through the base brings no
     momentum (the base is at rest). ``audit[1]`` accumulates the kinetic energy change (J).
-    Node lines along the sweep are independent and run in parallel.
     """
     n0, n1 = vx.shape  # nodes (nx+1, ny+1)
     n_along = n0 if axis == 0 else n1
     n_across = n1 if axis == 0 else n0
-    dual = np.zeros((n_across, 3, n_along + 1))  # per line: mass, x- and y-momentum through dual faces
-    kinetic = np.zeros(n_across)
-    for a_ in prange(n_across):
-        a = np.int64(a_)
-        kinetic[a] = _momentum_line(axis, a, flux, rho, mass, vx, vy, order, mass_floor, dual[a])
-    for a in range(n_across):
-        audit[1] += kinetic[a]
-
-
-@njit(**JIT)
-def _momentum_line(axis, a, flux, rho, mass, vx, vy, order, mass_floor, dual):
-    """One node line of advect_momentum; returns its kinetic energy change (J)."""
-    n0, n1 = vx.shape
-    n_along = n0 if axis == 0 else n1
     n_lines_primal = flux.shape[1]  # cell rows (axis 0) or columns (axis 1)
-    gm, gx, gy = dual[0], dual[1], dual[2]
-    # dual faces: index d between node d−1 and node d along the sweep (d = 0..n_along)
-    for d in range(n_along + 1):
-        total = 0.0
-        for line in (a - 1, a):
-            if 0 <= line < n_lines_primal:
-                if d - 1 >= 0:
-                    total += flux[d - 1, line] if d - 1 < flux.shape[0] else 0.0
-                if d < flux.shape[0]:
-                    total += flux[d, line]
-        # dual face d sits between primal faces d−1 and d: mean of up to four fluxes
-        g = 0.25 * rho * total
-        gm[d] = g
-        gx[d] = 0.0
-        gy[d] = 0.0
-        if g == 0.0:
-            continue
-        up = d - 1 if g > 0.0 else d
-        if up < 0 or up >= n_along:
-            continue  # from outside: the base at rest brings mass, no momentum
-        ui, uj = (up, a) if axis == 0 else (a, up)
-        wx, wy = vx[ui, uj], vy[ui, uj]
-        if order == 2:
-            lo = max(up - 1, 0)
-            hi = min(up + 1, n_along - 1)
-            li, lj = (lo, a) if axis == 0 else (a, lo)
-            hi_i, hi_j = (hi, a) if axis == 0 else (a, hi)
-            courant = min(abs(g) / max(mass[ui, uj], mass_floor), 1.0)
-            half = (0.5 if g > 0.0 else -0.5) * (1.0 - courant)
-            wx += half * _van_leer(wx - vx[li, lj], vx[hi_i, hi_j] - wx)
-            wy += half * _van_leer(wy - vy[li, lj], vy[hi_i, hi_j] - wy)
-        gx[d] = g * wx
-        gy[d] = g * wy
-    kinetic = 0.0
-    for n in range(n_along):
-        ni, nj = (n, a) if axis == 0 else (a, n)
-        m_old = mass[ni, nj]
-        m_new = m_old + gm[n] - gm[n + 1]
-        px = m_old * vx[ni, nj] + gx[n] - gx[n + 1]
-        py = m_old * vy[ni, nj] + gy[n] - gy[n + 1]
-        kinetic -= 0.5 * m_old * (vx[ni, nj] ** 2 + vy[ni, nj] ** 2)
-        mass[ni, nj] = m_new
-        if m_new > mass_floor:
-            vx[ni, nj] = px / m_new
-            vy[ni, nj] = py / m_new
-        else:
-            vx[ni, nj] = 0.0
-            vy[ni, nj] = 0.0
-        kinetic += 0.5 * m_new * (vx[ni, nj] ** 2 + vy[ni, nj] ** 2)
-    return kinetic
+    gm = np.zeros(n_along + 1)
+    gx = np.zeros(n_along + 1)
+    gy = np.zeros(n_along + 1)
+    for a in range(n_across):
+        # dual faces: index d between node d−1 and node d along the sweep (d = 0..n_along)
+        for d in range(n_along + 1):
+            total = 0.0
+            for line in (a - 1, a):
+                if 0 <= line < n_lines_primal:
+                    if d - 1 >= 0:
+                        total += flux[d - 1, line] if d - 1 < flux.shape[0] else 0.0
+                    if d < flux.shape[0]:
+                        total += flux[d, line]
+            # dual face d sits between primal faces d−1 and d: mean of up to four fluxes
+            g = 0.25 * rho * total
+            gm[d] = g
+            gx[d] = 0.0
+            gy[d] = 0.0
+            if g == 0.0:
+                continue
+            up = d - 1 if g > 0.0 else d
+            if up < 0 or up >= n_along:
+                continue  # from outside: the base at rest brings mass, no momentum
+            ui, uj = (up, a) if axis == 0 else (a, up)
+            wx, wy = vx[ui, uj], vy[ui, uj]
+            if order == 2:
+                lo = max(up - 1, 0)
+                hi = min(up + 1, n_along - 1)
+                li, lj = (lo, a) if axis == 0 else (a, lo)
+                hi_i, hi_j = (hi, a) if axis == 0 else (a, hi)
+                courant = min(abs(g) / max(mass[ui, uj], mass_floor), 1.0)
+                half = (0.5 if g > 0.0 else -0.5) * (1.0 - courant)
+                wx += half * _van_leer(wx - vx[li, lj], vx[hi_i, hi_j] - wx)
+                wy += half * _van_leer(wy - vy[li, lj], vy[hi_i, hi_j] - wy)
+            gx[d] = g * wx
+            gy[d] = g * wy
+        for n in range(n_along):
+            ni, nj = (n, a) if axis == 0 else (a, n)
+            m_old = mass[ni, nj]
+            m_new = m_old + gm[n] - gm[n + 1]
+            px = m_old * vx[ni, nj] + gx[n] - gx[n + 1]
+            py = m_old * vy[ni, nj] + gy[n] - gy[n + 1]
+            audit[1] -= 0.5 * m_old * (vx[ni, nj] ** 2 + vy[ni, nj] ** 2)
+            mass[ni, nj] = m_new
+            if m_new > mass_floor:
+                vx[ni, nj] = px / m_new
+                vy[ni, nj] = py / m_new
+            else:
+                vx[ni, nj] = 0.0
+                vy[ni, nj] = 0.0
+            audit[1] += 0.5 * m_new * (vx[ni, nj] ** 2 + vy[ni, nj] ** 2)
