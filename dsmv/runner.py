@@ -52,19 +52,45 @@ def run_job(cfg: DictConfig) -> dict:
         run_name = " ".join(hydra_cfg.overrides.task) or run_dir.name
         tracker = tracking.start_job(cfg, scene, run_dir, run_name, parent)
     except DsmvError as error:
-        fail_user_error(error)
+        if not multirun:
+            fail_user_error(error)
+        # in a sweep, one wrong job is recorded and counted; the others still run
+        print(f"dsmv: error: {error}", file=sys.stderr)
+        write_result(run_dir, SolveResult("failed", str(error)), str(cfg.get("solver", {}).get("name")),
+                     str(cfg.get("soil", {}).get("law")), "")
+        return {"status": "failed", "metrics": {}}
 
-    (run_dir / RESOLVED_CONFIG_FILE).write_text(OmegaConf.to_yaml(cfg, resolve=True))
-    error_text = None
+    error_text, end_status = None, "FAILED"
     try:
-        solver = registry.load("solvers", scene.solver.name, "solver.name")(scene)
-        result = solver.solve(run_dir)
-    except DsmvError as error:
-        result, error_text = SolveResult("failed", str(error)), str(error)
-    except Exception as error:  # a bug: keep everything, report, re-raise below
-        result = SolveResult("failed", f"{type(error).__name__}: {error}")
-        error_text = traceback.format_exc()
+        (run_dir / RESOLVED_CONFIG_FILE).write_text(OmegaConf.to_yaml(cfg, resolve=True))
+        try:
+            solver = registry.load("solvers", scene.solver.name, "solver.name")(scene)
+            result = solver.solve(run_dir)
+        except DsmvError as error:
+            result, error_text = SolveResult("failed", str(error)), str(error)
+        except Exception as error:  # a bug: keep everything, report it, exit non-zero below
+            result = SolveResult("failed", f"{type(error).__name__}: {error}")
+            error_text = traceback.format_exc()
+        files = write_outputs(scene, result, run_dir)
+        if tracker is not None:
+            tracker.finish(result, files, error_text)
+        end_status = None
+    except KeyboardInterrupt:
+        end_status = "KILLED"
+        raise
+    finally:
+        if tracker is not None and end_status is not None:  # never leave a run RUNNING
+            tracker.client.set_terminated(tracker.run_id, end_status)
 
+    print_summary(scene, result, run_dir, tracker, multirun)
+    if error_text is not None and not multirun:
+        print(f"dsmv: the run failed: {result.message}", file=sys.stderr)
+        sys.exit(1)
+    return {"status": result.status, "metrics": result.metrics}
+
+
+def write_outputs(scene: Scene, result: SolveResult, run_dir: Path) -> list[Path]:
+    """result.json, the history CSV and its plot, and the resolved config: the files of a job."""
     files = [write_result(run_dir, result, scene.solver.name, scene.soil.law, scene.config_hash)]
     if result.history is not None:
         files.append(write_history(run_dir, result.history))
@@ -75,14 +101,7 @@ def run_job(cfg: DictConfig) -> dict:
                      f"{scene.landing.kind} — {result.status}")
             files.append(plot_history(result.history, run_dir / HISTORY_PLOT_FILE, title))
     files.append(run_dir / RESOLVED_CONFIG_FILE)
-    if tracker is not None:
-        tracker.finish(result, files, error_text)
-
-    print_summary(scene, result, run_dir, tracker, multirun)
-    if error_text is not None and not multirun:
-        print(f"dsmv: the run failed: {result.message}", file=sys.stderr)
-        sys.exit(1)
-    return {"status": result.status, "metrics": result.metrics}
+    return files
 
 
 def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, multirun: bool) -> None:

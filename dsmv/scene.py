@@ -269,6 +269,13 @@ class TrackingConfig(Schema):
     uri: Optional[str] = None
     artifact_location: Optional[str] = None
 
+    @model_validator(mode="after")
+    def _uri_when_enabled(self):
+        if self.enabled and not self.uri:
+            raise ConfigError("tracking.uri", self.uri, "tracking is enabled: give a store URI "
+                                                        "(sqlite:///…, http://127.0.0.1:5000) or use tracking=disabled")
+        return self
+
 
 # --------------------------------------------------------------------------- scene
 
@@ -347,8 +354,17 @@ def build_scene(cfg: DictConfig | dict) -> Scene:
 
     output = _validate(OutputConfig, container.get("output", {}), "output")
     study = str(container.get("study", "default"))
+    from dsmv.plots import SWEEP_PLOTS
 
-    return Scene(study, soil, geometry, landing, mesh, solver, output)
+    if container.get("sweep_plot") not in (None, *SWEEP_PLOTS):
+        raise ConfigError("sweep_plot", container["sweep_plot"], f"must be null or one of {', '.join(SWEEP_PLOTS)}")
+
+    build_tracking(cfg)  # not part of the scene, but a wrong store fails here too
+    scene = Scene(study, soil, geometry, landing, mesh, solver, output)
+    check = getattr(solver_cls, "check_scene", None)
+    if check is not None:  # what this solver cannot run fails here, not halfway through a run
+        check(scene)
+    return scene
 
 
 def build_tracking(cfg: DictConfig | dict) -> TrackingConfig:

@@ -173,6 +173,7 @@ class MlflowSweepCallback(Callback):
     """Hydra callback owning a multirun's parent MLflow run and its summary."""
 
     def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
+        check_sweep_plot(config)
         tracking = build_tracking(config)
         if not tracking.enabled:
             return
@@ -193,21 +194,35 @@ class MlflowSweepCallback(Callback):
 
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
         sweep_dir = Path(str(config.hydra.sweep.dir))
-        rows = summarize_sweep(sweep_dir)
-        plot = sweep_plot(config, sweep_dir)
         run_id = parent_run_id(sweep_dir)
         tracking = build_tracking(config)
-        if run_id is None or not tracking.enabled:
-            return
-        client = _client(tracking)
-        counts = {status: sum(r["status"] == status for r in rows) for status in {r["status"] for r in rows}}
-        for status, count in counts.items():
-            client.log_metric(run_id, f"jobs_{status}", count)
-        client.log_metric(run_id, "jobs_total", len(rows))
-        for path in (sweep_dir / SWEEP_SUMMARY_FILE, plot):
-            if path is not None and Path(path).exists():
-                client.log_artifact(run_id, str(path))
-        client.set_terminated(run_id, "FINISHED")
+        client = _client(tracking) if run_id is not None and tracking.enabled else None
+        status = "FAILED"
+        try:
+            rows = summarize_sweep(sweep_dir)
+            plot = sweep_plot(config, sweep_dir)
+            if client is not None:
+                counts = {s: sum(r["status"] == s for r in rows) for s in {r["status"] for r in rows}}
+                for job_status, count in counts.items():
+                    client.log_metric(run_id, f"jobs_{job_status}", count)
+                client.log_metric(run_id, "jobs_total", len(rows))
+                for path in (sweep_dir / SWEEP_SUMMARY_FILE, plot):
+                    if path is not None and Path(path).exists():
+                        client.log_artifact(run_id, str(path))
+            status = "FINISHED"
+        finally:  # the parent run never stays RUNNING
+            if client is not None:
+                client.set_terminated(run_id, status)
+
+
+def check_sweep_plot(config: DictConfig) -> None:
+    """A sweep_plot the experiment names must exist, before any job runs."""
+    from dsmv.errors import ConfigError
+    from dsmv.plots import SWEEP_PLOTS
+
+    name = config.get("sweep_plot")
+    if name and name not in SWEEP_PLOTS:
+        raise ConfigError("sweep_plot", name, f"must be null or one of {', '.join(SWEEP_PLOTS)}")
 
 
 def sweep_plot(config: DictConfig, sweep_dir: Path) -> Path | None:

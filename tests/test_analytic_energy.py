@@ -107,7 +107,7 @@ def test_sinkage_trends_follow_the_physics(compose_cfg):
 
 
 def test_push_gives_the_resistance_curve(compose_cfg):
-    scene = build_scene(compose_cfg(["landing=push", "geometry=strip", "soil.ks_pa_per_m=0", "solver.shape_factor=1"]))
+    scene = build_scene(compose_cfg(["landing=push", "geometry=strip", "soil.ks_pa_per_m=0"]))
     result = AnalyticEnergySolver(scene).solve()
     # a strip on uniform soil: q/su = 2 + π at every depth
     assert result.metrics["bearing_factor_at_end"] == pytest.approx(2 + math.pi, rel=1e-12)

@@ -168,3 +168,15 @@ def test_tracking_server_option_logs_to_a_local_server(run_cli, tmp_path):
     finally:
         server.terminate()
         server.wait(timeout=30)
+
+
+def test_a_wrong_job_in_a_sweep_is_recorded_and_the_others_run(run_cli, tmp_path):
+    proc = run_cli("dsmv", "-m", "soil.su0_pa=4000,-1,6000")
+    assert "soil.su0_pa = -1" in proc.stderr
+    jobs = job_dirs(tmp_path)
+    statuses = sorted(json.loads((j / "result.json").read_text())["status"] for j in jobs)
+    assert statuses == ["failed", "ok", "ok"]
+    runs = mlflow_runs(tmp_path)
+    (parent,) = [r for r in runs if r.data.tags.get("dsmv.role") == "sweep"]
+    assert parent.info.status == "FINISHED"
+    assert parent.data.metrics["jobs_ok"] == 2 and parent.data.metrics["jobs_failed"] == 1

@@ -32,13 +32,20 @@ BAD_VALUES = [
     ("solver.shape_factor=-1", "solver.shape_factor", "skempton"),
     ("+soil.su0=5", "soil.su0", "Extra inputs"),
     ("soil.su0_pa=abc", "soil.youngs_modulus_pa", "'abc' is not a number"),
+    ("tracking.uri=null", "tracking.uri", "tracking=disabled"),
+    ("sweep_plot=nope", "sweep_plot", "fall_cone"),
+    ("geometry=tbar", "geometry.kind", "solver=cel2d"),
+    ("solver=cel2d geometry.roughness=0.5", "geometry.roughness", "limited adhesion"),
+    ("solver=cel2d geometry.view=longitudinal", "geometry.view", "cross_section"),
+    ("geometry=fall_cone_30deg geometry.roughness=smooth", "geometry.roughness", "cut cells"),
+    ("geometry=fall_cone_30deg solver.mode=plane_strain", "solver.mode", "axisymmetric"),
 ]
 
 
 @pytest.mark.parametrize("override,path,allowed", BAD_VALUES, ids=[b[0] for b in BAD_VALUES])
 def test_bad_value_names_path_value_and_allowed(compose_cfg, override, path, allowed):
     with pytest.raises(ConfigError) as info:
-        build_scene(compose_cfg([override]))
+        build_scene(compose_cfg(override.split()))
     assert info.value.path == path
     assert allowed in str(info.value)
     if path == "soil.law":  # an unknown plugin lists what is installed

@@ -15,7 +15,8 @@ the two agree exactly. If ks = 0 and R(0) ≤ W the soil cannot carry the weight
 depth: status ``bearing_failure``.
 
 Shape factor: Skempton (1951), "The bearing capacity of clays", Building Research
-Congress, London: Nc(rectangle) = Nc(strip)·(1 + 0.2·B/L).
+Congress, London: Nc(rectangle) = Nc(strip)·(1 + 0.2·B/L) for a track; 1 for a strip (plane
+strain).
 Operative strain rate for the rate factor: γ̇_op = v/B, the usual normalisation of
 penetration rate by the body's size (Einav & Randolph 2005 use v/D for a T-bar).
 """
@@ -47,7 +48,9 @@ class AnalyticEnergyConfig(Schema):
 
     name: Literal["analytic_energy"]
     bearing_factor: Number = Field(PRANDTL_NC, gt=0, description="Nc (-); Prandtl 2 + π")
-    shape_factor: Annotated[Union[str, float], BeforeValidator(_check_shape_factor)] = "skempton"
+    shape_factor: Annotated[Union[str, float], BeforeValidator(_check_shape_factor)] = Field(
+        "skempton", description="skempton: 1 + 0.2·B/L for a track, 1 for a strip (plane strain) | a number"
+    )
     operative_shear_strain: Optional[Number] = Field(
         None, ge=0, description="ξ at which the law's softening is evaluated (-); null: no softening"
     )
@@ -87,16 +90,24 @@ class AnalyticEnergySolver:
     name = "analytic_energy"
     config_model = AnalyticEnergyConfig
 
+    @staticmethod
+    def check_scene(scene: Scene) -> None:
+        """The energy method bears a track or a strip on its base; anything else needs solver=cel2d."""
+        if scene.geometry.kind not in ("track", "strip"):
+            raise ConfigError("geometry.kind", scene.geometry.kind,
+                              "the energy method models tracks and strips; use solver=cel2d for this body")
+
     def __init__(self, scene: Scene, config: AnalyticEnergyConfig | None = None):
+        self.check_scene(scene)
         self.scene = scene
         self.config = cfg = config or scene.solver
         body, landing, soil = scene.geometry, scene.landing, scene.soil
-        if body.kind == "cone":
-            raise ConfigError("geometry.kind", body.kind, "the energy method models tracks, strips and T-bars; "
-                                                          "a cone needs solver=cel2d")
-        self.shape_factor = (
-            1.0 + 0.2 * body.width_m / body.contact_length_m if cfg.shape_factor == "skempton" else cfg.shape_factor
-        )
+        if cfg.shape_factor != "skempton":
+            self.shape_factor = cfg.shape_factor
+        elif body.kind == "strip":  # a strip is plane strain (contact_length_m is per metre run)
+            self.shape_factor = 1.0
+        else:
+            self.shape_factor = 1.0 + 0.2 * body.width_m / body.contact_length_m
         law = registry.load("soil_laws", soil.law, "soil.law")(soil)
         xi = cfg.operative_shear_strain or 0.0
         rate = landing.velocity_m_s / body.width_m if cfg.rate_effect else 0.0

@@ -87,12 +87,13 @@ def nodal_forces(x, y, phi, q, vx, vy, rho, wave_speed, hourglass, bulk_lin, bul
             div = dvx_dx + dvy_dy
             if axisym:
                 div += 0.25 * (vx0 + vx1 + vx2 + vx3) / r
-            # bulk viscosity (a pressure, Pa) in compression only
+            # bulk viscosity: a pressure of the soil itself (Pa), in compression only; like σ it
+            # acts on the cell's soil fraction f
             qb = 0.0
             if div < 0.0:
                 h = min(dx, dy)
-                qb = rho * f * (bulk_quad * bulk_quad * h * h * div * div - bulk_lin * wave_speed * h * div)
-                bv_power += qb * (-div) * vol
+                qb = rho * (bulk_quad * bulk_quad * h * h * div * div - bulk_lin * wave_speed * h * div)
+                bv_power += f * qb * (-div) * vol
             sxx = q[SXX, i, j] - qb
             syy = q[SYY, i, j] - qb
             sxy = q[SXY, i, j]

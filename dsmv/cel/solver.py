@@ -35,6 +35,8 @@ from dsmv.scene import Count, Number, Scene, Schema
 #: s/B at which push curves are sampled for the bearing factor q/su0 (averaged over ±0.005·B)
 NC_SAMPLES = {"nc_at_0p02B": 0.02, "nc_at_0p05B": 0.05, "nc_at_0p1B": 0.1, "nc_at_1B": 1.0}
 NC_WINDOW = 0.005
+#: an 'ok' run's energy audit must close to this (relative); worse means the numerics failed
+ENERGY_ERROR_LIMIT = 0.05
 
 
 class Cel2DConfig(Schema):
@@ -68,20 +70,30 @@ class Cel2DSolver:
     name = "cel2d"
     config_model = Cel2DConfig
 
-    def __init__(self, scene: Scene):
-        self.scene = scene
-        cfg, body, soil = scene.solver, scene.geometry, scene.soil
+    @staticmethod
+    def check_scene(scene: Scene) -> None:
+        """What cel2d cannot run, as a ConfigError at composition time."""
+        cfg, body = scene.solver, scene.geometry
         if body.kind not in ("strip", "track", "tbar", "cone"):
             raise ConfigError("geometry.kind", body.kind, "cel2d runs strip, track, tbar and cone bodies")
         if getattr(body, "view", "cross_section") != "cross_section":
             raise ConfigError("geometry.view", body.view, "cel2d runs the cross_section view for now")
-        if body.roughness not in ("rough", "smooth"):
-            raise ConfigError("geometry.roughness", body.roughness, "cel2d supports 'rough' or 'smooth' for now")
+        if body.adhesion_factor not in (0.0, 1.0):
+            raise ConfigError("geometry.roughness", body.roughness,
+                              "cel2d supports 'rough' (1) or 'smooth' (0); limited adhesion is to come")
+        if body.kind == "cone" and body.adhesion_factor == 0.0:
+            raise ConfigError("geometry.roughness", body.roughness, "a cone is 'rough' in cel2d for now "
+                                                                   "(a smooth staircase cone needs cut cells)")
+        if body.kind == "cone" and cfg.mode == "plane_strain":
+            raise ConfigError("solver.mode", cfg.mode, "a cone is axisymmetric: 'auto' or 'axisymmetric'")
+
+    def __init__(self, scene: Scene):
+        self.check_scene(scene)
+        self.scene = scene
+        cfg, body, soil = scene.solver, scene.geometry, scene.soil
         self.law = registry.load("soil_laws", soil.law, "soil.law")(soil)
         self.cone = body.kind == "cone"
         self.mode = cfg.mode if cfg.mode != "auto" else ("axisymmetric" if self.cone else "plane_strain")
-        if self.cone and self.mode != "axisymmetric":
-            raise ConfigError("solver.mode", cfg.mode, "a cone is axisymmetric")
         self.axisym = self.mode == "axisymmetric"
         self.circular = body.kind == "tbar"  # a cylinder (plane strain) or a ball (axisymmetric)
 
@@ -183,7 +195,8 @@ class Cel2DSolver:
             n_half = max(1, int(round(half / scene.mesh.cell_size_m)))
             h = half / n_half  # the body's edge falls on a node line
         core_half_width = h * math.ceil((half + cfg.core_margin_widths * B) / h)
-        # a body wished in place at depth d0: the mudline lies d0 above the base, on a node row
+        # a body wished in place at depth d0: the mudline lies d0 above the base (rounded to a
+        # node row of the uniform core; beyond it a cell the mudline cuts is partly filled)
         self.mudline = h * round(scene.landing.initial_depth_m / h)
         grid = build_grid(
             h=h,
@@ -332,6 +345,9 @@ class Cel2DSolver:
                     f"soil reached the top of the domain at sinkage {sinkage:.4g} m; "
                     f"raise solver.initial_travel_m (sized for {self.travel:.3g} m)")
                 break
+            if drop and code == S.RUNNING and abs(body[S.B_VEL]) < 1e-12 and par[S.P_BODY_W] == 0.0:
+                message = "the body neither moves nor weighs anything: it stays at rest"
+                break
             if drop and code == S.AT_REST:
                 message = f"came to rest at {body[S.B_MAXDISP]:.4g} m after {body[S.B_TIME]:.4g} s"
                 break
@@ -396,6 +412,14 @@ class Cel2DSolver:
             self._push_metrics(history_arrays, metrics, units)
         if status == "ok" and metrics["mass_error"] > 1e-6:
             status, message = "unstable", f"soil mass drifted by {metrics['mass_error']:.2e} (relative)"
+        if status == "ok" and metrics["energy_error"] > ENERGY_ERROR_LIMIT:
+            status, message = "unstable", (
+                f"the energy audit is off by {metrics['energy_error']:.1%} (limit {ENERGY_ERROR_LIMIT:.0%}): "
+                f"lower solver.cfl (now {cfg.cfl}) or raise solver.hourglass / solver.bulk_viscosity_linear")
+        if status != "ok":  # a run that went wrong reports what stayed finite, never a NaN
+            metrics = {k: v for k, v in metrics.items() if math.isfinite(v)}
+            finite = np.all([np.isfinite(v) for v in history_arrays.values()], axis=0)
+            history_arrays = {k: v[finite] for k, v in history_arrays.items()}
         return SolveResult(status, message, metrics, units, history_arrays)
 
     @staticmethod

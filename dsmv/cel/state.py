@@ -35,15 +35,18 @@ class Elastic:
 def geostatic_state(grid: Grid, density: float, gravity: float, k0: float, mudline: float, solid=None):
     """Soil below the mudline (y = ``mudline``) and outside ``solid`` cells, at rest under its weight.
 
+    A cell the mudline cuts holds just the soil below it.
+
     Returns φ (nx, ny) and the transported state q (NQ_BASE, nx, ny): σyy = −ρ'·g·depth,
     σxx = σzz = K0·σyy, z0 = depth (m), ξ = 0.
     """
-    yc = grid.yc
-    phi = np.zeros((grid.nx, grid.ny))
-    phi[:, yc < mudline] = 1.0
+    # the fraction of each row below the mudline (a mudline inside a graded cell fills it in part)
+    fill = np.clip((mudline - grid.y[:-1]) / grid.dy, 0.0, 1.0)
+    # the depth of the soil's own centroid in each row
+    depth = np.where(fill >= 1.0, mudline - grid.yc, 0.5 * fill * grid.dy)
+    phi = np.tile(fill, (grid.nx, 1))
     if solid is not None:
         phi[solid] = 0.0
-    depth = np.where(yc < mudline, mudline - yc, 0.0)
     q = np.zeros((K.NQ_BASE, grid.nx, grid.ny))
     q[K.SYY] = -density * gravity * depth[None, :] * phi
     q[K.SXX] = k0 * q[K.SYY]
