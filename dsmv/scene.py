@@ -258,7 +258,6 @@ class MeshConfig(Schema):
 class OutputConfig(Schema):
     """What a run writes besides result.json and the history CSV."""
 
-    fields: bool = False
     plots: bool = True
 
 
@@ -278,6 +277,9 @@ class TrackingConfig(Schema):
 
 
 # --------------------------------------------------------------------------- scene
+
+#: solver settings that change how a run is shown or sampled, never its result
+RESULT_NEUTRAL_SOLVER_KEYS = {"progress", "history_samples", "max_steps"}
 
 
 @dataclass(frozen=True)
@@ -299,13 +301,13 @@ class Scene:
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     def physics_dict(self) -> dict[str, Any]:
-        """The physics-relevant config (what the hash covers), as plain data."""
+        """What decides a result (what the hash covers), as plain data: display settings excluded."""
         return {
             "soil": self.soil.model_dump(),
             "geometry": self.geometry.model_dump(),
             "landing": self.landing.model_dump(),
             "mesh": self.mesh.model_dump(),
-            "solver": self.solver.model_dump(),
+            "solver": self.solver.model_dump(exclude=RESULT_NEUTRAL_SOLVER_KEYS),
         }
 
 
