@@ -74,7 +74,3 @@ def write_history(run_dir: Path, history: dict[str, np.ndarray]) -> Path:
         writer.writerows(zip(*(c.tolist() for c in columns)))
     return path
 
-
-def read_result(run_dir: Path) -> dict:
-    """Read a job's ``result.json``."""
-    return json.loads((Path(run_dir) / RESULT_FILE).read_text())

@@ -109,10 +109,6 @@ class SoilConfig(Schema):
     poisson_ratio: Number = Field(ge=0, lt=0.5, description="Poisson's ratio ν (-), < 0.5")
     params: dict[str, Number] = Field(default_factory=dict, description="law-specific parameters (see the law)")
 
-    def su_intact_pa(self, depth_m):
-        """Intact strength (Pa) of soil that started at depth ``depth_m`` (m) below the mudline."""
-        return self.su0_pa + self.ks_pa_per_m * depth_m
-
 
 # --------------------------------------------------------------------------- geometry
 
@@ -179,11 +175,6 @@ class ConeGeometry(BodyConfig):
     kind: Literal["cone"]
     apex_angle_deg: Number = Field(gt=0, lt=180, description="full apex angle (degrees)")
     contact_length_m: Optional[Number] = Field(None, description="not used by a cone")
-
-    @property
-    def height_m(self) -> float:
-        """Height of the conical part (m)."""
-        return 0.5 * self.width_m / math.tan(math.radians(0.5 * self.apex_angle_deg))
 
     @property
     def contact_area_m2(self) -> float:

@@ -173,7 +173,6 @@ class MlflowSweepCallback(Callback):
     """Hydra callback owning a multirun's parent MLflow run and its summary."""
 
     def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
-        check_sweep_plot(config)
         tracking = build_tracking(config)
         if not tracking.enabled:
             return
@@ -213,16 +212,6 @@ class MlflowSweepCallback(Callback):
         finally:  # the parent run never stays RUNNING
             if client is not None:
                 client.set_terminated(run_id, status)
-
-
-def check_sweep_plot(config: DictConfig) -> None:
-    """A sweep_plot the experiment names must exist, before any job runs."""
-    from dsmv.errors import ConfigError
-    from dsmv.plots import SWEEP_PLOTS
-
-    name = config.get("sweep_plot")
-    if name and name not in SWEEP_PLOTS:
-        raise ConfigError("sweep_plot", name, f"must be null or one of {', '.join(SWEEP_PLOTS)}")
 
 
 def sweep_plot(config: DictConfig, sweep_dir: Path) -> Path | None:

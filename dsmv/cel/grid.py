@@ -66,10 +66,6 @@ class Grid:
     def yc(self) -> np.ndarray:
         return 0.5 * (self.y[1:] + self.y[:-1])
 
-    @property
-    def n_cells(self) -> int:
-        return self.nx * self.ny
-
     def row_of(self, y_value: float) -> int:
         """Index of the node row at ``y_value`` (which must lie on a node row)."""
         j = int(np.argmin(np.abs(self.y - y_value)))
