@@ -6,10 +6,17 @@ import argparse
 from pathlib import Path
 
 import hydra
+from hydra.core.plugins import Plugins
 from omegaconf import DictConfig
 
 import dsmv.scene  # noqa: F401  (registers the OmegaConf resolvers used by conf/)
+from hydra_plugins.dsmv_sweeper.case_sweeper import CaseSweeper
+
 from dsmv import registry
+
+# Hydra finds sweepers by walking the hydra_plugins namespace, which an editable install
+# does not expose to that walk: register ours by hand (a no-op when Hydra found it).
+Plugins.instance().register(CaseSweeper)
 
 #: the Hydra config tree of the source checkout (dsmv is installed editable)
 CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
