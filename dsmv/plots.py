@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from dsmv import studies
+
 HISTORY_PLOT_FILE = "history.png"
 
 
@@ -81,4 +83,123 @@ def plot_fall_cone(sweep_dir: Path, path: Path) -> Path | None:
 
 
 #: sweep-level plots an experiment can ask for with ``sweep_plot: <name>``
-SWEEP_PLOTS = {"fall_cone": plot_fall_cone}
+SWEEP_PLOTS = {
+    "fall_cone": plot_fall_cone,
+    "one_at_a_time": studies.one_at_a_time,
+    "compare_analytic": studies.compare_analytic,
+    "mesh_study": studies.mesh_study,
+}
+
+
+FIELD_PLOT_FILE = "fields_max_sinkage.png"
+#: the soil is drawn where its volume fraction is at least this: the interface as the
+#: half-full level, as volume-of-fluid methods place it (Hirt & Nichols 1981)
+SOIL_LEVEL = 0.5
+#: colour bands per map, like the banded contour plots of Abaqus in the reference study
+CONTOUR_BANDS = 12
+#: velocity arrows across the window's width
+ARROWS_ACROSS = 24
+
+
+def _mirrored_view(frame, window):
+    """The half model mirrored about the symmetry axis x = 0, ready to draw in ``window``.
+
+    Returns a dict: node coordinates x, y; cell fields; cell velocity (ux, uy), the mean of a
+    cell's four nodal velocities (m/s); ``shown``, the soil cells inside the window.
+    """
+    half_width, bottom, top = window
+    x = np.concatenate([-frame.x[:0:-1], frame.x])
+    cells = {k: np.concatenate([v[::-1], v]) for k, v in frame.cells.items()}
+    vx, vy = frame.velocity[..., 0], frame.velocity[..., 1]
+    vx, vy = np.concatenate([-vx[:0:-1], vx]), np.concatenate([vy[:0:-1], vy])
+    ux, uy = (0.25 * (v[:-1, :-1] + v[1:, :-1] + v[1:, 1:] + v[:-1, 1:]) for v in (vx, vy))
+    xc, yc = 0.5 * (x[1:] + x[:-1]), 0.5 * (frame.y[1:] + frame.y[:-1])
+    inside = (np.abs(xc)[:, None] <= half_width) & (yc[None, :] >= bottom) & (yc[None, :] <= top)
+    shown = (cells["volume_fraction"] >= SOIL_LEVEL) & inside & np.isfinite(cells["su_pa"])
+    return dict(x=x, y=frame.y, xc=xc, yc=yc, cells=cells, ux=ux, uy=uy, shown=shown, n_half=len(frame.x) - 1)
+
+
+def _core_window(frame):
+    """The grid's uniform core (where the solver expects the soil to deform), capped just above the soil (m)."""
+    dx, dy = np.diff(frame.x), np.diff(frame.y)
+    h = min(dx.min(), dy.min())
+    core_x = np.nonzero(np.isclose(dx, h, rtol=1e-6))[0]
+    core_y = np.nonzero(np.isclose(dy, h, rtol=1e-6))[0]
+    soil_rows = np.nonzero((frame.cells["volume_fraction"] >= SOIL_LEVEL).any(axis=0))[0]
+    top = frame.y[soil_rows.max() + 1] if soil_rows.size else frame.y[core_y.max() + 1]
+    bottom = frame.y[core_y.min()]
+    top = min(top + 0.15 * (top - bottom), frame.y[core_y.max() + 1])
+    return frame.x[core_x.max() + 1], bottom, top
+
+
+def _contour_panel(fig, ax, view, values, label, cmap, title, window, arrows=False):
+    """One banded map of ``values`` over the soil of ``view``, the body in grey, optional velocity arrows."""
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.ticker import MaxNLocator
+
+    half_width, bottom, top = window
+    data = np.ma.masked_where(~view["shown"], values)
+    lo, hi = (float(data.min()), float(data.max())) if data.count() else (0.0, 1.0)
+    levels = MaxNLocator(nbins=CONTOUR_BANDS).tick_values(lo, hi if hi > lo else lo + 1e-12)
+    colours = plt.get_cmap(cmap)
+    mesh = ax.pcolormesh(view["x"], view["y"], data.T, cmap=colours, norm=BoundaryNorm(levels, colours.N))
+    body = view["cells"]["body"]
+    ax.pcolormesh(view["x"], view["y"], np.ma.masked_where(body < 0.5, body).T, cmap=ListedColormap(["0.6"]),
+                  vmin=0, vmax=1)
+    fig.colorbar(mesh, ax=ax, label=label, shrink=0.9)
+    if arrows:  # on every few cells, the same columns on both sides of the axis
+        step = max(1, int(round(2 * half_width / np.diff(view["x"]).min() / ARROWS_ACROSS)))
+        n_half = view["n_half"]
+        columns = np.arange(step // 2, n_half, step)
+        pick = np.zeros_like(view["shown"])
+        pick[np.concatenate([n_half - 1 - columns, n_half + columns]), step // 2 :: step] = True
+        ii, jj = np.nonzero(pick & view["shown"])
+        ax.quiver(view["xc"][ii], view["yc"][jj], view["ux"][ii, jj], view["uy"][ii, jj], color="white",
+                  width=0.0025)
+    ax.set_title(title, fontsize=9)
+    ax.set_xlim(-half_width, half_width)
+    ax.set_ylim(bottom, top)
+    ax.set_aspect("equal")
+    ax.set_ylabel("y (m)")
+
+
+def plot_field_contours(frame_path: Path, path: Path, title: str, flow_frame_path: Path | None = None) -> Path:
+    """Banded contours of su, ξ and the soil velocity around the body at one field frame.
+
+    Like the reference study's Figures 3 and 10 (strength), 8 (accumulated plastic shear
+    strain) and 12 (velocity). The half model is mirrored to show the whole section; only
+    soil is coloured (volume fraction ≥ SOIL_LEVEL), the body is grey, the window is the
+    grid's uniform core. Velocity: the mean of a cell's four nodal velocities, with arrows.
+    ``flow_frame_path``: a frame whose velocity field is shown too, in the same window (at
+    the deepest point a landing body is at rest and the soil's velocity is what rings on;
+    the mechanism shows while it still moves). Reads VTU frames written by :mod:`dsmv.fields`.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from dsmv.fields import read_frame
+
+    frame = read_frame(frame_path)
+    window = _core_window(frame)
+    flow = [] if flow_frame_path is None else [read_frame(flow_frame_path)]
+    half_width, bottom, top = window
+    fig, axes = plt.subplots(3 + len(flow), 1, constrained_layout=True,
+                             figsize=(8, (3 + len(flow)) * max(2.2, 3.5 * (top - bottom) / half_width) + 1))
+    view = _mirrored_view(frame, window)
+    when = f"t = {frame.time_s:.4f} s, sinkage {frame.sinkage_m:.4f} m"
+    _contour_panel(fig, axes[0], view, view["cells"]["su_pa"] / 1e3, "su (kPa)", "viridis",
+                   f"undrained strength su, {when}", window)
+    _contour_panel(fig, axes[1], view, view["cells"]["plastic_shear_strain"], "ξ (-)", "inferno",
+                   f"accumulated plastic shear strain ξ, {when}", window)
+    for ax, one in zip(axes[2:], [frame, *flow]):
+        view = _mirrored_view(one, window)
+        _contour_panel(fig, ax, view, np.hypot(view["ux"], view["uy"]), "|v| (m/s)", "plasma",
+                       f"soil velocity, t = {one.time_s:.4f} s, sinkage {one.sinkage_m:.4f} m", window, arrows=True)
+    axes[-1].set_xlabel("x (m): 0 on the symmetry axis; y = 0 the body's base at touchdown")
+    fig.suptitle(title, fontsize=10)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return Path(path)

@@ -25,7 +25,7 @@ from typing import Any, Iterable
 from hydra.experimental.callback import Callback
 from omegaconf import DictConfig, OmegaConf
 
-from dsmv.results import HISTORY_COLUMNS, RESULT_FILE, SolveResult
+from dsmv.results import HISTORY_COLUMNS, SolveResult
 from dsmv.scene import TrackingConfig, build_tracking
 
 PARENT_RUN_FILE = "mlflow_parent_run.json"
@@ -228,14 +228,13 @@ def summarize_sweep(sweep_dir: Path) -> list[dict]:
     """Collect every job's result.json below a sweep dir into ``sweep_summary.csv``."""
     import csv
 
+    from dsmv.studies import sweep_jobs
+
     rows = []
-    for path in sorted(Path(sweep_dir).glob(f"*/{RESULT_FILE}"), key=lambda p: _job_order(p.parent.name)):
-        result = json.loads(path.read_text())
-        overrides_file = path.parent / ".hydra" / "overrides.yaml"
-        overrides = " ".join(OmegaConf.load(overrides_file)) if overrides_file.exists() else ""
-        row = {"job": path.parent.name, "overrides": overrides, "status": result["status"]}
-        row |= result["metrics"]
-        row["message"] = result["message"]
+    for job in sweep_jobs(sweep_dir):
+        row = {"job": job.name, "overrides": " ".join(job.overrides), "status": job.result["status"]}
+        row |= job.result["metrics"]
+        row["message"] = job.result["message"]
         rows.append(row)
     if rows:
         columns = list(dict.fromkeys(k for row in rows for k in row))
@@ -244,7 +243,3 @@ def summarize_sweep(sweep_dir: Path) -> list[dict]:
             writer.writeheader()
             writer.writerows(rows)
     return rows
-
-
-def _job_order(name: str):
-    return (0, int(name)) if name.isdigit() else (1, name)

@@ -1,10 +1,12 @@
 """``hydra/sweeper=cases``: Hydra's basic sweeper plus explicit lists of cases.
 
-Hydra's basic sweeper runs the Cartesian product of its ``params``. Studies need two more
+Hydra's basic sweeper runs the Cartesian product of its ``params``. Studies need three more
 shapes, which this sweeper adds (and multiplies with that product):
 
 - ``vary``: one parameter at a time around the default scene, ``{key: [values]}`` — the
   reference study's Figures 7, 9 and 11 are such sweeps, not products;
+- ``cases``: an explicit list of cases, each a list of overrides (the eight Table 3
+  combinations of ``compare_analytic``);
 - ``cases_from``: ``"module:function"`` computing the cases from the composed config
   (``function(cfg) -> list[list[str]]``), for designs whose size is itself a config value
   (the Table 3 dataset's ``dataset.n_samples``).
@@ -19,16 +21,13 @@ from __future__ import annotations
 import importlib
 import itertools
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Optional
 
 from hydra.core.config_store import ConfigStore
-from hydra.core.plugins import Plugins
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.plugins.sweeper import Sweeper
 from omegaconf import OmegaConf
-
-# Hydra's first plugin scan re-executes its core plugin modules: scan before subclassing
-# BasicSweeper, or its own super(BasicSweeper, self) would name a different class than ours.
-Plugins.instance()
-from hydra._internal.core_plugins.basic_sweeper import BasicSweeper  # noqa: E402
 
 
 @dataclass
@@ -37,6 +36,7 @@ class CaseSweeperConf:
     max_batch_size: Optional[int] = None
     params: Optional[dict[str, str]] = field(default_factory=dict)
     vary: Optional[dict[str, Any]] = None
+    cases: Optional[list[Any]] = None
     cases_from: Optional[str] = None
 
 
@@ -53,6 +53,11 @@ def one_at_a_time(vary: dict[str, list]) -> list[list[str]]:
     return cases
 
 
+def _plain(node):
+    """An OmegaConf node as plain Python (lists and dicts), None unchanged."""
+    return OmegaConf.to_container(node) if OmegaConf.is_config(node) else node
+
+
 def load_function(path: str):
     """``"package.module:function"`` → the function."""
     module, _, name = path.partition(":")
@@ -61,30 +66,69 @@ def load_function(path: str):
     return getattr(importlib.import_module(module), name)
 
 
-class CaseSweeper(BasicSweeper):
-    """The basic sweeper's product of ``params`` and command-line sweeps, times the cases."""
+class CaseSweeper(Sweeper):
+    """The basic sweeper's product of ``params`` and command-line sweeps, times the cases.
+
+    Not a subclass of Hydra's BasicSweeper: Hydra's plugin scan re-executes its core plugin
+    modules, after which BasicSweeper's own ``super(BasicSweeper, self)`` would name another
+    class than the one subclassed. Only its pure static helpers are borrowed.
+    """
 
     def __init__(self, max_batch_size: Optional[int] = None, params: Optional[dict[str, str]] = None,
-                 vary: Optional[dict[str, Any]] = None, cases_from: Optional[str] = None) -> None:
-        super().__init__(max_batch_size=max_batch_size, params=params)
-        self.vary = OmegaConf.to_container(vary) if vary is not None and not isinstance(vary, dict) else vary
+                 vary: Optional[dict[str, Any]] = None, cases: Optional[list[Any]] = None,
+                 cases_from: Optional[str] = None) -> None:
+        super().__init__()
+        self.max_batch_size = max_batch_size
+        self.params = _plain(params) or {}
+        self.vary = _plain(vary)
+        self.explicit_cases = _plain(cases)
         self.cases_from = cases_from
+        self.config = self.launcher = self.hydra_context = None
+
+    def setup(self, *, hydra_context, task_function, config) -> None:
+        from hydra.core.plugins import Plugins
+
+        self.hydra_context, self.config = hydra_context, config
+        self.launcher = Plugins.instance().instantiate_launcher(
+            hydra_context=hydra_context, task_function=task_function, config=config)
 
     def cases(self) -> list[list[str]]:
         cases: list[list[str]] = []
         if self.vary:
             cases += one_at_a_time(self.vary)
+        for number, case in enumerate(self.explicit_cases or []):
+            if not isinstance(case, list) or not all(isinstance(o, str) and "=" in o for o in case):
+                raise ValueError(f"hydra.sweeper.cases[{number}] = {case!r}: expected a list of 'key=value' overrides")
+            cases.append(list(case))
         if self.cases_from:
             cases += [list(case) for case in load_function(self.cases_from)(self.config)]
         return cases or [[]]
 
-    def split_arguments(self, overrides, max_batch_size):  # an instance method: it needs the cases
-        """The basic sweeper's job list, each job repeated for every case, in batches."""
+    def jobs(self, arguments: list[str]) -> list[list[str]]:
+        """Every job's overrides: the basic sweeper's product, each job repeated for every case."""
+        from hydra._internal.core_plugins.basic_sweeper import BasicSweeper
+
+        parser = OverridesParser.create(config_loader=self.hydra_context.config_loader)
+        overrides = parser.parse_overrides([f"{k}={v}" for k, v in self.params.items()] + list(arguments))
         product = [job for batch in BasicSweeper.split_arguments(overrides, None) for job in batch]
-        jobs = [base + case for base, case in itertools.product(product, self.cases())]
-        if not max_batch_size:
-            return [jobs]
-        return list(BasicSweeper.split_overrides_to_chunks(jobs, max_batch_size))
+        return [base + case for base, case in itertools.product(product, self.cases())]
+
+    def sweep(self, arguments: list[str]) -> Any:
+        jobs = self.jobs(arguments)
+        sweep_dir = Path(self.config.hydra.sweep.dir)
+        sweep_dir.mkdir(parents=True, exist_ok=True)
+        OmegaConf.save(self.config, sweep_dir / "multirun.yaml")
+        batch_size = self.max_batch_size or len(jobs)
+        returns, first = [], 0
+        for start in range(0, len(jobs), batch_size):
+            batch = jobs[start : start + batch_size]
+            self.validate_batch_is_legal(batch)  # composition errors surface before any job runs
+            results = self.launcher.launch(batch, initial_job_idx=first)
+            for result in results:
+                _ = result.return_value  # raises if the job raised
+            first += len(batch)
+            returns.append(results)
+        return returns
 
 
 __all__ = ["CaseSweeper", "CaseSweeperConf", "one_at_a_time"]

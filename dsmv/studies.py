@@ -1,0 +1,282 @@
+"""Sweep-level summaries of the parametric studies: tables and plots from the jobs' outputs.
+
+Each function reads a finished sweep dir (one sub-dir per job with ``result.json`` and
+``.hydra/overrides.yaml``) and writes a CSV and a PNG next to the jobs; the sweep callback
+logs both to the sweep's parent MLflow run. Nothing here runs a solver.
+
+- :func:`one_at_a_time` — the reference study's Figures 7, 9 and 11: max sinkage against
+  each parameter varied alone (``hydra.sweeper.vary``), and the direction of each trend.
+- :func:`compare_analytic` — Figure 14: CEL against the energy method, case by case, with
+  the gap split into what the mechanics adds (CEL with Tresca against the energy method:
+  embedment, side shear, soil inertia, the track's real shape) and what the soil law adds
+  (Einav–Randolph against Tresca in the CEL: softening and rate).
+- :func:`mesh_study` — Table 2 and Figure 6: resistance against depth for each core cell size,
+  its relative error against the finest mesh, and wall times.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from omegaconf import OmegaConf
+
+from dsmv.results import HISTORY_FILE, RESULT_FILE
+
+
+@dataclass
+class Job:
+    """One finished job of a sweep."""
+
+    name: str
+    overrides: list[str]
+    result: dict
+    path: Path
+    values: dict[str, str] = field(default_factory=dict)  # override key → value, as written
+
+    @property
+    def ok(self) -> bool:
+        return self.result["status"] == "ok"
+
+    def metric(self, name: str) -> float:
+        return float(self.result["metrics"].get(name, np.nan))
+
+    def history(self) -> dict[str, np.ndarray] | None:
+        path = self.path / HISTORY_FILE
+        if not path.exists():
+            return None
+        table = np.genfromtxt(path, delimiter=",", names=True)
+        return {name: np.atleast_1d(table[name]) for name in table.dtype.names}
+
+
+def sweep_jobs(sweep_dir: Path) -> list[Job]:
+    """Every job below a sweep dir that wrote result.json, in job order."""
+    jobs = []
+    for result_file in Path(sweep_dir).glob(f"*/{RESULT_FILE}"):
+        job_dir = result_file.parent
+        overrides_file = job_dir / ".hydra" / "overrides.yaml"
+        overrides = [str(o) for o in OmegaConf.load(overrides_file)] if overrides_file.exists() else []
+        values = dict(o.split("=", 1) for o in overrides if "=" in o)
+        jobs.append(Job(job_dir.name, overrides, json.loads(result_file.read_text()), job_dir, values))
+    return sorted(jobs, key=lambda job: (0, int(job.name)) if job.name.isdigit() else (1, job.name))
+
+
+def _sweep_config(sweep_dir: Path):
+    """The config the sweep ran with (saved by Hydra's sweeper as multirun.yaml), or None."""
+    saved = Path(sweep_dir) / "multirun.yaml"
+    return OmegaConf.load(saved) if saved.exists() else None
+
+
+def _sweeper_vary(config) -> dict[str, list]:
+    """The sweep's ``hydra.sweeper.vary`` block: {parameter: [values]}."""
+    vary = config.hydra.sweeper.get("vary") if config is not None else None
+    return OmegaConf.to_container(vary) if vary else {}
+
+
+def trend(values: list[float], sinkages: list[float]) -> str:
+    """``up`` / ``down`` when sinkage moves strictly one way as the parameter grows, else ``mixed``."""
+    order = np.argsort(values)
+    steps = np.diff(np.asarray(sinkages, dtype=float)[order])
+    if len(steps) and np.all(steps > 0):
+        return "up"
+    if len(steps) and np.all(steps < 0):
+        return "down"
+    return "mixed"
+
+
+def one_at_a_time(sweep_dir: Path, path: Path) -> Path | None:
+    """Max sinkage against each parameter varied alone; writes ``one_at_a_time.csv`` and the PNG.
+
+    The CSV has one row per job (parameter, value, status, max_sinkage_m, wall_s) and one
+    ``trend`` row per parameter (``up``, ``down`` or ``mixed`` over the ``ok`` runs; a
+    parameter with any non-``ok`` run is ``incomplete``).
+    """
+    config = _sweep_config(sweep_dir)
+    jobs, vary = sweep_jobs(sweep_dir), _sweeper_vary(config)
+    if not jobs or not vary:
+        return None
+    rows, panels = [], {}
+    for key in vary:
+        varied = [job for job in jobs if key in job.values]
+        points = [(float(job.values[key]), job.metric("max_sinkage_m"), job) for job in varied]
+        points.sort(key=lambda p: p[0])
+        panels[key] = points
+        for value, sinkage, job in points:
+            rows.append({"parameter": key, "value": value, "status": job.result["status"],
+                         "max_sinkage_m": sinkage, "wall_s": job.metric("wall_s")})
+        complete = points and all(job.ok for _, _, job in points)
+        direction = trend([p[0] for p in points], [p[1] for p in points]) if complete else "incomplete"
+        rows.append({"parameter": key, "value": "", "status": "trend", "max_sinkage_m": "", "wall_s": "",
+                     "trend": direction})
+    _write_csv(Path(path).with_suffix(".csv"), rows)
+
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, len(panels), figsize=(3.6 * len(panels), 3.6), constrained_layout=True,
+                             squeeze=False)
+    for ax, (key, points) in zip(axes[0], panels.items()):
+        good = [(v, s) for v, s, job in points if job.ok]
+        bad = [(v, job.result["status"]) for v, s, job in points if not job.ok]
+        if good:
+            ax.plot(*zip(*good), "o-", color="tab:blue")
+        for value, status in bad:
+            ax.axvline(value, color="tab:red", ls=":", lw=1)
+            ax.annotate(status, (value, 0.5), xycoords=("data", "axes fraction"), rotation=90, fontsize=7,
+                        color="tab:red")
+        ax.set_xlabel(key)
+        ax.set_ylabel("max sinkage (m)")
+        ax.grid(alpha=0.3)
+    fig.suptitle(f"{config.get('study', '')}: max sinkage, one parameter at a time around the default scene "
+                 f"({config.soil.law}, core cells {config.mesh.cell_size_m} m)", fontsize=9)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return Path(path)
+
+
+def compare_analytic(sweep_dir: Path, path: Path) -> Path | None:
+    """CEL against the energy method per case; writes ``compare_analytic.csv`` and the PNG.
+
+    A case is a job's overrides without ``solver`` and ``soil.law``. Per case: the energy
+    method's sinkage, the CEL's with Tresca and with Einav–Randolph, the relative difference
+    (CEL Einav–Randolph against the energy method), and its two parts: mechanics
+    (CEL Tresca / energy − 1) and soil law (CEL Einav–Randolph / CEL Tresca − 1).
+    """
+    jobs = sweep_jobs(sweep_dir)
+    # a case: what sets a job apart from the others, apart from its solver and law
+    shared = set.intersection(*(set(job.overrides) for job in jobs)) if jobs else set()
+    cases: dict[str, dict[str, Job]] = {}
+    for job in jobs:
+        case = " ".join(o for o in job.overrides if o not in shared and o.split("=", 1)[0] not in ("solver", "soil.law"))
+        label = "analytic" if job.values.get("solver") == "analytic_energy" else job.values.get("soil.law", "cel")
+        cases.setdefault(case, {})[label] = job
+    rows = []
+    for number, (case, by_label) in enumerate(cases.items(), start=1):
+        analytic = by_label.get("analytic")
+        tresca, softening = by_label.get("tresca"), by_label.get("einav_randolph")
+        if analytic is None or softening is None:
+            continue
+
+        def sinkage(job):
+            return job.metric("max_sinkage_m") if job is not None and job.ok else np.nan
+
+        z_a, z_t, z_er = sinkage(analytic), sinkage(tresca), sinkage(softening)
+        rows.append({"case": number, "overrides": case, "analytic_m": z_a, "cel_tresca_m": z_t,
+                     "cel_einav_randolph_m": z_er, "relative_difference": z_er / z_a - 1,
+                     "mechanics_part": z_t / z_a - 1, "soil_law_part": z_er / z_t - 1,
+                     "cel_status": softening.result["status"]})
+    if not rows:
+        return None
+    _write_csv(Path(path).with_suffix(".csv"), rows)
+
+    plt = _pyplot()
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.5), constrained_layout=True)
+    z_a = np.array([r["analytic_m"] for r in rows])
+    z_t = np.array([r["cel_tresca_m"] for r in rows])
+    z_er = np.array([r["cel_einav_randolph_m"] for r in rows])
+    top = 1.15 * np.nanmax(np.concatenate([z_a, z_t, z_er]))
+    line = np.array([0, top])
+    left.plot(line, line, "k-", lw=1, label="equal")
+    left.fill_between(line, 0.85 * line, 1.15 * line, color="0.88", label="±15 %")
+    left.plot(z_a, z_er, "s", color="tab:blue", label="CEL, Einav–Randolph")
+    left.plot(z_a, z_t, "o", mfc="none", color="tab:gray", label="CEL, Tresca")
+    for r in rows:
+        left.annotate(str(r["case"]), (r["analytic_m"], r["cel_einav_randolph_m"]), fontsize=7,
+                      xytext=(3, 3), textcoords="offset points")
+    left.set_xlim(0, top)
+    left.set_ylim(0, top)
+    left.set_xlabel("energy method sinkage (m)")
+    left.set_ylabel("CEL max sinkage (m)")
+    left.legend(fontsize=8)
+    left.grid(alpha=0.3)
+    index = np.arange(len(rows))
+    right.bar(index - 0.2, [100 * r["mechanics_part"] for r in rows], 0.4, label="mechanics (CEL Tresca / energy)")
+    right.bar(index + 0.2, [100 * r["soil_law_part"] for r in rows], 0.4, label="soil law (E–R / Tresca)")
+    right.plot(index, [100 * r["relative_difference"] for r in rows], "kD", label="total (E–R / energy)")
+    right.axhline(0, color="k", lw=0.8)
+    right.set_xticks(index, [str(r["case"]) for r in rows])
+    right.set_xlabel("case")
+    right.set_ylabel("difference (%)")
+    right.legend(fontsize=8)
+    right.grid(alpha=0.3, axis="y")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return Path(path)
+
+
+def mesh_study(sweep_dir: Path, path: Path) -> Path | None:
+    """Resistance against depth per core cell size, relative error against the finest, wall times.
+
+    Writes ``mesh_study.csv``: per mesh the cell size, status, max sinkage, wall time, cells,
+    and the mean and largest relative error of the resistance against the finest mesh over
+    the depths all runs reached (excluding the first 10 %, where contact is still forming).
+    """
+    jobs = [job for job in sweep_jobs(sweep_dir) if "mesh.cell_size_m" in job.values]
+    curves = []
+    for job in jobs:
+        history = job.history()
+        if history is None or not job.ok:
+            continue
+        # the loading branch only: up to the max sinkage, where the curve is single-valued
+        end = int(np.argmax(history["sinkage_m"])) + 1
+        curves.append((float(job.values["mesh.cell_size_m"]), job, history["sinkage_m"][:end],
+                       history["force_n"][:end]))
+    if not curves:
+        return None
+    curves.sort(key=lambda c: c[0])
+    reference_depth, reference_force = curves[0][2], curves[0][3]
+    reach = min(c[2].max() for c in curves)
+    depths = np.linspace(0.1 * reach, reach, 50)
+    reference = np.interp(depths, *_increasing(reference_depth, reference_force))
+    rows, errors = [], []
+    for size, job, depth, force in curves:
+        error = np.abs(np.interp(depths, *_increasing(depth, force)) / reference - 1)
+        errors.append(error)
+        rows.append({"cell_size_m": size, "status": job.result["status"], "max_sinkage_m": job.metric("max_sinkage_m"),
+                     "wall_s": job.metric("wall_s"), "cells": job.metric("cells"),
+                     "mean_relative_error": float(error.mean()), "max_relative_error": float(error.max())})
+    _write_csv(Path(path).with_suffix(".csv"), rows)
+
+    plt = _pyplot()
+    fig, (curve_ax, error_ax, time_ax) = plt.subplots(1, 3, figsize=(14, 4.2), constrained_layout=True)
+    for (size, job, depth, force), error in zip(curves, errors):
+        curve_ax.plot(depth, force / 1e3, label=f"{size:g} m")
+        error_ax.plot(depths, 100 * error, label=f"{size:g} m")
+    curve_ax.set_xlabel("sinkage (m)")
+    curve_ax.set_ylabel("soil resistance per track (kN)")
+    curve_ax.legend(title="core cells", fontsize=8)
+    error_ax.set_xlabel("sinkage (m)")
+    error_ax.set_ylabel(f"|R / R({curves[0][0]:g} m) − 1| (%)")
+    time_ax.bar([f"{r['cell_size_m']:g}" for r in rows], [r["wall_s"] for r in rows], color="tab:green")
+    time_ax.set_xlabel("core cell size (m)")
+    time_ax.set_ylabel("wall time (s)")
+    for ax in (curve_ax, error_ax, time_ax):
+        ax.grid(alpha=0.3)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return Path(path)
+
+
+def _increasing(depth: np.ndarray, force: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Samples with strictly increasing depth, as np.interp needs."""
+    keep = np.concatenate([[True], np.diff(np.maximum.accumulate(depth)) > 0])
+    return depth[keep], force[keep]
+
+
+def _write_csv(path: Path, rows: list[dict]) -> Path:
+    columns = list(dict.fromkeys(k for row in rows for k in row))
+    with Path(path).open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=columns)
+        writer.writeheader()
+        writer.writerows(rows)
+    return Path(path)
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt

@@ -1,0 +1,109 @@
+"""The parametric studies (issue #5): the case sweeper, the study summaries, and the study's trends.
+
+The trend test runs the three parameter studies on the coarse mesh and asserts that max
+sinkage moves strictly in the reference study's direction (Figures 7, 9, 11) for each of
+the eight parameters: down with su0, ks, xi95, eta and L; up with St, mass and touchdown
+velocity.
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dsmv import studies
+from hydra_plugins.dsmv_sweeper.case_sweeper import one_at_a_time
+
+STUDY_DIRECTIONS = {
+    "study_strength": {"soil.su0_pa": "down", "soil.ks_pa_per_m": "down"},
+    "study_softening": {"soil.sensitivity": "up", "soil.xi95": "down", "soil.rate.eta": "down"},
+    "study_dynamics": {"landing.mass_kg": "up", "landing.velocity_m_s": "up", "geometry.contact_length_m": "down"},
+}
+
+
+def _sweep_dir(tmp_path: Path) -> Path:
+    found = sorted((tmp_path / "runs" / "multirun").glob("*/*"))
+    assert len(found) == 1, found
+    return found[0]
+
+
+def _read_csv(path: Path) -> list[dict]:
+    with path.open() as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_one_at_a_time_cases_vary_one_key_each():
+    cases = one_at_a_time({"a.b": [1, 2], "c": [3]})
+    assert cases == [["a.b=1"], ["a.b=2"], ["c=3"]]
+    with pytest.raises(ValueError, match="hydra.sweeper.vary.c"):
+        one_at_a_time({"c": []})
+
+
+@pytest.mark.parametrize("values, sinkages, expected", [
+    ([1, 2, 3], [0.3, 0.2, 0.1], "down"),
+    ([3, 1, 2], [0.1, 0.3, 0.2], "down"),   # order of the jobs does not matter
+    ([1, 2, 3], [0.1, 0.2, 0.3], "up"),
+    ([1, 2, 3], [0.1, 0.1, 0.3], "mixed"),  # strictly: a tie is not a trend
+    ([1, 2, 3], [0.1, 0.3, 0.2], "mixed"),
+])
+def test_trend_is_strict(values, sinkages, expected):
+    assert studies.trend(values, sinkages) == expected
+
+
+@pytest.mark.parametrize("study", sorted(STUDY_DIRECTIONS))
+def test_parameter_studies_move_in_the_reference_directions_on_the_coarse_mesh(run_cli, tmp_path, study):
+    done = run_cli("dsmv", f"experiment={study}", "mesh=coarse", "tracking=disabled", "output.plots=false",
+                   timeout=900)
+    assert done.returncode == 0, done.stderr[-2000:]
+    sweep = _sweep_dir(tmp_path)
+    rows = _read_csv(sweep / "one_at_a_time.csv")
+    assert (sweep / "one_at_a_time.png").stat().st_size > 10_000
+    jobs = [r for r in rows if r["status"] != "trend"]
+    assert all(r["status"] == "ok" for r in jobs), [(r["parameter"], r["value"], r["status"]) for r in jobs]
+    trends = {r["parameter"]: r["trend"] for r in rows if r["status"] == "trend"}
+    assert trends == STUDY_DIRECTIONS[study]
+
+
+def test_compare_analytic_pairs_cases_and_splits_the_gap(run_cli, tmp_path):
+    """Two of the eight cases on the coarse mesh: the table pairs each case's three runs."""
+    done = run_cli("dsmv", "experiment=compare_analytic", "mesh=coarse", "tracking=disabled", "output.plots=false",
+                   'hydra.sweeper.cases=[["landing.mass_kg=3000","soil.su0_pa=10000"],["landing.mass_kg=6500","soil.su0_pa=3000"]]',
+                   timeout=900)
+    assert done.returncode == 0, done.stderr[-2000:]
+    sweep = _sweep_dir(tmp_path)
+    rows = _read_csv(sweep / "compare_analytic.csv")
+    assert len(rows) == 2
+    for row in rows:
+        z_a, z_t, z_er = (float(row[k]) for k in ("analytic_m", "cel_tresca_m", "cel_einav_randolph_m"))
+        # the parts compose into the total: (1 + mechanics)(1 + law) = 1 + total
+        total = (1 + float(row["mechanics_part"])) * (1 + float(row["soil_law_part"])) - 1
+        assert total == pytest.approx(float(row["relative_difference"]), rel=1e-12)
+        assert float(row["relative_difference"]) == pytest.approx(z_er / z_a - 1, rel=1e-12)
+        assert z_t > 0 and z_er > 0
+    # the lighter vehicle on the stronger soil sinks less, in every model
+    light, heavy = rows
+    for key in ("analytic_m", "cel_tresca_m", "cel_einav_randolph_m"):
+        assert float(light[key]) < float(heavy[key])
+    assert (sweep / "compare_analytic.png").exists()
+
+
+def test_mesh_study_reports_errors_against_the_finest_mesh(tmp_path):
+    """Synthetic histories: the error is measured against the finest mesh, zero for itself."""
+    sweep = tmp_path / "sweep"
+    depth = np.linspace(0, 0.1, 200)
+    for job, (size, scale) in enumerate([(0.02, 1.0), (0.04, 1.05), (0.08, 1.2)]):
+        job_dir = sweep / str(job)
+        (job_dir / ".hydra").mkdir(parents=True)
+        (job_dir / ".hydra" / "overrides.yaml").write_text(f"- mesh.cell_size_m={size}\n")
+        (job_dir / "result.json").write_text(
+            '{"status": "ok", "message": "", "metrics": {"max_sinkage_m": 0.1, "wall_s": %g, "cells": 100}}' % (1 / size))
+        force = scale * 1e4 * (1 + 5 * depth)
+        np.savetxt(job_dir / "history.csv", np.column_stack([depth, depth, -np.ones_like(depth), force]),
+                   delimiter=",", header="time_s,sinkage_m,velocity_m_s,force_n", comments="")
+    assert studies.mesh_study(sweep, sweep / "mesh_study.png") is not None
+    rows = _read_csv(sweep / "mesh_study.csv")
+    errors = {float(r["cell_size_m"]): float(r["mean_relative_error"]) for r in rows}
+    assert errors == pytest.approx({0.02: 0.0, 0.04: 0.05, 0.08: 0.2}, abs=1e-9)
