@@ -64,6 +64,33 @@ class Cel2DConfig(Schema):
     cone_cells_per_depth: Count = Field(16, ge=4, description="cone: core cells across the expected penetration")
 
 
+def track_side_view_cells(grid, track) -> np.ndarray:
+    """Cells of a track seen from the side (``geometry.view=longitudinal``), half model.
+
+    The flat run of plates spans |x| ≤ L/2 with its underside at the grouser height gh
+    (snapped to whole cell rows, at least one row when gh > 0); grousers hang below it to
+    y = 0 (the base: sinkage is measured at the grouser tips), one cell column wide at every
+    plate pitch from the axis; beyond L/2 the track wraps around a sprocket of radius R, the
+    inscribed staircase of a circle centred at (L/2, gh + R). Everything above the plates is
+    body (the vehicle). A 0.01 m plate or grouser is thinner than any practical cell: the
+    staircase keeps their positions and heights, not their thickness.
+    """
+    h = grid.x[1] - grid.x[0]
+    half, radius = 0.5 * track.contact_length_m, track.sprocket_radius_m
+    grouser = 0.0 if track.grouser_height_m == 0 else h * max(1, round(track.grouser_height_m / h))
+    x, y = grid.x[:, None], grid.y[None, :]
+    inside_node = ((x <= half * (1 + 1e-12)) & (y >= grouser - 1e-12)) | (
+        (x - half) ** 2 + (y - grouser - radius) ** 2 <= radius**2 * (1 + 1e-12)) | (
+        (x <= half + radius) & (y >= grouser + radius))
+    solid = inside_node[:-1, :-1] & inside_node[1:, :-1] & inside_node[1:, 1:] & inside_node[:-1, 1:]
+    if grouser > 0:
+        positions = np.arange(0.0, half + 1e-12, track.plate_pitch_m)
+        columns = np.unique(np.clip(np.searchsorted(grid.x, positions, side="right") - 1, 0, grid.nx - 1))
+        rows = (grid.yc > 0.0) & (grid.yc < grouser)
+        solid[np.ix_(columns, np.nonzero(rows)[0])] = True
+    return solid
+
+
 class Cel2DSolver:
     """Solver plugin ``cel2d``."""
 
@@ -76,8 +103,9 @@ class Cel2DSolver:
         cfg, body = scene.solver, scene.geometry
         if body.kind not in ("strip", "track", "tbar", "cone"):
             raise ConfigError("geometry.kind", body.kind, "cel2d runs strip, track, tbar and cone bodies")
-        if getattr(body, "view", "cross_section") != "cross_section":
-            raise ConfigError("geometry.view", body.view, "cel2d runs the cross_section view for now")
+        if getattr(body, "view", "cross_section") == "longitudinal" and body.roughness != "rough":
+            raise ConfigError("geometry.roughness", body.roughness,
+                              "the longitudinal view (plates and grousers) models a rough track only")
         if body.adhesion_factor not in (0.0, 1.0):
             raise ConfigError("geometry.roughness", body.roughness,
                               "cel2d supports 'rough' (1) or 'smooth' (0); limited adhesion is to come")
@@ -96,6 +124,8 @@ class Cel2DSolver:
         self.mode = cfg.mode if cfg.mode != "auto" else ("axisymmetric" if self.cone else "plane_strain")
         self.axisym = self.mode == "axisymmetric"
         self.circular = body.kind == "tbar"  # a cylinder (plane strain) or a ball (axisymmetric)
+        #: a track seen from the side: plates, grousers and sprockets in the plane, per metre of B
+        self.longitudinal = getattr(body, "view", "cross_section") == "longitudinal"
 
     def hansbo_depth_m(self) -> float:
         """Hansbo's penetration d = √(K·m·g/su) with K = 0.8 (30° cone): the cone's scale (m)."""
@@ -107,7 +137,7 @@ class Cel2DSolver:
         body = self.scene.geometry
         if self.cone:
             return 2.0 * travel * math.tan(math.radians(0.5 * body.apex_angle_deg))
-        return body.width_m
+        return body.contact_length_m if self.longitudinal else body.width_m
 
     def contact_area_m2(self) -> float:
         """The area a bearing factor refers to: B·L in plane strain, π·B²/4 in axisymmetry (m²)."""
@@ -134,6 +164,8 @@ class Cel2DSolver:
             R = 0.5 * B
             inside_node = grid.x[:, None] ** 2 + (grid.y[None, :] - R) ** 2 <= R * R * (1 + 1e-12)
             solid = inside_node[:-1, :-1] & inside_node[1:, :-1] & inside_node[1:, 1:] & inside_node[:-1, 1:]
+        elif self.longitudinal:
+            solid = track_side_view_cells(grid, self.scene.geometry)
         else:
             solid = (grid.xc[:, None] < 0.5 * B) & (grid.yc[None, :] > 0.0)
         touching = np.zeros((grid.nx + 1, grid.ny + 1), dtype=int)
@@ -237,9 +269,12 @@ class Cel2DSolver:
         phi, q = geostatic_state(grid, rho, grav, elastic.k0, d0, solid)
         vol = K.cell_volumes(x, y, self.axisym)
 
-        # the model carries a share of the body: plane strain per metre of L, half-section;
-        # axisymmetric per radian
-        scale = 2.0 * math.pi if self.axisym else 2.0 * body_cfg.contact_length_m
+        # the model carries a share of the body: the half-section per metre of the out-of-plane
+        # length (L for the cross-section, B for the longitudinal view); axisymmetric per radian
+        if self.axisym:
+            scale = 2.0 * math.pi
+        else:
+            scale = 2.0 * (body_cfg.width_m if self.longitudinal else body_cfg.contact_length_m)
         drop = landing.kind == "drop"
         par = stepper_parameters(
             dt=dt, density=rho, elastic=elastic, h=self.h, gravity=grav, su0=soil.su0_pa, ks=soil.ks_pa_per_m,
