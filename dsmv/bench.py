@@ -1,0 +1,355 @@
+"""``dsmv-bench``: run time against error, throughput, and what each economy saves — as figures.
+
+Three parts, every timing a median of repeats and every ratio measured in the same run:
+
+1. **Run time against error.** The Prandtl strip (q/su at s = 0.05·B against 2 + π) and the
+   default landing (max sinkage against a fine-mesh reference run, computed once and cached
+   in ``runs/bench/``) over core cell sizes, then one solver knob at a time around the
+   default (CFL number, advection order, hourglass and bulk-viscosity coefficients). The
+   Pareto front (no other setting both faster and more accurate) is drawn, and the default
+   is placed on it.
+2. **Throughput.** Cell-updates per second against grid size (cost should grow linearly with
+   cells × steps: the fitted exponent is reported), one Numba thread against two, and the
+   cold start (compile) against the warm one (cache), each in a fresh process.
+3. **Skipping.** Each economy of the solver switched off and on in the same run, with the
+   speed-up and the change in the result.
+
+Writes ``bench.md`` (the tables), ``bench.csv`` (every run) and ``bench.png`` under
+``--out`` (default ``runs/bench``). ``--quick`` runs a short version (coarser levels, one
+repeat) in under three minutes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+PRANDTL_NC = 2.0 + math.pi  # exact bearing factor of a strip on weightless Tresca soil (Prandtl 1920)
+
+#: the Prandtl case: rough strip B = 1 m on weightless Tresca soil (su 10 kPa, E = 500·su),
+#: pushed quasi-statically just past s = 0.05·B (verify_prandtl, shortened)
+PRANDTL = ["solver=cel2d", "geometry=strip", "landing=push", "soil.su0_pa=10000", "soil.ks_pa_per_m=0",
+           "landing.velocity_m_s=0.1", "landing.displacement_m=0.065", "landing.gravity_m_s2=0"]
+#: the default landing on the CEL solver
+LANDING = ["solver=cel2d"]
+COMMON = ["tracking=disabled", "output.plots=false", "solver.progress=off"]
+#: economies are timed on/off interleaved at least this often: their gains can be a few per cent
+ECONOMY_REPEATS = 3
+
+
+@dataclass
+class Plan:
+    """What a bench run covers; --quick shrinks it."""
+
+    prandtl_cells_m: list[float]
+    landing_cells_m: list[float]
+    reference_cell_m: float
+    knob_cell_m: float
+    knobs: dict[str, list]
+    throughput_cells_m: list[float]
+    repeats: int
+
+
+FULL = Plan(
+    prandtl_cells_m=[0.1, 0.05, 0.025],
+    landing_cells_m=[0.08, 0.06, 0.04, 0.03],
+    reference_cell_m=0.02,
+    knob_cell_m=0.04,
+    knobs={"solver.cfl": [0.25, 0.9], "solver.advection_order": [1], "solver.hourglass": [0.02, 0.1],
+           "solver.bulk_viscosity_linear": [0.03, 0.12], "solver.bulk_viscosity_quadratic": [0.6, 2.4]},
+    throughput_cells_m=[0.08, 0.06, 0.04, 0.03],
+    repeats=3,
+)
+QUICK = Plan(
+    prandtl_cells_m=[0.1, 1 / 15],
+    landing_cells_m=[0.08, 0.06],
+    reference_cell_m=0.04,
+    knob_cell_m=0.08,
+    knobs={"solver.cfl": [0.9], "solver.advection_order": [1]},
+    throughput_cells_m=[0.08, 0.06, 0.04],
+    repeats=1,
+)
+
+
+@dataclass
+class Row:
+    """One benchmarked setting: its result, its error and its median wall time."""
+
+    part: str
+    label: str
+    overrides: list[str]
+    value: float = math.nan        # the result: q/su at 0.05 B, or max sinkage (m)
+    error: float = math.nan        # relative error against the exact or the reference value
+    wall_s: float = math.nan       # median over repeats (s), compile excluded
+    cells: float = math.nan
+    steps: float = math.nan
+    cell_updates_per_s: float = math.nan
+    status: str = ""
+    extra: dict = field(default_factory=dict)
+
+
+def compose_scene(overrides: list[str]):
+    """The validated scene of ``overrides``, composed from conf/ exactly as the CLI does."""
+    from hydra import compose, initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+
+    from dsmv.cli import CONFIG_DIR
+    from dsmv.scene import build_scene
+
+    GlobalHydra.instance().clear()
+    with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):
+        cfg = compose("config", overrides=list(overrides))
+    GlobalHydra.instance().clear()
+    return build_scene(cfg)
+
+
+def solve(overrides: list[str], repeats: int, run_dir: Path | None = None) -> tuple[dict, str, list[float]]:
+    """Run a scene ``repeats`` times in this process; metrics of the last run, status, wall times (s)."""
+    from dsmv.cel.solver import Cel2DSolver
+
+    walls, metrics, status = [], {}, ""
+    for _ in range(repeats):
+        scene = compose_scene(overrides + COMMON)
+        result = Cel2DSolver(scene).solve(run_dir)
+        walls.append(result.metrics.get("wall_s", math.nan))
+        metrics, status = result.metrics, result.status
+    return metrics, status, walls
+
+
+def measured(part: str, label: str, overrides: list[str], repeats: int, truth: float, metric: str,
+             run_dir: Path | None = None) -> Row:
+    metrics, status, walls = solve(overrides, repeats, run_dir)
+    value = metrics.get(metric, math.nan)
+    row = Row(part, label, overrides, value=value, error=abs(value / truth - 1), wall_s=statistics.median(walls),
+              cells=metrics.get("cells", math.nan), steps=metrics.get("steps", math.nan), status=status)
+    row.cell_updates_per_s = row.cells * max(row.steps - 1, 1) / row.wall_s
+    print(f"  {part:<10} {label:<34} {metric} = {value:.5g}  error {row.error:7.2%}  wall {row.wall_s:7.2f} s  "
+          f"[{status}]", flush=True)
+    return row
+
+
+def landing_reference(plan: Plan, out: Path) -> float:
+    """Max sinkage of the default landing on the reference mesh (m), cached in ``out``."""
+    cache = out / f"reference_landing_{plan.reference_cell_m:g}m.json"
+    if cache.exists():
+        return json.loads(cache.read_text())["max_sinkage_m"]
+    print(f"  reference: default landing on {plan.reference_cell_m:g} m core cells (computed once, cached)")
+    metrics, status, _ = solve(LANDING + [f"mesh.cell_size_m={plan.reference_cell_m}"], 1)
+    if status != "ok":
+        raise SystemExit(f"dsmv-bench: the reference landing ended '{status}'")
+    cache.write_text(json.dumps({"max_sinkage_m": metrics["max_sinkage_m"], "cell_size_m": plan.reference_cell_m,
+                                 "wall_s": metrics["wall_s"]}) + "\n")
+    return metrics["max_sinkage_m"]
+
+
+def pareto_front(rows: list[Row]) -> list[Row]:
+    """Rows no other row beats on both wall time and error, fastest first."""
+    ok = sorted((r for r in rows if math.isfinite(r.error) and math.isfinite(r.wall_s)), key=lambda r: (r.wall_s, r.error))
+    front, best = [], math.inf
+    for row in ok:
+        if row.error < best:
+            front.append(row)
+            best = row.error
+    return front
+
+
+def cost_exponent(rows: list[Row]) -> float:
+    """Slope of log(wall) against log(cells × steps): 1 when cost grows linearly with the work."""
+    work = np.log([r.cells * r.steps for r in rows])
+    wall = np.log([r.wall_s for r in rows])
+    return float(np.polyfit(work, wall, 1)[0]) if len(rows) > 1 else math.nan
+
+
+def in_subprocess(overrides: list[str], env: dict) -> dict:
+    """Run one scene through the CLI in a fresh process; its result.json metrics."""
+    with tempfile.TemporaryDirectory() as scratch:
+        command = [str(Path(sys.executable).parent / "dsmv"), *overrides, *COMMON, f"hydra.run.dir={scratch}/run"]
+        done = subprocess.run(command, env={**os.environ, **env}, capture_output=True, text=True, cwd=scratch)
+        if done.returncode != 0:
+            raise SystemExit(f"dsmv-bench: a subprocess run failed:\n{done.stderr[-2000:]}")
+        return json.loads((Path(scratch) / "run" / "result.json").read_text())["metrics"]
+
+
+def economies(plan: Plan, reference: float) -> list[dict]:
+    """Each economy off and on in the same run: speed-up (off/on wall time) and result change."""
+    from dsmv.scene import OutputConfig
+
+    cell = [f"mesh.cell_size_m={plan.knob_cell_m}"]
+    cases = [
+        ("no softening or rate arithmetic for Tresca", LANDING + cell, ["solver.economies.skip_inactive_law=false"]),
+        ("stop when the body has come to rest", LANDING + cell, ["solver.economies.stop_at_rest=false"]),
+        # off: a domain sized for the largest sinkage of Table 3's design (about 1 m) instead of this scene's
+        ("domain sized from the analytic estimate", LANDING + cell, ["solver.initial_travel_m=1.0"]),
+    ]
+    if "fields" in OutputConfig.model_fields:
+        cases.append(("no field output unless asked", LANDING + cell, ["output.fields=true"]))
+    rows = []
+    repeats = max(plan.repeats, ECONOMY_REPEATS)
+    for name, base, switch_off in cases:
+        on_walls, off_walls = [], []
+        with tempfile.TemporaryDirectory() as scratch:
+            for _ in range(repeats):  # interleaved, so that a load change hits both alike
+                on_metrics, _, wall = solve(base, 1, Path(scratch))
+                on_walls += wall
+                off_metrics, _, wall = solve(base + switch_off, 1, Path(scratch))
+                off_walls += wall
+        on, off = statistics.median(on_walls), statistics.median(off_walls)
+        change = abs(off_metrics["max_sinkage_m"] / on_metrics["max_sinkage_m"] - 1)
+        rows.append({"economy": name, "switch_off": " ".join(switch_off), "wall_on_s": on, "wall_off_s": off,
+                     "speed_up": off / on, "result_change": change})
+        print(f"  economy    {name:<44} speed-up {off / on:5.2f}x  result change {change:.2e}", flush=True)
+    for name, why in (("symmetry plane on the body's axis", "always on: there is no full model to compare"),
+                      ("void and far-field cells at rest skipped", "not implemented yet")):
+        rows.append({"economy": name, "switch_off": why, "wall_on_s": math.nan, "wall_off_s": math.nan,
+                     "speed_up": math.nan, "result_change": math.nan})
+    return rows
+
+
+def threads_and_compile(plan: Plan) -> dict:
+    """1 against 2 Numba threads, and a cold compile against a warm cache, each in a fresh process."""
+    overrides = LANDING + [f"mesh.cell_size_m={plan.knob_cell_m}"]
+    figures = {}
+    with tempfile.TemporaryDirectory() as cache:
+        cold = in_subprocess(overrides, {"NUMBA_CACHE_DIR": cache, "NUMBA_NUM_THREADS": "1"})
+        warm = in_subprocess(overrides, {"NUMBA_CACHE_DIR": cache, "NUMBA_NUM_THREADS": "1"})
+        two = in_subprocess(overrides, {"NUMBA_CACHE_DIR": cache, "NUMBA_NUM_THREADS": "2"})
+    figures["compile_cold_s"], figures["compile_warm_s"] = cold["compile_s"], warm["compile_s"]
+    figures["wall_1_thread_s"], figures["wall_2_threads_s"] = warm["wall_s"], two["wall_s"]
+    figures["speed_up_2_threads"] = warm["wall_s"] / two["wall_s"]
+    print(f"  compile    cold {cold['compile_s']:.2f} s, warm {warm['compile_s']:.2f} s; "
+          f"2 threads {figures['speed_up_2_threads']:.2f}x of 1", flush=True)
+    return figures
+
+
+def write_outputs(out: Path, rows: list[Row], economy_rows: list[dict], figures: dict, plan: Plan,
+                  landing_ref: float) -> None:
+    with (out / "bench.csv").open("w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(["part", "label", "value", "error", "wall_s", "cells", "steps", "cell_updates_per_s",
+                         "status", "overrides"])
+        for r in rows:
+            writer.writerow([r.part, r.label, r.value, r.error, r.wall_s, r.cells, r.steps, r.cell_updates_per_s,
+                             r.status, " ".join(r.overrides)])
+    lines = [f"# dsmv-bench ({'quick' if plan.repeats == 1 else 'full'}, medians of {plan.repeats} repeat(s))", ""]
+    for part, what in (("prandtl", f"Prandtl: q/su at s = 0.05·B against 2 + π = {PRANDTL_NC:.4f}"),
+                       ("landing", f"Default landing: max sinkage against the {plan.reference_cell_m:g} m mesh "
+                                   f"({landing_ref:.4f} m)"),
+                       ("knob", f"One knob at a time around the default ({plan.knob_cell_m:g} m cells), same reference")):
+        part_rows = [r for r in rows if r.part == part]
+        front = {id(r) for r in pareto_front([r for r in rows if r.part in ("landing", "knob")] if part != "prandtl"
+                                             else part_rows)}
+        lines += [f"## {what}", "", "| setting | result | error | wall (s) | cells | steps | M cell-updates/s | Pareto |",
+                  "|---|---|---|---|---|---|---|---|"]
+        for r in part_rows:
+            lines.append(f"| {r.label} | {r.value:.5g} | {r.error:.2%} | {r.wall_s:.2f} | {r.cells:.0f} | {r.steps:.0f} "
+                         f"| {r.cell_updates_per_s / 1e6:.2f} | {'yes' if id(r) in front else ''} |")
+        lines.append("")
+    sizes = [r for r in rows if r.part == "landing"]
+    lines += ["## Throughput", "",
+              f"- cost against work (cells × steps), fitted exponent over the landing meshes: "
+              f"**{figures['cost_exponent']:.2f}** (1 = linear)",
+              f"- 2 Numba threads against 1: **{figures['speed_up_2_threads']:.2f}×** "
+              f"({figures['wall_1_thread_s']:.2f} s against {figures['wall_2_threads_s']:.2f} s; the kernels are serial)",
+              f"- compile: cold **{figures['compile_cold_s']:.2f} s**, warm (cache) **{figures['compile_warm_s']:.2f} s**",
+              "- cell-updates per second by mesh: " + ", ".join(
+                  f"{r.label} {r.cell_updates_per_s / 1e6:.2f} M/s" for r in sizes), "",
+              "## Skipping", "", "| economy | switched off by | speed-up (off/on) | result change |", "|---|---|---|---|"]
+    for e in economy_rows:
+        speed = f"{e['speed_up']:.2f}×" if math.isfinite(e["speed_up"]) else "—"
+        change = f"{e['result_change']:.1e}" if math.isfinite(e["result_change"]) else "—"
+        lines.append(f"| {e['economy']} | {e['switch_off']} | {speed} | {change} |")
+    (out / "bench.md").write_text("\n".join(lines) + "\n")
+    plot(out / "bench.png", rows, figures)
+
+
+def plot(path: Path, rows: list[Row], figures: dict) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (prandtl_ax, landing_ax, rate_ax) = plt.subplots(1, 3, figsize=(15, 4.5), constrained_layout=True)
+    for ax, parts, title in ((prandtl_ax, ("prandtl",), "Prandtl: q/su at 0.05·B against 2 + π"),
+                             (landing_ax, ("landing", "knob"), "default landing against the reference mesh")):
+        chosen = [r for r in rows if r.part in parts]
+        for r in chosen:
+            marker = "o" if r.part != "knob" else "s"
+            ax.plot(r.wall_s, 100 * r.error, marker, color="tab:blue" if r.part != "knob" else "tab:orange")
+            ax.annotate(r.label, (r.wall_s, 100 * r.error), fontsize=7, xytext=(3, 3), textcoords="offset points")
+        front = pareto_front(chosen)
+        ax.plot([r.wall_s for r in front], [100 * r.error for r in front], "k--", lw=1, label="Pareto front")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("wall time (s)")
+        ax.set_ylabel("relative error (%)")
+        ax.set_title(title, fontsize=9)
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3, which="both")
+    sizes = [r for r in rows if r.part in ("landing", "throughput")]
+    rate_ax.plot([r.cells for r in sizes], [r.cell_updates_per_s / 1e6 for r in sizes], "o-")
+    rate_ax.set_xscale("log")
+    rate_ax.set_xlabel("cells")
+    rate_ax.set_ylabel("M cell-updates / s (1 thread)")
+    rate_ax.set_title(f"throughput; cost exponent {figures['cost_exponent']:.2f}", fontsize=9)
+    rate_ax.grid(alpha=0.3, which="both")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(prog="dsmv-bench", description="Run time against error, throughput and "
+                                     "skipping of the CEL solver, as tables and a plot under --out.")
+    parser.add_argument("--quick", action="store_true", help="a short version (under three minutes)")
+    parser.add_argument("--out", default="runs/bench", help="output folder (default runs/bench)")
+    args = parser.parse_args(argv)
+    plan = QUICK if args.quick else FULL
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    started = time.perf_counter()
+
+    print("dsmv-bench: warming the compiled kernels", flush=True)
+    solve(LANDING + ["mesh.cell_size_m=0.08"], 1)
+    rows: list[Row] = []
+    print("run time against error", flush=True)
+    for h in plan.prandtl_cells_m:
+        rows.append(measured("prandtl", f"B/{round(1 / h)}", PRANDTL + [f"mesh.cell_size_m={h}"], plan.repeats,
+                             PRANDTL_NC, "nc_at_0p05B"))
+    reference = landing_reference(plan, out)
+    for h in plan.landing_cells_m:
+        rows.append(measured("landing", f"{h:g} m cells", LANDING + [f"mesh.cell_size_m={h}"], plan.repeats,
+                             reference, "max_sinkage_m"))
+    base = [f"mesh.cell_size_m={plan.knob_cell_m}"]
+    if plan.knob_cell_m not in plan.landing_cells_m:
+        rows.append(measured("knob", "default", LANDING + base, plan.repeats, reference, "max_sinkage_m"))
+    for knob, values in plan.knobs.items():
+        for value in values:
+            rows.append(measured("knob", f"{knob.split('.')[-1]}={value}", LANDING + base + [f"{knob}={value}"],
+                                 plan.repeats, reference, "max_sinkage_m"))
+    print("throughput", flush=True)
+    for h in plan.throughput_cells_m:
+        if h not in plan.landing_cells_m:
+            rows.append(measured("throughput", f"{h:g} m cells", LANDING + [f"mesh.cell_size_m={h}"], plan.repeats,
+                                 reference, "max_sinkage_m"))
+    figures = threads_and_compile(plan)
+    figures["cost_exponent"] = cost_exponent([r for r in rows if r.part in ("landing", "throughput")])
+    print("skipping", flush=True)
+    economy_rows = economies(plan, reference)
+    write_outputs(out, rows, economy_rows, figures, plan, reference)
+    print(f"dsmv-bench: wrote {out / 'bench.md'}, bench.csv and bench.png in {time.perf_counter() - started:.0f} s")
+
+
+if __name__ == "__main__":
+    main()
