@@ -90,7 +90,7 @@ def run_job(cfg: DictConfig) -> dict:
 
 
 def write_outputs(scene: Scene, result: SolveResult, run_dir: Path) -> list[Path]:
-    """result.json, the history CSV and its plot, and the resolved config: the files of a job."""
+    """result.json, the history CSV and its plot, the fields and their contours, the resolved config: the files of a job."""
     files = [write_result(run_dir, result, scene.solver.name, scene.soil.law, scene.config_hash)]
     if result.history is not None:
         files.append(write_history(run_dir, result.history))
@@ -100,6 +100,17 @@ def write_outputs(scene: Scene, result: SolveResult, run_dir: Path) -> list[Path
             title = (f"{scene.solver.name}: {scene.soil.name} ({scene.soil.law}), {scene.geometry.name}, "
                      f"{scene.landing.kind} — {result.status}")
             files.append(plot_history(result.history, run_dir / HISTORY_PLOT_FILE, title))
+    if scene.output.fields:  # written by a solver that keeps fields (CEL); the others write none
+        from dsmv import fields
+
+        field_files = fields.written_files(run_dir)
+        files += field_files
+        if field_files and scene.output.plots:
+            from dsmv.plots import FIELD_PLOT_FILE, plot_field_contours
+
+            title = f"{scene.soil.name} ({scene.soil.law}), {scene.geometry.name} — {result.status}"
+            files.append(plot_field_contours(run_dir / fields.MAX_SINKAGE_FRAME, run_dir / FIELD_PLOT_FILE, title,
+                                             fields.penetration_frame(run_dir, result.history)))
     files.append(run_dir / RESOLVED_CONFIG_FILE)
     return files
 

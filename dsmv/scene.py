@@ -247,9 +247,11 @@ class MeshConfig(Schema):
 
 
 class OutputConfig(Schema):
-    """What a run writes besides result.json and the history CSV."""
+    """What a run writes besides result.json and the history CSV (see :mod:`dsmv.fields`)."""
 
-    plots: bool = True
+    plots: bool = Field(True, description="history.png; with fields, the contour PNG too")
+    fields: bool = Field(False, description="CEL: fields.pvd and fields/*.vtu for ParaView")
+    field_frames: Count = Field(20, ge=1, description="evenly spaced frames: N to 2N of them, plus the deepest (-)")
 
 
 class TrackingConfig(Schema):

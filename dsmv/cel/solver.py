@@ -342,6 +342,14 @@ class Cel2DSolver:
         else:
             duration = landing.displacement_m / landing.velocity_m_s
         chunk = max(1, int(duration / dt / cfg.history_samples))
+        recorder = None  # field output: snapshots between chunks, only when asked for
+        if scene.output.fields and run_dir is not None:
+            from dsmv.fields import FieldRecorder
+
+            recorder = FieldRecorder(grid, solid, self.law, soil, axisym=self.axisym, tresca=ipar[S.I_TRESCA] == 1,
+                                     stress_cutoff=cfg.stress_cutoff, frames=scene.output.field_frames,
+                                     spacing_s=chunk * dt)
+            recorder.sample(0.0, 0.0, phi, q, vx, vy)
 
         t_start = time.perf_counter()
         done, code = advance(1)  # first call compiles (or loads the cache)
@@ -366,6 +374,8 @@ class Cel2DSolver:
             history["sinkage_m"].append(sinkage)
             history["velocity_m_s"].append(-body[S.B_VEL])
             history["force_n"].append(force)
+            if recorder is not None:
+                recorder.sample(body[S.B_TIME], sinkage, phi, q, vx, vy)
             if code == S.NOT_FINITE or not (np.isfinite(vy).all() and np.isfinite(q).all()):
                 status, message = "unstable", (
                     f"a non-finite value appeared at t = {body[S.B_TIME]:.4g} s; lower solver.cfl "
@@ -423,6 +433,9 @@ class Cel2DSolver:
                 print(f"\r  t = {body[S.B_TIME]:.4f} s  sinkage {sinkage:.4f} m  "
                       f"velocity {-body[S.B_VEL]:.3f} m/s  {rate:,.0f} steps/s", end="", file=sys.stderr)
         wall_s = time.perf_counter() - t_run
+        if recorder is not None:
+            recorder.sample(body[S.B_TIME], -body[S.B_OFFSET], phi, q, vx, vy, final=True)
+            recorder.write(run_dir)
         if show:
             print(file=sys.stderr)
 

@@ -1,0 +1,298 @@
+"""Field output of the CEL solver: snapshots between compiled chunks, written for ParaView.
+
+``output.fields=true`` makes a CEL run write, into its job directory,
+
+- ``fields.pvd``: a ParaView collection that lists the frames with their simulated times;
+- ``fields/frame_NNNN.vtu``: one unstructured-grid file per frame (quads, binary, zlib);
+- ``fields/max_sinkage.vtu``: the frame at the deepest point of the run, listed in the
+  collection at its time like the others.
+
+Why VTU frames and a PVD rather than an XDMF time series: the grid moves with the body, so
+every frame has its own node positions. meshio's XDMF ``TimeSeriesWriter`` stores one mesh
+for all steps, which would leave the user to shift each step by the body's offset in
+ParaView by hand; VTU frames carry their true positions, need no HDF5 (h5py), and each one
+opens on its own with ``meshio.read``.
+
+Coordinates are in the fixed (laboratory) frame: x across the section from the symmetry
+axis (the radius r in axisymmetry), y upwards with y = 0 at the body's base at touchdown
+(the mudline when ``landing.initial_depth_m`` = 0). Each frame's nodes are the grid's nodes
+shifted by the body's displacement at that instant. Units are SI.
+
+Cell data (float32):
+
+===================================  ====  ======================================================
+``volume_fraction``                  -     soil volume per cell volume φ (compressed soil: > 1)
+``stress_xx_pa`` … ``stress_zz_pa``  Pa    the soil's own stress, tension positive; zz is the
+                                           out-of-plane stress (the hoop stress in axisymmetry)
+``su_pa``                            Pa    current undrained strength (su_intact(z0)·law factor)
+``mobilised_strength``               -     √J2/su (Tresca: (σ1 − σ3)/(2·su)); 1 at yield
+``plastic_shear_strain``             -     ξ, the accumulated plastic shear strain
+``shear_strain_rate_per_s``          1/s   γ̇ = ε̇1 − ε̇3, the rate the soil law sees
+``plastic_shear_strain_rate_per_s``  1/s   γ̇ where the soil is at yield, 0 where it is elastic
+``initial_depth_m``                  m     z0, the depth where the cell's soil started
+``body``                             -     1 in cells inside the rigid body
+===================================  ====  ======================================================
+
+Point data: ``velocity_m_s`` (n, 3), the nodal material velocity in the laboratory frame
+(the solver's own nodal values, z component 0; empty nodes carry 0). Field data per frame:
+``time_s``, ``sinkage_m`` (the body's downward displacement).
+
+Snapshots cost nothing when output is off: the solver creates no recorder and its loop
+only checks for ``None`` between chunks. When on, the solver calls :meth:`FieldRecorder.sample`
+between compiled chunks (never inside a kernel): a frame is a copy of φ, the cell state and
+the nodal velocities; the derived fields are computed when the frames are written.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from dsmv.cel import kernels as K
+
+FIELDS_FILE = "fields.pvd"
+FIELDS_DIR = "fields"
+MAX_SINKAGE_FRAME = f"{FIELDS_DIR}/max_sinkage.vtu"
+
+STRESS_NAMES = {K.SXX: "stress_xx_pa", K.SYY: "stress_yy_pa", K.SXY: "stress_xy_pa", K.SZZ: "stress_zz_pa"}
+
+#: a cell counts as yielding when its mobilised strength √J2/su is at least this. The return
+#: puts a yielding cell on the surface exactly; between the return and the snapshot the remap
+#: blends it with its neighbours and the rate factor moves with γ̇, which leaves yielding cells
+#: within a few 0.1 % of 1 (measured on the default landing, coarse and medium meshes), far
+#: above the elastic cells around them.
+YIELD_RATIO = 0.99
+
+
+def shear_strain_rate(x, y, vx, vy, axisym: bool) -> np.ndarray:
+    """Shear strain rate γ̇ = ε̇1 − ε̇3 per cell (1/s) from nodal velocities (m/s).
+
+    The one-point (cell-centre) rule of the stress update in :mod:`dsmv.cel.kernels`: the
+    in-plane principal rates and, in axisymmetry, the hoop rate v_r/r.
+    """
+    dx, dy = np.diff(x)[:, None], np.diff(y)[None, :]
+    v0, v1, v2, v3 = (vx[:-1, :-1], vx[1:, :-1], vx[1:, 1:], vx[:-1, 1:])
+    w0, w1, w2, w3 = (vy[:-1, :-1], vy[1:, :-1], vy[1:, 1:], vy[:-1, 1:])
+    dxx = (v1 + v2 - v0 - v3) / (2.0 * dx)
+    dyy = (w2 + w3 - w0 - w1) / (2.0 * dy)
+    dxy = 0.5 * ((v2 + v3 - v0 - v1) / (2.0 * dy) + (w1 + w2 - w0 - w3) / (2.0 * dx))
+    ring = np.sqrt(0.25 * (dxx - dyy) ** 2 + dxy**2)
+    dzz = 0.25 * (v0 + v1 + v2 + v3) / (0.5 * (x[1:] + x[:-1])[:, None]) if axisym else 0.0
+    hi = np.maximum(0.5 * (dxx + dyy) + ring, dzz)
+    lo = np.minimum(0.5 * (dxx + dyy) - ring, dzz)
+    return hi - lo
+
+
+def mobilised_strength(q: np.ndarray, su: np.ndarray, tresca: bool) -> np.ndarray:
+    """The stress over the strength (-): √J2/su, or (σ1 − σ3)/(2·su) on Tresca's surface; 0 where su = 0."""
+    sxx, syy, sxy, szz = q[K.SXX], q[K.SYY], q[K.SXY], q[K.SZZ]
+    if tresca:
+        centre, radius = 0.5 * (sxx + syy), np.sqrt(0.25 * (sxx - syy) ** 2 + sxy**2)
+        s1 = np.maximum(centre + radius, szz)
+        s3 = np.minimum(centre - radius, szz)
+        shear = 0.5 * (s1 - s3)
+    else:
+        p = (sxx + syy + szz) / 3.0
+        shear = np.sqrt(0.5 * ((sxx - p) ** 2 + (syy - p) ** 2 + (szz - p) ** 2) + sxy**2)
+    return np.divide(shear, su, out=np.zeros_like(shear), where=su > 0.0)
+
+
+@dataclass
+class _Snapshot:
+    """The raw state at one instant: copies, so the solver can go on."""
+
+    time_s: float
+    sinkage_m: float
+    phi: np.ndarray
+    q: np.ndarray
+    vx: np.ndarray
+    vy: np.ndarray
+
+
+class FieldRecorder:
+    """Frames of a CEL run at evenly spaced simulated times, plus the deepest instant.
+
+    A frame is taken at the first chunk end past each multiple of the spacing, which starts
+    at ``spacing_s`` (one chunk: a frame per chunk). Whenever more than ``2·frames`` frames
+    after t = 0 pile up, every other one is dropped and the spacing doubled. So a run of any
+    length, known beforehand or not, ends with ``frames`` to ``2·frames`` evenly spaced
+    frames after the one at t = 0 (fewer only if it has fewer chunks), the last at its end;
+    a frame's time is a chunk end, and every frame carries its true time. The deepest state
+    met at a chunk end is kept as well (a drop's velocity turns within its last chunk, so
+    that state can lie a chunk before the end).
+
+    ``grid``: the solver's :class:`~dsmv.cel.grid.Grid`; ``solid``: cells inside the body;
+    ``law``: the soil-law plugin; ``soil``: the soil config (su0, ks); ``tresca``: the
+    solver's yield surface; ``stress_cutoff``: the volume fraction below which a cell carries
+    no stress (derived fields are 0 there).
+    """
+
+    def __init__(self, grid, solid, law, soil, *, axisym: bool, tresca: bool, stress_cutoff: float,
+                 frames: int, spacing_s: float):
+        self.grid, self.solid, self.law, self.soil = grid, solid, law, soil
+        self.axisym, self.tresca, self.stress_cutoff = axisym, tresca, stress_cutoff
+        self.frames = frames
+        self.spacing_s = spacing_s
+        self.taken: list[tuple[int, _Snapshot]] = []  # (multiple of the spacing, snapshot)
+        self.deepest: _Snapshot | None = None
+
+    @staticmethod
+    def _copy(time_s, sinkage_m, phi, q, vx, vy, into: _Snapshot | None = None) -> _Snapshot:
+        if into is None:
+            return _Snapshot(time_s, sinkage_m, phi.copy(), q.copy(), vx.copy(), vy.copy())
+        for target, source in ((into.phi, phi), (into.q, q), (into.vx, vx), (into.vy, vy)):
+            np.copyto(target, source)
+        into.time_s, into.sinkage_m = time_s, sinkage_m
+        return into
+
+    def sample(self, time_s: float, sinkage_m: float, phi, q, vx, vy, final: bool = False) -> None:
+        """Look at the state between two chunks; copy it when a frame is due (``final``: the run's end)."""
+        if self.deepest is None or sinkage_m >= self.deepest.sinkage_m:
+            self.deepest = self._copy(time_s, sinkage_m, phi, q, vx, vy, self.deepest)
+        # which multiple of the spacing this is; the nudge keeps a time that sums up to a
+        # multiple from landing a round-off below it
+        k = int(math.floor(time_s / self.spacing_s + 1e-9))
+        if self.taken and (self.taken[-1][1].time_s == time_s or (k <= self.taken[-1][0] and not final)):
+            return
+        self.taken.append((k, self._copy(time_s, sinkage_m, phi, q, vx, vy)))
+        if len(self.taken) > 2 * self.frames + 1 and not final:  # + 1: the frame at t = 0
+            self.taken = [(j // 2, s) for j, s in self.taken if j % 2 == 0]
+            self.spacing_s *= 2.0
+
+    # ------------------------------------------------------------------ writing
+
+    def cell_fields(self, snap: _Snapshot) -> dict[str, np.ndarray]:
+        """The derived cell fields of one snapshot, (nx, ny) arrays by output name."""
+        x, y = self.grid.x, self.grid.y
+        phi, q = snap.phi, snap.q
+        soil = phi > self.stress_cutoff
+        rate = np.where(soil, shear_strain_rate(x, y, snap.vx, snap.vy, self.axisym), 0.0)
+        su = np.maximum(self.soil.su0_pa + self.soil.ks_pa_per_m * q[K.Z0], 0.0)
+        if self.law.active:  # as in the stress update: an inactive law's factor is 1
+            su = su * self.law.strength_factor(q[K.XI], rate)
+        su = np.where(soil, su, 0.0)
+        ratio = mobilised_strength(q, su, self.tresca)
+        out = {"volume_fraction": phi}
+        out |= {name: q[k] for k, name in STRESS_NAMES.items()}
+        out |= {
+            "su_pa": su,
+            "mobilised_strength": ratio,
+            "plastic_shear_strain": q[K.XI],
+            "shear_strain_rate_per_s": rate,
+            "plastic_shear_strain_rate_per_s": np.where(ratio >= YIELD_RATIO, rate, 0.0),
+            "initial_depth_m": q[K.Z0],
+            "body": self.solid.astype(float),
+        }
+        return out
+
+    def _mesh(self, snap: _Snapshot):
+        import meshio
+
+        x, y = self.grid.x, self.grid.y
+        nx, ny = len(x) - 1, len(y) - 1
+        px, py = np.meshgrid(x, y - snap.sinkage_m, indexing="ij")  # node (i, j) is point i·(ny+1) + j
+        points = np.column_stack([px.ravel(), py.ravel(), np.zeros(px.size)])
+        node = np.arange(points.shape[0]).reshape(nx + 1, ny + 1)
+        quads = np.stack([node[:-1, :-1], node[1:, :-1], node[1:, 1:], node[:-1, 1:]], axis=-1).reshape(-1, 4)
+        cells = {name: [np.ascontiguousarray(v, dtype=np.float32).ravel()] for name, v in self.cell_fields(snap).items()}
+        velocity = np.column_stack([snap.vx.ravel(), snap.vy.ravel(), np.zeros(snap.vx.size)]).astype(np.float32)
+        return meshio.Mesh(points, [("quad", quads)], cell_data=cells, point_data={"velocity_m_s": velocity})
+
+    @staticmethod
+    def _write_frame(mesh, path: Path, snap: _Snapshot) -> None:
+        """Write a VTU frame with time and sinkage as VTK field data.
+
+        meshio's VTU writer drops ``field_data`` (its reader keeps it), so the two values go
+        in as an ASCII ``FieldData`` block of the grid, where VTK and ParaView look for them.
+        """
+        mesh.write(path, file_format="vtu")
+        arrays = "".join(f'<DataArray type="Float64" Name="{name}" NumberOfTuples="1" format="ascii">{value!r}'
+                         f"</DataArray>" for name, value in (("time_s", float(snap.time_s)),
+                                                               ("sinkage_m", float(snap.sinkage_m))))
+        text = path.read_text()
+        path.write_text(text.replace("<UnstructuredGrid>", f"<UnstructuredGrid>\n<FieldData>{arrays}</FieldData>", 1))
+
+    def write(self, run_dir: Path) -> list[Path]:
+        """Write the frames and the collection into ``run_dir``; return [fields.pvd, fields/]."""
+        run_dir = Path(run_dir)
+        folder = run_dir / FIELDS_DIR
+        folder.mkdir(parents=True, exist_ok=True)
+        frames = [(f"{FIELDS_DIR}/frame_{n:04d}.vtu", s) for n, (_, s) in enumerate(self.taken)]
+        deepest = self.deepest
+        same = [n for n, (_, s) in enumerate(frames) if s.time_s == deepest.time_s]
+        if same:  # the deepest instant is one of the frames: it takes the name
+            frames[same[0]] = (MAX_SINKAGE_FRAME, frames[same[0]][1])
+        else:
+            frames.append((MAX_SINKAGE_FRAME, deepest))
+            frames.sort(key=lambda item: item[1].time_s)
+        collection = ET.Element("VTKFile", type="Collection", version="0.1")
+        datasets = ET.SubElement(collection, "Collection")
+        for name, snap in frames:
+            self._write_frame(self._mesh(snap), run_dir / name, snap)
+            ET.SubElement(datasets, "DataSet", timestep=repr(float(snap.time_s)), part="0", file=name)
+        ET.indent(collection)
+        (run_dir / FIELDS_FILE).write_text(ET.tostring(collection, encoding="unicode") + "\n")
+        return [run_dir / FIELDS_FILE, folder]
+
+
+def written_files(run_dir: Path) -> list[Path]:
+    """The field output of a job, as files to log: [fields.pvd, fields/] (none when not written)."""
+    run_dir = Path(run_dir)
+    pvd = run_dir / FIELDS_FILE
+    return [pvd, run_dir / FIELDS_DIR] if pvd.exists() else []
+
+
+def series(run_dir: Path) -> list[tuple[float, Path]]:
+    """The frames listed in a job's fields.pvd: (time in s, path), in time order."""
+    root = ET.parse(Path(run_dir) / FIELDS_FILE).getroot()
+    return [(float(d.get("timestep")), Path(run_dir) / d.get("file")) for d in root.iter("DataSet")]
+
+
+#: the penetration frame: where the body first passed this fraction of its deepest sinkage
+PENETRATION_FRACTION = 0.5
+
+
+def penetration_frame(run_dir: Path, history: dict[str, np.ndarray]) -> Path | None:
+    """The frame nearest the time the body first passed half its deepest sinkage (None before any sinkage).
+
+    The soil's flow shows there; at the deepest point a landing body is at rest (the study's
+    Figure 3 shows the "penetration process" between the initial and the final state).
+    """
+    sinkage, time_s = np.asarray(history["sinkage_m"]), np.asarray(history["time_s"])
+    finite = np.isfinite(sinkage)
+    if not finite.any() or np.nanmax(sinkage) <= 0.0:
+        return None
+    t_mid = time_s[np.argmax(finite & (sinkage >= PENETRATION_FRACTION * np.nanmax(sinkage)))]
+    frames = series(run_dir)
+    return min(frames, key=lambda item: abs(item[0] - t_mid))[1]
+
+
+@dataclass
+class Frame:
+    """One frame read back on its rectilinear grid: node coordinates x (nx+1) and y (ny+1) in
+    the laboratory frame (m), cell fields (nx, ny), nodal velocity (nx+1, ny+1, 2) in m/s."""
+
+    x: np.ndarray
+    y: np.ndarray
+    cells: dict[str, np.ndarray]
+    velocity: np.ndarray
+    time_s: float
+    sinkage_m: float
+
+
+def read_frame(path: Path) -> Frame:
+    """Read a frame written by :class:`FieldRecorder` (points ordered node (i, j) → i·(ny+1) + j)."""
+    import meshio
+
+    mesh = meshio.read(path)
+    x = np.unique(mesh.points[:, 0])
+    ny1 = mesh.points.shape[0] // len(x)
+    y = mesh.points[:ny1, 1]
+    nx, ny = len(x) - 1, ny1 - 1
+    cells = {name: np.asarray(data[0], dtype=float).reshape(nx, ny) for name, data in mesh.cell_data.items()}
+    velocity = np.asarray(mesh.point_data["velocity_m_s"], dtype=float)[:, :2].reshape(nx + 1, ny + 1, 2)
+    return Frame(x, y, cells, velocity, float(mesh.field_data["time_s"][0]), float(mesh.field_data["sinkage_m"][0]))

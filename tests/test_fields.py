@@ -1,0 +1,153 @@
+"""Field output (``output.fields``): VTU frames and a ParaView collection, contour PNGs; off by default."""
+
+import json
+import xml.etree.ElementTree as ET
+
+import meshio
+import numpy as np
+import pytest
+
+from dsmv import fields, registry
+from dsmv.cel.grid import Grid
+from dsmv.errors import ConfigError
+from dsmv.plots import FIELD_PLOT_FILE
+from dsmv.scene import build_scene
+from tests.conftest import mlflow_runs
+from tests.test_end_to_end import job_dirs
+
+CELL_FIELDS = {
+    "volume_fraction", "stress_xx_pa", "stress_yy_pa", "stress_xy_pa", "stress_zz_pa", "su_pa",
+    "mobilised_strength", "plastic_shear_strain", "shear_strain_rate_per_s", "plastic_shear_strain_rate_per_s",
+    "initial_depth_m", "body",
+}
+#: soil compressed by its load holds a little more than its cell at rest (φ > 1): the bulk
+#: strain of a few tens of kPa on K ≈ 40 MPa (E = 500·su0, ν = 0.49) is about 1e-3
+PHI_COMPRESSED = 1.01
+
+
+def test_a_landing_with_fields_writes_a_paraview_series_and_contours(run_cli, tmp_path):
+    frames_asked = 5
+    proc = run_cli("dsmv", "solver=cel2d", "mesh=coarse", "output.fields=true", f"output.field_frames={frames_asked}")
+    assert proc.returncode == 0, proc.stderr
+    (job,) = job_dirs(tmp_path)
+    result = json.loads((job / "result.json").read_text())
+    assert result["status"] == "ok"
+
+    root = ET.parse(job / fields.FIELDS_FILE).getroot()
+    assert root.get("type") == "Collection"
+    frames = fields.series(job)
+    times = [t for t, _ in frames]
+    assert times[0] == 0.0 and all(np.diff(times) > 0)
+    assert times[-1] == pytest.approx(result["metrics"]["time_to_rest_s"], rel=1e-9)
+    # evenly spaced frames: N to 2N after t = 0, plus the end and the deepest instant
+    assert frames_asked + 1 <= len(frames) <= 2 * frames_asked + 3
+    assert job / fields.MAX_SINKAGE_FRAME in [p for _, p in frames]
+
+    first = meshio.read(frames[0][1])
+    for _, path in frames:
+        mesh = meshio.read(path)
+        n_cells = len(mesh.cells_dict["quad"])
+        assert set(mesh.cell_data) == CELL_FIELDS
+        assert all(len(v[0]) == n_cells for v in mesh.cell_data.values())
+        assert mesh.point_data["velocity_m_s"].shape == (len(mesh.points), 3)
+        phi = mesh.cell_data["volume_fraction"][0]
+        assert phi.min() >= 0.0 and phi.max() <= PHI_COMPRESSED
+        # each frame in the laboratory frame: the grid shifted down by the sinkage
+        sinkage = mesh.field_data["sinkage_m"][0]
+        assert mesh.points[:, 1].min() == pytest.approx(first.points[:, 1].min() - sinkage, abs=1e-9)
+    deepest = meshio.read(job / fields.MAX_SINKAGE_FRAME)
+    # the deepest chunk end: at most the deepest step, and the body was all but at rest there
+    assert deepest.field_data["sinkage_m"][0] == pytest.approx(result["metrics"]["max_sinkage_m"], rel=1e-3)
+    cells = {k: v[0] for k, v in deepest.cell_data.items()}
+    soil = cells["volume_fraction"] > 0.5
+    assert cells["plastic_shear_strain"][soil].max() > 0.1  # the soil under the track yielded
+    # Tresca: su is the intact strength of where the soil came from
+    su_intact = 5000.0 + 1500.0 * cells["initial_depth_m"]
+    assert cells["su_pa"][soil] == pytest.approx(su_intact[soil], rel=1e-5)
+
+    assert (job / FIELD_PLOT_FILE).stat().st_size > 10_000
+    (run,) = mlflow_runs(tmp_path)
+    from mlflow.tracking import MlflowClient
+
+    client = MlflowClient(f"sqlite:///{(tmp_path / 'runs' / 'mlflow.db').resolve()}")
+    logged = {a.path for a in client.list_artifacts(run.info.run_id)}
+    assert {fields.FIELDS_FILE, fields.FIELDS_DIR, FIELD_PLOT_FILE} <= logged
+    logged_frames = {a.path for a in client.list_artifacts(run.info.run_id, fields.FIELDS_DIR)}
+    assert len(logged_frames) == len(frames)
+
+
+@pytest.mark.parametrize("overrides", [["solver=cel2d", "solver.progress=off"], ["output.fields=true"]],
+                         ids=["cel2d_default", "analytic"])
+def test_no_fields_by_default_nor_from_a_solver_without_them(compose_cfg, tmp_path, overrides):
+    from dsmv.runner import write_outputs
+
+    scene = build_scene(compose_cfg(["mesh=coarse", "tracking=disabled", *overrides]))
+    solver = registry.load("solvers", scene.solver.name, "solver.name")(scene)
+    files = write_outputs(scene, solver.solve(tmp_path), tmp_path)
+    assert (tmp_path / "history.png") in files
+    assert not (tmp_path / fields.FIELDS_FILE).exists() and not (tmp_path / fields.FIELDS_DIR).exists()
+    assert not (tmp_path / FIELD_PLOT_FILE).exists()
+
+
+def test_strength_in_the_fields_is_the_soil_laws(compose_cfg, tmp_path):
+    """Einav–Randolph: su = su_intact(z0)·factor(ξ, γ̇) with the law's NumPy twin, cell by cell."""
+    from dsmv.cel.solver import Cel2DSolver
+
+    scene = build_scene(compose_cfg(["solver=cel2d", "mesh=coarse", "solver.progress=off", "tracking=disabled",
+                                     "soil.law=einav_randolph", "output.fields=true", "output.field_frames=2"]))
+    result = Cel2DSolver(scene).solve(tmp_path)
+    assert result.status == "ok"
+    law = registry.load("soil_laws", "einav_randolph", "soil.law")(scene.soil)
+    frame = fields.read_frame(tmp_path / fields.MAX_SINKAGE_FRAME)
+    c = frame.cells
+    soil = c["volume_fraction"] > scene.solver.stress_cutoff
+    expected = (scene.soil.su0_pa + scene.soil.ks_pa_per_m * c["initial_depth_m"]) * law.strength_factor(
+        c["plastic_shear_strain"], c["shear_strain_rate_per_s"])
+    assert c["su_pa"][soil] == pytest.approx(expected[soil], rel=1e-5)
+    assert (c["su_pa"][~soil] == 0.0).all()
+    # the plastic rate is the shear rate where the soil is at yield, zero where it is elastic
+    yielding = c["mobilised_strength"] >= fields.YIELD_RATIO
+    assert yielding.any() and (~yielding & soil).any()
+    assert (c["plastic_shear_strain_rate_per_s"][~yielding] == 0.0).all()
+    assert c["plastic_shear_strain_rate_per_s"][yielding] == pytest.approx(c["shear_strain_rate_per_s"][yielding])
+
+
+@pytest.mark.parametrize("axisym", [False, True])
+def test_shear_strain_rate_of_known_flows(axisym):
+    x, y = np.linspace(0.1, 1.1, 6), np.linspace(-1.0, 0.0, 5)
+    X, Y = np.meshgrid(x, y, indexing="ij")
+    if axisym:  # isochoric radial flow: rates c (radial), c (hoop), −2c (vertical) → ε̇1 − ε̇3 = 3c
+        c = 0.2
+        rate = fields.shear_strain_rate(x, y, c * X, -2 * c * Y, axisym=True)
+        assert rate == pytest.approx(np.full((5, 4), 3 * c))
+    else:  # simple shear v_x = a·y: principal rates ±a/2 → γ̇ = a
+        a = 0.7
+        rate = fields.shear_strain_rate(x, y, a * Y, np.zeros_like(Y), axisym=False)
+        assert rate == pytest.approx(np.full((5, 4), a))
+
+
+def test_a_run_of_any_length_keeps_n_to_2n_evenly_spaced_frames():
+    grid = Grid(x=np.linspace(0, 1, 3), y=np.linspace(-1, 0, 3), h=0.5)
+    phi, q = np.ones((2, 2)), np.zeros((6, 2, 2))
+    vx = vy = np.zeros((3, 3))
+    n, chunk = 4, 0.01
+    for chunks in (3, 9, 50, 1000):
+        recorder = fields.FieldRecorder(grid, np.zeros((2, 2), bool), None, None, axisym=False, tresca=False,
+                                        stress_cutoff=0.01, frames=n, spacing_s=chunk)
+        sinkage = lambda t: 1.0 - (t - 0.7 * chunks * chunk) ** 2  # deepest at 70 % of the run
+        for k in range(chunks + 1):
+            recorder.sample(k * chunk, sinkage(k * chunk), phi, q, vx, vy)
+        recorder.sample(chunks * chunk, sinkage(chunks * chunk), phi, q, vx, vy, final=True)
+        times = np.array([s.time_s for _, s in recorder.taken])
+        assert times[0] == 0.0 and times[-1] == pytest.approx(chunks * chunk)
+        assert min(chunks, n) <= len(times) - 1 <= 2 * n + 1
+        gaps = np.diff(times[:-1])  # the last frame is the run's end, wherever that falls
+        assert gaps == pytest.approx(np.full(len(gaps), gaps[0]))
+        deepest = max(range(chunks + 1), key=lambda k: sinkage(k * chunk))
+        assert recorder.deepest.time_s == pytest.approx(deepest * chunk)
+
+
+@pytest.mark.parametrize("value", ["0", "-3", "1.5", "many"])
+def test_field_frames_is_validated(compose_cfg, value):
+    with pytest.raises(ConfigError, match=r"output\.field_frames"):
+        build_scene(compose_cfg([f"output.field_frames={value}"]))
