@@ -1,0 +1,26 @@
+"""dsmv-bench's bookkeeping (the timings themselves are benchmark output, never asserted here)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from dsmv.bench import Row, cost_exponent, pareto_front
+
+
+def _row(wall, error, cells=100.0, steps=10.0):
+    return Row("landing", f"{wall}/{error}", [], error=error, wall_s=wall, cells=cells, steps=steps)
+
+
+def test_pareto_front_keeps_only_settings_nothing_beats_on_both_counts():
+    rows = [_row(1, 0.10), _row(2, 0.05), _row(3, 0.08), _row(4, 0.01), _row(0.5, 0.20), _row(5, math.nan)]
+    front = pareto_front(rows)
+    assert [(r.wall_s, r.error) for r in front] == [(0.5, 0.20), (1, 0.10), (2, 0.05), (4, 0.01)]
+
+
+def test_cost_exponent_is_one_for_cost_linear_in_cells_times_steps():
+    rows = [_row(2e-7 * c * s, 0.0, c, s) for c, s in ((1e3, 1e3), (4e3, 2e3), (1.6e4, 4e3))]
+    assert cost_exponent(rows) == pytest.approx(1.0, abs=1e-9)
+    quadratic = [_row((c * s) ** 2, 0.0, c, s) for c, s in ((1e3, 1e3), (4e3, 2e3))]
+    assert cost_exponent(quadratic) == pytest.approx(2.0, abs=1e-9)
