@@ -410,12 +410,16 @@ class Cel2DSolver:
                 if cfg.economies.stop_at_rest or body[S.B_TIME] >= 2.0 * rest_time_s:
                     break
                 code = S.RUNNING  # economy off: run on past rest (the max sinkage is already known)
-            # a body must slow down within one width of its own; a cone dropped from rest
-            # accelerates for a while, so it gets the travel the domain was sized for
-            width = max(body_cfg.width_m, self.travel) if self.cone else body_cfg.width_m
+            # a body must slow down within one width of its own. A cone dropped from rest
+            # accelerates for a while, and so does a body on a weak mudline over soil that
+            # strengthens with depth (ks > 0: su0 = 500 Pa under the default track speeds up
+            # over its first 0.6 m, then rests at 1.2 m); the soil can still stop them, so
+            # they get the travel the domain was sized for
+            width = max(body_cfg.width_m, self.travel) if self.cone or soil.ks_pa_per_m > 0 else body_cfg.width_m
             if drop and sinkage > width and self._not_decelerating(history, width):
                 status, message = "bearing_failure", (
-                    f"the body kept sinking without slowing down over one width B = {width:g} m")
+                    f"the body kept sinking without slowing down over {width:g} m "
+                    f"({'one width B' if width == body_cfg.width_m else 'the travel the domain was sized for'})")
                 break
             if not drop and sinkage >= landing.displacement_m - 1e-12:
                 message = f"pushed to {sinkage:.4g} m"

@@ -14,6 +14,9 @@ import math
 import numpy as np
 from numba import njit
 
+# Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
+# kernels it inlined until this file changes. After changing a kernel, bump this revision
+# (or clear the Numba cache). Kernel revision: 2 (advect_cells limits diverging outflows).
 from dsmv.cel.kernels import (
     JIT,
     advect_cells,
