@@ -73,6 +73,14 @@ class Cel2DConfig(Schema):
     economies: "Economies" = Field(default_factory=lambda: Economies())
 
 
+def in_sweep() -> bool:
+    """True inside a Hydra multirun job: progress lines of many jobs would only interleave."""
+    from hydra.core.hydra_config import HydraConfig
+    from hydra.types import RunMode
+
+    return HydraConfig.initialized() and HydraConfig.get().mode == RunMode.MULTIRUN
+
+
 def track_side_view_cells(grid, track) -> np.ndarray:
     """Cells of a track seen from the side (``geometry.view=longitudinal``), half model.
 
@@ -356,7 +364,7 @@ class Cel2DSolver:
         compile_s = time.perf_counter() - t_start
         steps = done
         history = {"time_s": [0.0], "sinkage_m": [0.0], "velocity_m_s": [-v0], "force_n": [0.0]}
-        show = cfg.progress == "on" or (cfg.progress == "auto" and sys.stderr.isatty())
+        show = cfg.progress == "on" or (cfg.progress == "auto" and sys.stderr.isatty() and not in_sweep())
         status, message = "ok", ""
         rest_time_s = None
         t_run = time.perf_counter()
