@@ -30,6 +30,23 @@ def simulate(cfg: DictConfig) -> None:
     run_job(cfg)
 
 
+@hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="train")
+def _train_app(cfg: DictConfig) -> None:
+    from dsmv.surrogate.train import main
+
+    main(cfg)
+
+
+def train() -> None:
+    """``dsmv-train``: train and evaluate a surrogate on a study's tracked runs."""
+    import sys
+
+    from dsmv.surrogate.train import check_surrogate_choice
+
+    check_surrogate_choice(sys.argv[1:], CONFIG_DIR)
+    _train_app()
+
+
 def list_plugins(argv: list[str] | None = None) -> None:
     """``dsmv-plugins``: list installed plugins by entry-point group."""
     parser = argparse.ArgumentParser(prog="dsmv-plugins", description=list_plugins.__doc__)
