@@ -122,7 +122,7 @@ def _mirrored_view(frame, window):
 def _core_window(frame):
     """The grid's uniform core (where the solver expects the soil to deform), capped just above the soil (m)."""
     dx, dy = np.diff(frame.x), np.diff(frame.y)
-    h = min(dx.min(), dy.min())
+    h = dx[0]  # the core starts at the symmetry axis (a graded axis may close with a smaller cell)
     core_x = np.nonzero(np.isclose(dx, h, rtol=1e-6))[0]
     core_y = np.nonzero(np.isclose(dy, h, rtol=1e-6))[0]
     soil_rows = np.nonzero((frame.cells["volume_fraction"] >= SOIL_LEVEL).any(axis=0))[0]
@@ -155,8 +155,12 @@ def _contour_panel(fig, ax, view, values, label, cmap, title, window, arrows=Fal
         pick = np.zeros_like(view["shown"])
         pick[np.concatenate([n_half - 1 - columns, n_half + columns]), step // 2 :: step] = True
         ii, jj = np.nonzero(pick & view["shown"])
+        speed = np.hypot(view["ux"][ii, jj], view["uy"][ii, jj])
+        top_speed = float(speed.max()) if speed.size and np.isfinite(speed).all() and speed.max() > 0 else 1.0
+        # the fastest arrow spans 90 % of the arrow spacing: no arrow runs over its neighbours
         ax.quiver(view["xc"][ii], view["yc"][jj], view["ux"][ii, jj], view["uy"][ii, jj], color="white",
-                  width=0.0025)
+                  width=0.0025, angles="xy", scale_units="xy",
+                  scale=top_speed / (0.9 * step * np.diff(view["x"]).min()))
     ax.set_title(title, fontsize=9)
     ax.set_xlim(-half_width, half_width)
     ax.set_ylim(bottom, top)
@@ -186,8 +190,9 @@ def plot_field_contours(frame_path: Path, path: Path, title: str, flow_frame_pat
     window = _core_window(frame)
     flow = [] if flow_frame_path is None else [read_frame(flow_frame_path)]
     half_width, bottom, top = window
-    fig, axes = plt.subplots(3 + len(flow), 1, constrained_layout=True,
-                             figsize=(8, (3 + len(flow)) * max(2.2, 3.5 * (top - bottom) / half_width) + 1))
+    # panels 8 in wide at the window's aspect, kept between 2.2 and 5 in high (inches, matplotlib's unit)
+    panel_height = min(max(2.2, 3.5 * (top - bottom) / half_width), 5.0)
+    fig, axes = plt.subplots(3 + len(flow), 1, constrained_layout=True, figsize=(8, (3 + len(flow)) * panel_height + 1))
     view = _mirrored_view(frame, window)
     when = f"t = {frame.time_s:.4f} s, sinkage {frame.sinkage_m:.4f} m"
     _contour_panel(fig, axes[0], view, view["cells"]["su_pa"] / 1e3, "su (kPa)", "viridis",
