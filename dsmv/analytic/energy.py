@@ -190,13 +190,15 @@ class AnalyticEnergySolver:
             t_rest = v0 / decel
             t = np.linspace(0.0, t_rest, n)
             return t_rest, t, v0 * t - 0.5 * decel * t**2, v0 - decel * t
-        # harmonic motion about z_eq = −excess/k with ω² = k/M, reaching z_max at rest
+        # harmonic motion with ω² = k/M from the touchdown acceleration a0 = (W − R0)/M, written
+        # with sin(ωt)/ω and sin²(ωt/2)/ω², which stay exact as ω → 0: the form about
+        # z_eq = −excess/k overflows or cancels for a tiny ks (ks = 1e-300 Pa/m gave t_rest = 0,
+        # ks = 2e-308 a NaN history; a hypothesis property found it)
         omega = math.sqrt(stiffness / mass)
-        z_eq = -excess / stiffness
-        phase = math.atan2(v0 / omega, z_eq)  # z = z_eq − amp·cos(ωt + phase)
-        t_rest = (math.pi - phase) / omega
+        accel0 = -excess / mass
+        t_rest = math.atan2(mass * omega * v0, excess) / omega  # first v = 0, ωt in (0, π]
         t = np.linspace(0.0, t_rest, n)
-        z = z_eq * (1.0 - np.cos(omega * t)) + (v0 / omega) * np.sin(omega * t)
-        v = z_eq * omega * np.sin(omega * t) + v0 * np.cos(omega * t)
+        z = accel0 * 2.0 * (np.sin(0.5 * omega * t) / omega) ** 2 + v0 * np.sin(omega * t) / omega
+        v = accel0 * np.sin(omega * t) / omega + v0 * np.cos(omega * t)
         z[-1], v[-1] = z_max, 0.0  # the end point exactly, free of round-off in the phase
         return t_rest, t, z, v
