@@ -168,6 +168,10 @@ class FieldRecorder:
 
     def cell_fields(self, snap: _Snapshot) -> dict[str, np.ndarray]:
         """The derived cell fields of one snapshot, (nx, ny) arrays by output name."""
+        with np.errstate(invalid="ignore", over="ignore"):  # a run gone unstable is written as it is
+            return self._cell_fields(snap)
+
+    def _cell_fields(self, snap: _Snapshot) -> dict[str, np.ndarray]:
         x, y = self.grid.x, self.grid.y
         phi, q = snap.phi, snap.q
         soil = phi > self.stress_cutoff

@@ -151,3 +151,30 @@ def test_a_run_of_any_length_keeps_n_to_2n_evenly_spaced_frames():
 def test_field_frames_is_validated(compose_cfg, value):
     with pytest.raises(ConfigError, match=r"output\.field_frames"):
         build_scene(compose_cfg([f"output.field_frames={value}"]))
+
+
+def test_a_run_that_goes_unstable_still_leaves_its_fields_and_contours(compose_cfg, tmp_path, monkeypatch):
+    """The last frame holds the non-finite state (to look at in ParaView); the PNG draws what is finite."""
+    from dsmv.cel import stepper
+    from dsmv.runner import write_outputs
+
+    real, calls = stepper.run_steps, {"n": 0}
+
+    def poisoned(n_steps, *args):
+        done, code = real(n_steps, *args)
+        calls["n"] += 1
+        if calls["n"] == 40:
+            args[4][0, 3, 5] = np.nan  # q: σxx goes NaN
+            args[5][2, 2] = np.inf  # vx: a velocity blows up
+            return done, stepper.NOT_FINITE
+        return done, code
+
+    monkeypatch.setattr(stepper, "run_steps", poisoned)
+    scene = build_scene(compose_cfg(["solver=cel2d", "mesh=coarse", "solver.progress=off", "tracking=disabled",
+                                     "output.fields=true", "output.field_frames=3"]))
+    result = registry.load("solvers", "cel2d", "solver.name")(scene).solve(tmp_path)
+    assert result.status == "unstable"
+    files = write_outputs(scene, result, tmp_path)
+    assert tmp_path / FIELD_PLOT_FILE in files
+    last = meshio.read(fields.series(tmp_path)[-1][1])
+    assert not np.isfinite(last.cell_data["stress_xx_pa"][0]).all()
