@@ -28,7 +28,9 @@ def test_every_experiment_composes(compose_cfg, experiment):
     assert build_scene(cfg).study == experiment
     # a sweep says so itself, so that it runs with or without -m
     assert str(cfg.hydra.mode) == "RunMode.MULTIRUN"
-    assert cfg.hydra.sweeper.params
+    sweeper = cfg.hydra.sweeper
+    # what it sweeps: a product of params, or cases (hydra/sweeper=cases: vary, cases, cases_from)
+    assert sweeper.params or sweeper.get("vary") or sweeper.get("cases") or sweeper.get("cases_from")
 
 
 def test_default_scene_is_the_issue_contract(compose_cfg):
