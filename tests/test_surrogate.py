@@ -328,6 +328,16 @@ def test_train_cli_writes_metrics_and_registers_the_model(run_cli, tmp_path, sto
     versions = client.search_model_versions(f"name = '{name}'")
     assert versions and versions[0].tags["feature_set"] == "leak_free"
 
+    # the registered model reads back as a predictor with its training ranges
+    from dsmv.surrogate.model import load_registered
+
+    model = load_registered(name, uri)
+    table = load_dataset(uri, STUDY).table
+    z = model.predict_sinkage(table)
+    assert z.shape == (len(table),) and np.all(np.isfinite(z)) and np.all(z > 0)
+    assert model.out_of_range(table) == {}
+    assert model.out_of_range(table.assign(mass_kg=1e5)) == {"mass_kg": list(range(len(table)))}
+
 
 def test_train_cli_user_mistakes_are_one_line(run_cli, store):
     _, uri, _ = store
