@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -109,24 +110,27 @@ def test_design_is_seeded_on_table3_levels_and_reports_what_it_dropped(compose_c
         for key, value in values.items():
             assert float(value) in design.TABLE3_LEVELS[key], key
     # the report counts drops; drawn = dropped + kept-or-spare, and every kept scene is below the limit
-    drawn, dropped = (int(x) for x in
-                      __import__("re").search(r"drew (\d+) .* dropped (\d+)", report).groups())
+    drawn, dropped = (int(x) for x in re.search(r"drew (\d+) .* dropped (\d+)", report).groups())
     assert dropped > 0 and drawn - dropped >= 12
 
 
 def test_design_filter_keeps_only_scenes_below_the_analytic_limit(compose_cfg):
+    from dsmv.analytic.energy import energy_estimate
     from dsmv.scene import build_scene
 
-    cfg = compose_cfg(["experiment=dataset_table3"])
-    scene = build_scene(cfg)
-    result = design.table3_design(scene, design.DatasetConfig(n_samples=30, seed=3, max_analytic_sinkage_m=0.3))
-    assert len(result.scenes) == 30
-    assert max(result.analytic_sinkage_m) <= 0.3
-    # recomputed from scratch, one scene through the full energy solver
-    first = result.scenes[0]
-    ours = design.analytic_sinkage(scene, [first])[0]
-    assert ours == pytest.approx(result.analytic_sinkage_m[0])
-    assert sum(result.dropped.values()) == result.n_drawn - 30 - (result.n_drawn - 30 - sum(result.dropped.values()))
+    scene = build_scene(compose_cfg(["experiment=dataset_table3"]))
+    limit = 0.3
+    result = design.table3_design(scene, design.DatasetConfig(n_samples=30, seed=3, max_analytic_sinkage_m=limit))
+    assert len(result.scenes) == 30 and max(result.analytic_sinkage_m) <= limit
+    # the drawn hypercube, recomputed: the dropped ones are exactly those above the limit
+    drawn = design._scene_values(design.latin_hypercube_levels(result.n_drawn, 3), scene.geometry.width_m)
+    z = design.analytic_sinkage(scene, drawn)
+    assert sum(zi > limit for zi in z) == sum(result.dropped.values()) > 0
+    assert result.scenes == [s for s, zi in zip(drawn, z) if zi <= limit][:30]
+    # the design's shortcut (Ra once per contact length) agrees with the energy solver on a full scene
+    overrides = [f"{k}={v}" for k, v in result.scenes[0].items()]
+    full = build_scene(compose_cfg(["experiment=dataset_table3", *overrides]))
+    assert energy_estimate(full).solve().metrics["max_sinkage_m"] == pytest.approx(result.analytic_sinkage_m[0])
 
 
 def test_design_levels_are_stratified():
