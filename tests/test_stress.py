@@ -42,6 +42,7 @@ class Run:
 
     result: dict
     history: dict[str, np.ndarray]
+    extra: tuple = ()  # overrides a comparison run must share (the quick variants' coarser model)
 
     @property
     def status(self) -> str:
@@ -165,6 +166,17 @@ def _no_gravity(run, other):
     assert 0.0 < run.metrics["max_sinkage_m"] < other([])["max_sinkage_m"]
 
 
+CONE_THROWN = ("geometry=fall_cone_30deg", "landing.velocity_m_s=1")
+
+
+def _cone_without_gravity(run, other):
+    # the cone's cells are sized to its expected depth: from its weight (Hansbo), nil here, or
+    # from its touchdown energy; it must come to rest, shallower than the same throw with weight
+    assert "hansbo_k" not in run.metrics  # Hansbo's factor needs a weight
+    assert run.history["velocity_m_s"][-1] <= 0.0
+    assert 0.0 < run.metrics["max_sinkage_m"] < other([*CONE_THROWN, *run.extra])["max_sinkage_m"]
+
+
 @dataclass(frozen=True)
 class Scene:
     name: str
@@ -190,6 +202,7 @@ SCENES = [
     Scene("rigid_boundaries_1_B_away", ("solver.domain_depth_widths=1", "solver.domain_half_width_widths=1"), "ok",
           _rigid_boundaries_close),
     Scene("zero_gravity", ("landing.gravity_m_s2=0",), "ok", _no_gravity, quick=True),
+    Scene("zero_gravity_cone_thrown_at_1_m_s", (*CONE_THROWN, "landing.gravity_m_s2=0"), "ok", _cone_without_gravity),
 ]
 
 
@@ -226,6 +239,25 @@ def test_stress_scene_coarse(scene, compose_cfg, tmp_path):
 
     def other(overrides):
         ref = run_in_process(compose_cfg, tmp_path / f"ref{next(count)}", [*coarse, *overrides])
+        check_contract(ref, "ok")
+        return ref.metrics
+
+    scene.check(run, other)
+
+
+@pytest.mark.timeout(300)
+def test_cone_thrown_without_gravity_comes_to_rest(compose_cfg, tmp_path):
+    """The cone scene, coarse (4 cells across its depth): without gravity its cells were sized to
+    Hansbo's depth of a weightless cone, nanometres, and the run did not end."""
+    scene = next(s for s in SCENES if s.name == "zero_gravity_cone_thrown_at_1_m_s")
+    coarse = ("solver.cone_cells_per_depth=4",)
+    run = run_in_process(compose_cfg, tmp_path / "run", coarse + scene.overrides)
+    run.extra = coarse
+    check_contract(run, scene.status)
+    assert run.metrics["core_cell_size_m"] > 1e-3
+
+    def other(overrides):
+        ref = run_in_process(compose_cfg, tmp_path / "ref", overrides)
         check_contract(ref, "ok")
         return ref.metrics
 

@@ -145,9 +145,12 @@ class Cel2DSolver:
         self.longitudinal = getattr(body, "view", "cross_section") == "longitudinal"
 
     def hansbo_depth_m(self) -> float:
-        """Hansbo's penetration d = √(K·m·g/su) with K = 0.8 (30° cone): the cone's scale (m)."""
-        landing = self.scene.landing
-        return math.sqrt(0.8 * landing.mass_kg * max(landing.gravity_m_s2, 1e-9) / self.scene.soil.su0_pa)
+        """The cone's scale (m): Hansbo's penetration d = √(K·m·g/su) with K = 0.8 (30° cone), or,
+        when deeper, the depth whose work ∫ su·z²/K dz = su·d³/(3K) takes up the touchdown energy
+        ½·m·v² (without gravity Hansbo's depth is nil: the cells were nanometres, the run endless)."""
+        landing, su = self.scene.landing, self.scene.soil.su0_pa
+        static = math.sqrt(0.8 * landing.mass_kg * max(landing.gravity_m_s2, 1e-9) / su)
+        return max(static, (1.5 * 0.8 * landing.mass_kg * landing.velocity_m_s**2 / su) ** (1 / 3))
 
     def characteristic_width_m(self, travel: float) -> float:
         """The body's width for sizing the domain (m): B, or a cone's diameter at the expected depth."""
@@ -342,8 +345,9 @@ class Cel2DSolver:
             )
 
         # expected duration → steps per history sample
-        if drop and self.cone:
-            duration = 4.0 * math.sqrt(2.0 * self.travel / max(grav, 1e-9))
+        if drop and self.cone:  # from rest under gravity; without it, at its touchdown speed
+            duration = (4.0 * math.sqrt(2.0 * self.travel / grav) if grav > 0
+                        else self.travel / max(landing.velocity_m_s, 0.1))
         elif drop:
             duration = energy_estimate(scene).solve().metrics.get("time_to_rest_s", 0.0) or 0.0
             duration = max(duration, self.travel / max(landing.velocity_m_s, 0.1))
@@ -475,7 +479,7 @@ class Cel2DSolver:
         if status in ("ok", "out_of_domain", "bearing_failure"):
             metrics["max_sinkage_m"] = float(body[S.B_MAXDISP])
             units["max_sinkage_m"] = "m"
-        if drop and status == "ok" and self.cone:  # Hansbo's factor implied by the penetration
+        if drop and status == "ok" and self.cone and grav > 0:  # Hansbo's factor implied by the penetration
             metrics["hansbo_k"] = soil.su0_pa * metrics["max_sinkage_m"] ** 2 / (landing.mass_kg * grav)
             units["hansbo_k"] = "-"
         if drop and status == "ok":
