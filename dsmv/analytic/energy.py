@@ -185,7 +185,8 @@ class AnalyticEnergySolver:
             return 0.0, zeros, zeros, zeros
         stiffness = self.resistance_area_m2 * soil.ks_pa_per_m
         excess = self.resistance_area_m2 * soil.su0_pa - landing.weight_per_track_n
-        if stiffness == 0.0:  # constant deceleration a = (R0 − W)/M
+        omega = math.sqrt(stiffness / mass)
+        if omega == 0.0:  # no ks (or one too small to register, 5e-324): constant deceleration a = (R0 − W)/M
             decel = excess / mass
             t_rest = v0 / decel
             t = np.linspace(0.0, t_rest, n)
@@ -194,7 +195,6 @@ class AnalyticEnergySolver:
         # with sin(ωt)/ω and sin²(ωt/2)/ω², which stay exact as ω → 0: the form about
         # z_eq = −excess/k overflows or cancels for a tiny ks (ks = 1e-300 Pa/m gave t_rest = 0,
         # ks = 2e-308 a NaN history; a hypothesis property found it)
-        omega = math.sqrt(stiffness / mass)
         accel0 = -excess / mass
         t_rest = math.atan2(mass * omega * v0, excess) / omega  # first v = 0, ωt in (0, π]
         t = np.linspace(0.0, t_rest, n)
