@@ -318,8 +318,8 @@ def test_random_legal_scene_never_crashes_the_cel_solver(legal_bases, scene):
 @pytest.mark.parametrize("ks", [5e-324, 2.2250738585072014e-308, 1e-300, 1e-12])
 def test_energy_method_with_a_vanishing_ks_is_the_constant_deceleration(legal_bases, ks):
     """Found by the property above: a tiny ks divided by zero (5e-324), gave a NaN history
-    (2e-308) or stopped the clock (t_rest = 0 at 1e-300). As ks → 0 the motion is the ks = 0 one: constant deceleration
-    a = (R0 − W)/M, at rest after v0/a at v0²/(2a)."""
+    (2e-308) or stopped the clock (t_rest = 0 at 1e-300). As ks → 0 the motion is the ks = 0
+    one: constant deceleration a = (R0 − W)/M, at rest after v0/a at v0²/(2a)."""
     from dsmv.analytic.energy import AnalyticEnergySolver
 
     values = {"soil.ks_pa_per_m": ks, "soil.su0_pa": 500.0, "landing.gravity_m_s2": 0.0,
