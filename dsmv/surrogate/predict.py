@@ -1,0 +1,428 @@
+"""``dsmv-predict``: sinkage of a scene with its conformal interval, and the inverse question.
+
+    dsmv-predict                                           # default scene, latest dsmv-sinkage-rf
+    dsmv-predict soil.su0_pa=1500 landing.velocity_m_s=2 surrogate=xgboost
+    dsmv-predict task=max_velocity sinkage_limit_m=0.3 confidence=0.9
+    dsmv-predict task=min_contact_length sinkage_limit_m=0.3
+    dsmv-predict csv=scenes.csv                            # → scenes_predictions.csv beside it
+
+The scene is composed and validated like ``dsmv``'s (``conf/predict.yaml`` has the same scene
+groups), turned into a dataset row (:func:`dsmv.surrogate.model.scene_table`) and fed to the
+registered model ``surrogate.registered_model`` (:func:`dsmv.surrogate.model.load_registered`).
+
+Intervals (:mod:`dsmv.surrogate.intervals`, pooled cross-conformal): the model's MLflow run
+carries the out-of-fold absolute residuals of its training data, either in the model metadata
+under ``conformal`` or as the run artifact ``conformal.json`` (the record written by
+:func:`dsmv.surrogate.intervals.calibration_record`)::
+
+    {"method": "cross_conformal_pooled", "target": "z_over_b", "folds": 10, "seed": 0, "n": 257,
+     "residuals": [...n floats, |y − ŷ₋ₖ| in the target's units...], "quantiles": {"0.9": ...}}
+
+With ``target = z_over_b`` the interval of z is ``B·(ŷ ± q)`` with q the ⌈c·(n+1)⌉-th smallest
+residual, so its width in metres scales with the track width B; the lower bound is clipped at
+0 m (a sinkage is never negative; clipping cannot lose coverage). Without a calibration the
+sinkage is printed without an interval, and the inverse tasks (which need upper bounds) stop
+with a one-line error.
+
+User mistakes (no store, no registered model, no calibration for an inverse task, unknown
+task, a limit ≤ 0, a bad CSV) end in one line ``dsmv-predict: error: …`` and exit status 2.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+import pandas as pd
+from omegaconf import DictConfig, OmegaConf
+from pydantic import Field
+
+from dsmv.errors import ConfigError, DsmvError
+from dsmv.scene import Count, Number, Schema, _validate, build_scene, build_tracking
+from dsmv.surrogate.dataset import PARAMETERS
+from dsmv.surrogate.intervals import residual_quantile
+from dsmv.surrogate.inverse import COLUMNS, GOALS, TASK_PARAMETERS, InverseResult, solve_inverse
+from dsmv.surrogate.model import TrainedSurrogate, scene_table
+
+PROG = "dsmv-predict"
+CALIBRATION_FILE = "conformal.json"  # run artifact of the registered model's training run
+CALIBRATION_KEY = "conformal"  # or the same record inside the model metadata
+TARGET_SCALES = {"z_over_b": "width", "max_sinkage_m": "metre"}  # how a residual becomes metres
+
+
+class PredictError(DsmvError):
+    """A user mistake of dsmv-predict (store, model, calibration, CSV): one line, exit 2."""
+
+
+class SearchSettings(Schema):
+    low: Number | None = Field(None, description="low end of the searched range (parameter units); null: training min")
+    high: Number | None = Field(None, description="high end (parameter units); null: training max")
+    points: Count = Field(101, ge=3, description="grid points and subdivisions per refinement round (-)")
+
+
+class PredictSettings(Schema):
+    """The top-level keys of ``conf/predict.yaml``."""
+
+    task: Literal["predict", "max_velocity", "min_contact_length"] = Field(description="what to answer")
+    sinkage_limit_m: Number | None = Field(None, gt=0, description="limit on the upper bound of z (m)")
+    confidence: Number = Field(0.9, gt=0, lt=1, description="two-sided interval level (-)")
+    csv: str | None = Field(None, description="CSV of scenes to predict in bulk")
+    model_version: str = Field("latest", description="registered model version")
+    search: SearchSettings = Field(default_factory=SearchSettings)
+    plot: bool = Field(True, description="inverse tasks: write inverse.png into the run dir")
+
+
+def settings_from(cfg: DictConfig) -> PredictSettings:
+    """Validate the prediction keys; the task and the limit must fit together."""
+    container = OmegaConf.to_container(cfg, resolve=False)
+    data = {k: container.get(k) for k in PredictSettings.model_fields if k in container}
+    try:
+        settings = _validate(PredictSettings, data, "")
+    except ConfigError as error:  # paths are top-level keys: "task", not ".task"
+        raise ConfigError(error.path.lstrip("."), error.value, error.allowed) from None
+    if settings.task != "predict" and settings.sinkage_limit_m is None:
+        raise ConfigError("sinkage_limit_m", None, f"task={settings.task} needs a limit (m) > 0, "
+                                                   "e.g. sinkage_limit_m=0.3")
+    return settings
+
+
+# ----------------------------------------------------------------------------- the predictor
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """Out-of-fold absolute residuals of a surrogate, in its target's units (conformal.json)."""
+
+    target: str
+    residuals: np.ndarray
+    method: str = "cross_conformal_pooled"
+
+    @classmethod
+    def from_record(cls, record: dict, source: str) -> "Calibration":
+        try:
+            target, residuals = record["target"], np.asarray(record["residuals"], dtype=float)
+        except (KeyError, TypeError, ValueError):
+            raise PredictError(f"{source}: a calibration needs 'target' and 'residuals' (a list of numbers)") from None
+        if target not in TARGET_SCALES:
+            raise PredictError(f"{source}: target {target!r} is not one of {', '.join(TARGET_SCALES)}")
+        if residuals.ndim != 1 or not len(residuals) or not np.all(np.isfinite(residuals)) or np.any(residuals < 0):
+            raise PredictError(f"{source}: residuals must be a non-empty list of finite numbers ≥ 0")
+        return cls(target, residuals, str(record.get("method", cls.method)))
+
+    def half_width_m(self, table: pd.DataFrame, confidence: float) -> np.ndarray:
+        """Half-width of the interval of z (m) per row: B·q for z/B, q for z."""
+        q = residual_quantile(self.residuals, confidence)
+        scale = table["width_m"].to_numpy(float) if TARGET_SCALES[self.target] == "width" else np.ones(len(table))
+        return q * scale
+
+
+@dataclass
+class Predictor:
+    """A registered surrogate with its calibration: z (m) and its interval for a table of scenes."""
+
+    name: str
+    version: str
+    run_id: str
+    model: TrainedSurrogate
+    calibration: Calibration | None
+
+    def interval(self, table: pd.DataFrame, confidence: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(z, lower, upper) in m; lower/upper are NaN without a calibration."""
+        mid = np.asarray(self.model.predict_sinkage(table), dtype=float)
+        if self.calibration is None:
+            nan = np.full_like(mid, np.nan)
+            return mid, nan, nan
+        half = self.calibration.half_width_m(table, confidence)
+        return mid, np.maximum(mid - half, 0.0), mid + half
+
+    def upper(self, confidence: float):
+        """``table -> upper bound of z (m)`` for :func:`dsmv.surrogate.inverse.solve_inverse`."""
+        return lambda table: self.interval(table, confidence)[2]
+
+
+def _calibration(model: TrainedSurrogate, client, run_id: str) -> Calibration | None:
+    record = model.metadata.get(CALIBRATION_KEY)
+    if record is not None:
+        return Calibration.from_record(record, f"model metadata '{CALIBRATION_KEY}'")
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        try:
+            path = client.download_artifacts(run_id, CALIBRATION_FILE, tmp)
+        except Exception:  # absent: MLflow raises its own error types per store
+            return None
+        return Calibration.from_record(json.loads(Path(path).read_text()), f"run {run_id} {CALIBRATION_FILE}")
+
+
+def load_predictor(name: str, tracking_uri: str, version: str = "latest") -> Predictor:
+    """The registered model ``name`` (``latest`` or a version number) with its calibration."""
+    from mlflow.exceptions import MlflowException
+    from mlflow.tracking import MlflowClient
+
+    from dsmv.surrogate.model import load_registered
+    from dsmv.tracking import resolve_uri
+
+    prefix = "sqlite:///"
+    if tracking_uri.startswith(prefix) and not Path(tracking_uri[len(prefix):]).exists():
+        raise PredictError(f"no MLflow store at {tracking_uri}: train a surrogate first (dsmv-train), "
+                           "or point tracking.uri at the store that holds it")
+    uri = resolve_uri(tracking_uri)
+    client = MlflowClient(tracking_uri=uri)
+    try:
+        versions = client.search_model_versions(f"name='{name}'")
+    except MlflowException as error:
+        raise PredictError(f"cannot read registered models from {uri}: {str(error).splitlines()[0]}") from None
+    if not versions:
+        raise PredictError(f"no registered model '{name}' in {uri}: train one with dsmv-train")
+    by_number = {str(v.version): v for v in versions}
+    chosen = max(versions, key=lambda v: int(v.version)) if version == "latest" else by_number.get(str(version))
+    if chosen is None:
+        raise PredictError(f"model_version = {version!r}: '{name}' has versions {', '.join(sorted(by_number, key=int))}")
+    model = load_registered(name, uri, str(chosen.version))
+    return Predictor(name, str(chosen.version), chosen.run_id, model, _calibration(model, client, chosen.run_id))
+
+
+# ----------------------------------------------------------------------------- tables and CSV
+
+
+def csv_table(path: Path, base: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """(the CSV as read, its dataset table): columns named like PARAMETERS or their config keys
+    (``velocity_m_s`` or ``landing.velocity_m_s``); a parameter the CSV lacks comes from ``base``."""
+    if not path.is_file():
+        raise PredictError(f"csv = {str(path)!r}: no such file")
+    try:
+        frame = pd.read_csv(path)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as error:
+        raise PredictError(f"csv = {str(path)!r}: not a readable CSV ({str(error).splitlines()[0]})") from None
+    table = pd.DataFrame({c: np.repeat(base[c].to_numpy(float), len(frame)) for c in PARAMETERS})
+    for column in frame.columns:
+        key = COLUMNS.get(column, column)
+        name = column if column in PARAMETERS else COLUMNS.get(column)
+        if name is None:
+            continue  # an id or a note: carried through to the output untouched
+        values = pd.to_numeric(frame[column], errors="coerce").to_numpy(float)
+        bad = np.flatnonzero(~np.isfinite(values) & ~(name == "inertial_mass_kg" and frame[column].isna()))
+        if len(bad):
+            raise PredictError(f"csv {path.name}: column {column} ({key}) row {int(bad[0]) + 2} "
+                               f"= {frame[column].iloc[bad[0]]!r}: must be a number")
+        table[name] = values
+    return frame, table
+
+
+def _outside_text(model: TrainedSurrogate, outside: dict[str, list[int]], table: pd.DataFrame, rows=None) -> str:
+    parts = []
+    for column, idx in outside.items():
+        lo, hi = model.metadata["ranges"][column]
+        if rows is None:
+            value = table[column].iloc[idx[0]]
+            parts.append(f"{PARAMETERS[column]} = {value:g} not in [{lo:g}, {hi:g}]")
+        else:
+            parts.append(f"{PARAMETERS[column]} ({len(idx)} rows) outside [{lo:g}, {hi:g}]")
+    return "; ".join(parts)
+
+
+# ----------------------------------------------------------------------------- plot
+
+
+def plot_band(values, mid, lower, upper, parameter: str, confidence: float, path: Path,
+              sinkage_limit_m: float | None = None, answer: float | None = None,
+              training_range: tuple[float, float] | None = None, title: str = "") -> Path:
+    """Predicted sinkage (m) and its interval against one parameter, for descent planning.
+
+    Depth is drawn downwards (the seabed at the top, as the vehicle sees it); the limit is a
+    horizontal line, the answer of the inverse question a vertical one, and the parameter values
+    outside the training data are hatched (extrapolation).
+    """
+    from dsmv.surrogate.evaluate import _pyplot
+
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6.4, 4.2), constrained_layout=True)
+    ax.fill_between(values, lower, upper, color="tab:blue", alpha=0.25, lw=0,
+                    label=f"{confidence:.0%} interval")
+    ax.plot(values, mid, color="tab:blue", lw=1.8, label="predicted sinkage")
+    if sinkage_limit_m is not None:
+        ax.axhline(sinkage_limit_m, color="tab:red", ls="--", lw=1.4, label=f"limit {sinkage_limit_m:g} m")
+    if answer is not None and math.isfinite(answer):
+        ax.axvline(answer, color="k", ls=":", lw=1.4, label=f"answer {answer:.4g}")
+    if training_range is not None:
+        lo, hi = training_range
+        for a, b in ((min(values), lo), (hi, max(values))):
+            if b > a:
+                ax.axvspan(a, b, facecolor="none", edgecolor="0.6", hatch="//", lw=0)
+        ax.plot([], [], color="0.6", lw=6, alpha=0.4, label="outside training data")
+    ax.set_xlabel(parameter)
+    ax.set_ylabel("sinkage z (m)")
+    ax.set_ylim(bottom=0.0)
+    ax.invert_yaxis()
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="lower left")
+    ax.set_title(title, fontsize=9)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return Path(path)
+
+
+# ----------------------------------------------------------------------------- the app
+
+
+def _search_range(settings: PredictSettings, predictor: Predictor, parameter: str) -> tuple[float, float]:
+    trained = predictor.model.metadata.get("ranges", {}).get(COLUMNS[parameter])
+    low = settings.search.low if settings.search.low is not None else (trained[0] if trained else None)
+    high = settings.search.high if settings.search.high is not None else (trained[1] if trained else None)
+    if low is None or high is None:
+        raise ConfigError("search", [low, high], f"the model has no training range of {parameter}: set search.low and "
+                                                 "search.high")
+    if not low < high:
+        raise ConfigError("search", [low, high], "must have low < high")
+    return float(low), float(high)
+
+
+def _print_inverse(result: InverseResult, predictor: Predictor, confidence: float) -> None:
+    key, limit = result.parameter, result.sinkage_limit_m
+    word = "largest" if GOALS[key] == "max" else "smallest"
+    if result.status == "no_value_passes":
+        safe = result.grid[0] if GOALS[key] == "max" else result.grid[-1]
+        print(f"  answer   : none: even {key} = {safe:g} gives an upper bound over {limit:g} m "
+              f"({confidence:.0%} confidence)")
+        return
+    print(f"  answer   : {word} {key} = {result.value:.4g} with upper bound {result.upper_at_value:.4f} m "
+          f"≤ {limit:g} m ({confidence:.0%} confidence)")
+    if result.status == "whole_range_passes":
+        print(f"  note     : the whole searched range passes: the limit lies beyond {result.value:g}, "
+              "where the surrogate has no training data (widen search.low/high at your own risk)")
+    if not result.monotone:
+        print(f"warning: the predicted upper bound is not monotone in {key} over the range: "
+              "the answer is the first crossing from the safe end (conservative)")
+    print(f"  check    : dsmv solver=cel2d {key}={result.value:.4g} (the CEL run at the answer)")
+
+
+def run_predict(cfg: DictConfig, run_dir: Path | None = None) -> dict:
+    """Validate, load, predict (one scene, a CSV, or the inverse question), print; return the answer."""
+    settings = settings_from(cfg)
+    tracking = build_tracking(cfg)
+    if not tracking.enabled:
+        raise ConfigError("tracking.enabled", False, "dsmv-predict reads the registered model: use tracking=local or server")
+    scene = build_scene(cfg)
+    base = scene_table([scene])
+    name = str(cfg.surrogate.registered_model)
+
+    started = time.perf_counter()
+    predictor = load_predictor(name, tracking.uri, settings.model_version)
+    load_s = time.perf_counter() - started
+    meta = predictor.model.metadata
+    c = settings.confidence
+    print(f"{PROG}: {name} v{predictor.version} ({meta.get('feature_set')} features, "
+          f"dataset {meta.get('dataset_hash')}), loaded in {load_s:.2f} s")
+    if predictor.calibration is None:
+        message = (f"model run {predictor.run_id} has no interval calibration ({CALIBRATION_FILE} or metadata "
+                   f"'{CALIBRATION_KEY}'): retrain it with a dsmv-train that logs one")
+        if settings.task != "predict":
+            raise PredictError(f"task={settings.task} needs upper bounds, but the {message}")
+        print(f"warning: {message}; no interval")
+    out: dict = {"model": name, "version": predictor.version, "run_id": predictor.run_id, "confidence": c,
+                 "task": settings.task}
+
+    if settings.csv is not None:
+        path = Path(settings.csv).expanduser()
+        frame, table = csv_table(path, base)
+        started = time.perf_counter()
+        mid, lower, upper = predictor.interval(table, c)
+        outside = predictor.model.out_of_range(table)
+        predict_s = time.perf_counter() - started
+        flags = np.zeros(len(table), dtype=bool)
+        for idx in outside.values():
+            flags[idx] = True
+        result = frame.assign(sinkage_m=mid, lower_m=lower, upper_m=upper, confidence=c, outside_training_range=flags)
+        target = path.with_name(f"{path.stem}_predictions.csv")
+        result.to_csv(target, index=False, float_format="%.6g")
+        print(f"  {len(table)} scenes predicted in {predict_s * 1e3:.1f} ms → {target}")
+        if outside:
+            print(f"warning: {int(flags.sum())} scenes outside the training data: "
+                  f"{_outside_text(predictor.model, outside, table, rows=True)}")
+        return out | {"csv": str(target), "n": len(table), "predict_s": predict_s}
+
+    started = time.perf_counter()
+    mid, lower, upper = predictor.interval(base, c)
+    predict_s = time.perf_counter() - started
+    interval = "" if math.isnan(upper[0]) else f", {c:.0%} interval [{lower[0]:.4f}, {upper[0]:.4f}] m"
+    print(f"  sinkage  : {mid[0]:.4f} m{interval}  ({predict_s * 1e3:.1f} ms)")
+    outside = predictor.model.out_of_range(base)
+    if outside:
+        print(f"warning: the scene lies outside the training data: {_outside_text(predictor.model, outside, base)}")
+    out |= {"sinkage_m": float(mid[0]), "lower_m": float(lower[0]), "upper_m": float(upper[0]),
+            "outside_training_range": sorted(PARAMETERS[k] for k in outside)}
+
+    if settings.task in TASK_PARAMETERS:
+        parameter = TASK_PARAMETERS[settings.task]
+        low, high = _search_range(settings, predictor, parameter)
+        answer = solve_inverse(predictor.upper(c), base, parameter, (low, high), settings.sinkage_limit_m,
+                               points=settings.search.points)
+        _print_inverse(answer, predictor, c)
+        out |= {"parameter": parameter, "value": answer.value, "status": answer.status,
+                "upper_at_value_m": answer.upper_at_value, "monotone": answer.monotone,
+                "sinkage_limit_m": settings.sinkage_limit_m}
+        if settings.plot and run_dir is not None:
+            column = COLUMNS[parameter]
+            grid_table = base.loc[base.index.repeat(len(answer.grid))].reset_index(drop=True)
+            grid_table[column] = answer.grid
+            g_mid, g_low, g_up = predictor.interval(grid_table, c)
+            run_dir.mkdir(parents=True, exist_ok=True)
+            trained = meta.get("ranges", {}).get(column)
+            png = plot_band(answer.grid, g_mid, g_low, g_up, parameter, c, run_dir / "inverse.png",
+                            settings.sinkage_limit_m, answer.value, tuple(trained) if trained else None,
+                            f"{name} v{predictor.version}: {settings.task}, limit {settings.sinkage_limit_m:g} m")
+            print(f"  plot     : {png}")
+    if run_dir is not None:
+        run_dir.mkdir(parents=True, exist_ok=True)
+        (run_dir / "prediction.json").write_text(json.dumps(out, indent=2, default=float) + "\n")
+    return out
+
+
+def fail(error: Exception) -> None:
+    """One line on stderr, exit status 2."""
+    print(f"{PROG}: error: {error}", file=sys.stderr)
+    sys.exit(2)
+
+
+def predict(cfg: DictConfig) -> dict | None:
+    """The body of the Hydra app: user mistakes end in one line and exit status 2."""
+    from hydra.core.hydra_config import HydraConfig
+
+    run_dir = Path(HydraConfig.get().runtime.output_dir) if HydraConfig.initialized() else None
+    try:
+        return run_predict(cfg, run_dir)
+    except DsmvError as error:
+        fail(error)
+
+
+def _check_surrogate_choice(argv: list[str], config_dir: str) -> None:
+    """``surrogate=<name>`` with no ``conf/surrogate/<name>.yaml``: one line (Hydra's is many)."""
+    options = sorted(p.stem for p in (Path(config_dir) / "surrogate").glob("*.yaml"))
+    for arg in argv:
+        key, sep, value = arg.partition("=")
+        if sep and key.lstrip("+~") == "surrogate" and value not in options:
+            fail(ConfigError("surrogate", value, f"not a surrogate; available: {', '.join(options)}"))
+
+
+def main() -> None:
+    """``dsmv-predict`` (console script: ``dsmv-predict = "dsmv.surrogate.predict:main"``)."""
+    import hydra
+
+    from dsmv.cli import CONFIG_DIR
+
+    _check_surrogate_choice(sys.argv[1:], CONFIG_DIR)
+    hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="predict")(predict)()
+
+
+if __name__ == "__main__":
+    main()
+
+
+__all__ = ["predict", "main", "run_predict", "load_predictor", "Predictor", "Calibration", "plot_band",
+           "PredictSettings", "PredictError", "CALIBRATION_FILE"]

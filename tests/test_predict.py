@@ -1,0 +1,193 @@
+"""dsmv-predict: a tiny random forest registered as dsmv-sinkage-rf in a temporary MLflow store
+(through the rf plugin's own log_model, as dsmv-train does), with a conformal.json whose
+residuals are known, so the interval's half-width is exactly B·q."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+from hydra import compose, initialize_config_dir
+from hydra.core.global_hydra import GlobalHydra
+
+from dsmv.cli import CONFIG_DIR
+from dsmv.surrogate.dataset import PARAMETERS, TARGET_METRIC
+from dsmv.surrogate.features import LeakFreeFeatures, target
+from dsmv.surrogate.intervals import residual_quantile
+
+NAME = "dsmv-sinkage-rf"
+RESIDUALS = np.linspace(0.0, 0.2, 101)  # z/B; q(0.9) = the ⌈0.9·102⌉ = 92nd smallest = 0.182
+Q90 = float(RESIDUALS[91])
+B = 0.6  # m, the default track's width
+
+
+def dataset(n: int = 300, seed: int = 0) -> pd.DataFrame:
+    """Default-scene rows with v, su0 and L varied; z = 0.05 + 0.06·v²·(5000/su0)·(4.17/L) (m)."""
+    rng = np.random.default_rng(seed)
+    rows = pd.DataFrame({"mass_kg": 4500.0, "inertial_mass_kg": np.nan, "velocity_m_s": rng.uniform(0.5, 2.5, n),
+                         "n_tracks": 1.0, "gravity_m_s2": 9.81, "width_m": B,
+                         "contact_length_m": rng.uniform(3.1, 5.2, n), "su0_pa": rng.uniform(2000.0, 8000.0, n),
+                         "ks_pa_per_m": 1500.0, "sensitivity": 3.0, "xi95": 25.0, "eta": 0.05}, index=range(n))
+    rows[TARGET_METRIC] = (0.05 + 0.06 * rows.velocity_m_s**2 * 5000.0 / rows.su0_pa * 4.17 / rows.contact_length_m)
+    return rows
+
+
+@pytest.fixture(scope="module")
+def store(tmp_path_factory):
+    """(uri, runs_dir) of a store holding one registered rf model with its conformal.json."""
+    import mlflow
+
+    from plugins.rf import RandomForestSurrogate
+
+    folder = tmp_path_factory.mktemp("predict_store")
+    uri = f"sqlite:///{folder / 'mlflow.db'}"
+    mlflow.set_tracking_uri(uri)
+    experiment = mlflow.create_experiment("dsmv-surrogates", artifact_location=str(folder / "mlartifacts"))
+    table = dataset()
+    features = LeakFreeFeatures()
+    X, y = features.transform(table), target(table)
+    plugin = RandomForestSurrogate(seed=0)
+    estimator = plugin.make(n_estimators=30, min_samples_leaf=3).fit(X, y)
+    metadata = {"surrogate": "rf", "feature_set": "leak_free", "features": list(features.columns),
+                "target": "z_over_b", "study": "synthetic", "dataset_hash": "test", "implicit_z_max_m": 2.0,
+                "ranges": {c: [float(table[c].min()), float(table[c].max())] for c in PARAMETERS
+                           if table[c].notna().any()}}
+    record = {"method": "cross_conformal_pooled", "target": "z_over_b", "folds": 10, "seed": 0,
+              "n": len(RESIDUALS), "residuals": RESIDUALS.tolist()}
+    (folder / "conformal.json").write_text(json.dumps(record))
+    with mlflow.start_run(experiment_id=experiment):
+        mlflow.log_artifact(str(folder / "conformal.json"))
+        plugin.log_model(estimator, "model", NAME, X.head(5), metadata)
+    mlflow.set_tracking_uri(None)
+    return uri, folder
+
+
+def config(store, *overrides):
+    uri, folder = store
+    GlobalHydra.instance().clear()
+    try:
+        with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):
+            return compose("predict", overrides=[f"paths.runs_dir={folder}", f"tracking.uri={uri}", *overrides])
+    finally:
+        GlobalHydra.instance().clear()
+
+
+def test_quantile_of_the_test_residuals():
+    assert residual_quantile(RESIDUALS, 0.9) == pytest.approx(Q90) == pytest.approx(0.182)
+
+
+def test_default_scene_prediction_and_interval(store, tmp_path, capsys):
+    from dsmv.surrogate.predict import run_predict
+
+    out = run_predict(config(store), tmp_path)
+    assert out["version"] == "1" and out["task"] == "predict"
+    z_true = 0.05 + 0.06 * 1.5**2  # the default scene (su0 = 5000 Pa, L = 4.17 m): 0.185 m
+    assert out["sinkage_m"] == pytest.approx(z_true, abs=0.02)
+    assert out["upper_m"] - out["sinkage_m"] == pytest.approx(B * Q90, rel=1e-12)
+    assert out["lower_m"] == pytest.approx(max(out["sinkage_m"] - B * Q90, 0.0), rel=1e-12)
+    printed = capsys.readouterr().out
+    assert "90% interval" in printed and "warning" not in printed
+    assert json.loads((tmp_path / "prediction.json").read_text())["sinkage_m"] == out["sinkage_m"]
+
+
+def test_scene_outside_the_training_range_warns(store, capsys):
+    from dsmv.surrogate.predict import run_predict
+
+    out = run_predict(config(store, "soil.su0_pa=9000", "confidence=0.8"))
+    assert out["outside_training_range"] == ["soil.su0_pa"]
+    assert out["upper_m"] - out["sinkage_m"] == pytest.approx(B * residual_quantile(RESIDUALS, 0.8))
+    assert "warning: the scene lies outside the training data: soil.su0_pa = 9000 not in" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("task, parameter, column", [("max_velocity", "landing.velocity_m_s", "velocity_m_s"),
+                                                     ("min_contact_length", "geometry.contact_length_m",
+                                                      "contact_length_m")])
+def test_inverse_tasks_agree_with_a_brute_force_scan_of_the_model(store, tmp_path, task, parameter, column):
+    from dsmv.surrogate.model import scene_table
+    from dsmv.surrogate.predict import load_predictor, run_predict
+    from dsmv.scene import build_scene
+
+    cfg = config(store, f"task={task}", "sinkage_limit_m=0.3")
+    out = run_predict(cfg, tmp_path)
+    assert out["status"] == "ok" and (tmp_path / "inverse.png").stat().st_size > 10_000
+    # the exact answer of this model: the first crossing of the limit on a fine scan from the safe end
+    predictor = load_predictor(NAME, store[0])
+    base = scene_table([build_scene(cfg)])
+    lo, hi = predictor.model.metadata["ranges"][column]
+    scan = np.linspace(lo, hi, 20_001)
+    table = base.loc[base.index.repeat(len(scan))].reset_index(drop=True)
+    table[column] = scan
+    passes = predictor.upper(0.9)(table) <= 0.3
+    if task == "min_contact_length":
+        scan, passes = scan[::-1], passes[::-1]
+    exact = scan[np.argmin(passes) - 1]
+    assert out["value"] == pytest.approx(exact, abs=(hi - lo) / 20_000)
+    assert out["upper_at_value_m"] <= 0.3
+
+
+def test_csv_in_bulk(store, tmp_path, capsys):
+    from dsmv.surrogate.predict import run_predict
+
+    n = 10_000
+    rng = np.random.default_rng(3)
+    pd.DataFrame({"id": range(n), "landing.velocity_m_s": rng.uniform(0.5, 3.0, n),
+                  "su0_pa": rng.uniform(2000, 8000, n)}).to_csv(tmp_path / "scenes.csv", index=False)
+    out = run_predict(config(store, f"csv={tmp_path / 'scenes.csv'}"))
+    assert out["n"] == n and out["predict_s"] < 1.0
+    written = pd.read_csv(tmp_path / "scenes_predictions.csv")
+    assert list(written.columns[:3]) == ["id", "landing.velocity_m_s", "su0_pa"] and len(written) == n
+    assert np.allclose(written.upper_m - written.sinkage_m, B * Q90, atol=1e-5)
+    train = dataset()
+    v = written["landing.velocity_m_s"]
+    outside = ((v < train.velocity_m_s.min()) | (v > train.velocity_m_s.max()) | (written.su0_pa < train.su0_pa.min())
+               | (written.su0_pa > train.su0_pa.max()))
+    assert (written.outside_training_range == outside).all()
+    assert "scenes outside the training data" in capsys.readouterr().out
+
+
+def test_plot_band_writes_a_png(tmp_path):
+    from dsmv.surrogate.predict import plot_band
+
+    v = np.linspace(0.5, 3.0, 50)
+    path = plot_band(v, 0.05 * v**2, 0.05 * v**2 - 0.03, 0.05 * v**2 + 0.03, "landing.velocity_m_s", 0.9,
+                     tmp_path / "band.png", 0.3, 2.3, (0.5, 2.5), "test")
+    assert path.stat().st_size > 10_000
+
+
+def cli(cwd, *args):
+    env = dict(os.environ, NUMBA_NUM_THREADS="1", HYDRA_FULL_ERROR="0")
+    return subprocess.run([sys.executable, "-m", "dsmv.surrogate.predict", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=120)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["task=bogus"], "dsmv-predict: error: task = 'bogus': must be 'predict', 'max_velocity' or 'min_contact_length'"),
+    (["task=max_velocity", "sinkage_limit_m=-0.1"], "dsmv-predict: error: sinkage_limit_m = -0.1: must be greater than 0"),
+    (["task=max_velocity"], "dsmv-predict: error: sinkage_limit_m = None: task=max_velocity needs a limit"),
+    (["surrogate=svm"], "dsmv-predict: error: surrogate = 'svm': not a surrogate; available: rf, xgboost"),
+    ([], "dsmv-predict: error: no MLflow store at sqlite:///runs/mlflow.db"),
+])
+def test_user_mistakes_are_one_line_with_exit_2(tmp_path, args, message):
+    done = cli(tmp_path, *args)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.strip().startswith(message), done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1 and "Traceback" not in done.stderr
+
+
+@pytest.mark.slow  # three processes that each import MLflow and open a store: about 35 s
+def test_cli_with_a_store_but_no_registered_model_and_then_with_one(store, tmp_path):
+    import mlflow
+
+    empty = f"sqlite:///{tmp_path / 'empty.db'}"
+    mlflow.MlflowClient(tracking_uri=empty).search_experiments()  # creates the empty store
+    done = cli(tmp_path, f"tracking.uri={empty}")
+    assert done.returncode == 2 and "no registered model 'dsmv-sinkage-rf'" in done.stderr
+    done = cli(tmp_path, f"tracking.uri={store[0]}", "landing.velocity_m_s=2")
+    assert done.returncode == 0, done.stderr
+    assert "sinkage  :" in done.stdout and "90% interval" in done.stdout
