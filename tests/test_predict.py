@@ -63,7 +63,7 @@ def store(tmp_path_factory):
     (folder / "conformal.json").write_text(json.dumps(record))
     with mlflow.start_run(experiment_id=experiment):
         mlflow.log_artifact(str(folder / "conformal.json"))
-        plugin.log_model(estimator, "model", NAME, X.head(5), metadata)
+        plugin.log_model(estimator, "model", NAME, None, metadata)  # an input example costs 8 s
     mlflow.set_tracking_uri(None)
     return uri, folder
 
@@ -166,14 +166,29 @@ def cli(cwd, *args):
                           capture_output=True, text=True, timeout=120)
 
 
-@pytest.mark.parametrize("args, message", [
-    (["task=bogus"], "dsmv-predict: error: task = 'bogus': must be 'predict', 'max_velocity' or 'min_contact_length'"),
-    (["task=max_velocity", "sinkage_limit_m=-0.1"], "dsmv-predict: error: sinkage_limit_m = -0.1: must be greater than 0"),
-    (["task=max_velocity"], "dsmv-predict: error: sinkage_limit_m = None: task=max_velocity needs a limit"),
-    (["surrogate=svm"], "dsmv-predict: error: surrogate = 'svm': not a surrogate; available: rf, xgboost"),
-    ([], "dsmv-predict: error: no MLflow store at sqlite:///runs/mlflow.db"),
+@pytest.mark.parametrize("overrides, message", [
+    (["task=bogus"], "task = 'bogus': must be 'predict', 'max_velocity' or 'min_contact_length'"),
+    (["task=max_velocity", "sinkage_limit_m=-0.1"], "sinkage_limit_m = -0.1: must be greater than 0"),
+    (["task=max_velocity"], "sinkage_limit_m = None: task=max_velocity needs a limit"),
+    (["confidence=1.0"], "confidence = 1.0: must be less than 1"),
+    (["tracking.uri=sqlite:///nowhere/mlflow.db"], "no MLflow store at sqlite:///nowhere/mlflow.db"),
+    (["csv=/nowhere/scenes.csv"], "csv = '/nowhere/scenes.csv': no such file"),
 ])
-def test_user_mistakes_are_one_line_with_exit_2(tmp_path, args, message):
+def test_user_mistakes_are_one_line_with_exit_2(store, overrides, message, capsys):
+    from dsmv.surrogate.predict import predict
+
+    with pytest.raises(SystemExit) as exit_:
+        predict(config(store, *overrides))
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"dsmv-predict: error: {message}") and len(err.strip().splitlines()) == 1, err
+
+
+@pytest.mark.parametrize("args, message", [
+    (["task=bogus"], "dsmv-predict: error: task = 'bogus': must be"),
+    (["surrogate=svm"], "dsmv-predict: error: surrogate = 'svm': not a surrogate; available: rf, xgboost"),
+])
+def test_cli_mistakes_are_one_line_with_exit_2(tmp_path, args, message):
     done = cli(tmp_path, *args)
     assert done.returncode == 2, done.stderr
     assert done.stderr.strip().startswith(message), done.stderr
