@@ -252,10 +252,10 @@ def plot_band(values, mid, lower, upper, parameter: str, confidence: float, path
         ax.axvline(answer, color="k", ls=":", lw=1.4, label=f"answer {answer:.4g}")
     if training_range is not None:
         lo, hi = training_range
-        for a, b in ((min(values), lo), (hi, max(values))):
-            if b > a:
-                ax.axvspan(a, b, facecolor="none", edgecolor="0.6", hatch="//", lw=0)
-        ax.plot([], [], color="0.6", lw=6, alpha=0.4, label="outside training data")
+        spans = [(a, b) for a, b in ((min(values), lo), (hi, max(values))) if b > a]
+        for i, (a, b) in enumerate(spans):
+            ax.axvspan(a, b, facecolor="none", edgecolor="0.6", hatch="//", lw=0,
+                       label="outside training data" if i == 0 else None)
     ax.set_xlabel(parameter)
     ax.set_ylabel("sinkage z (m)")
     ax.set_ylim(bottom=0.0)
