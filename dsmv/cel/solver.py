@@ -45,6 +45,8 @@ class Economies(Schema):
     skip_inactive_law: bool = Field(True, description="a law without softening or rate skips that arithmetic")
     stop_at_rest: bool = Field(True, description="a landing ends when the body first comes to rest; "
                                                  "false: it runs on to twice that time")
+    symmetry: bool = Field(True, description="model half the section, with a symmetry plane on the body's axis; "
+                                             "false: the whole section (plane strain, rough contact)")
 
 
 class Cel2DConfig(Schema):
@@ -120,6 +122,10 @@ class Cel2DSolver:
         cfg, body = scene.solver, scene.geometry
         if body.kind not in ("strip", "track", "tbar", "cone"):
             raise ConfigError("geometry.kind", body.kind, "cel2d runs strip, track, tbar and cone bodies")
+        if not cfg.economies.symmetry and (body.kind == "cone" or cfg.mode == "axisymmetric"
+                                           or body.roughness != "rough" or scene.output.fields):
+            raise ConfigError("solver.economies.symmetry", False, "the whole section runs plane strain bodies with "
+                              "rough contact and no field output; it exists to measure what the half model saves")
         if getattr(body, "view", "cross_section") == "longitudinal" and body.roughness != "rough":
             raise ConfigError("geometry.roughness", body.roughness,
                               "the longitudinal view (plates and grousers) models a rough track only")
@@ -171,7 +177,12 @@ class Cel2DSolver:
         the node is inside; on a smooth surface only its normal velocity is tied, n being the
         surface normal. Returns (solid, tie_i, tie_j, tie_full, tie_nx, tie_ny).
         """
+        from dsmv.cel.grid import Grid
+
         B = self.scene.geometry.width_m
+        mirrored = grid.x[0] < 0.0  # the whole section (solver.economies.symmetry=false)
+        if mirrored:  # the body's cells on the half grid, then their mirror image
+            grid = Grid(grid.x[grid.nx // 2 :], grid.y, grid.h)
         if self.cone:  # the inscribed staircase of the cone (tip at the origin) and its shaft
             body = self.scene.geometry
             radius = np.minimum(grid.y * math.tan(math.radians(0.5 * body.apex_angle_deg)), 0.5 * body.width_m)
@@ -188,6 +199,9 @@ class Cel2DSolver:
             solid = track_side_view_cells(grid, self.scene.geometry)
         else:
             solid = (grid.xc[:, None] < 0.5 * B) & (grid.yc[None, :] > 0.0)
+        if mirrored:
+            solid = np.concatenate([solid[::-1], solid])
+            grid = Grid(np.concatenate([-grid.x[:0:-1], grid.x]), grid.y, grid.h)
         touching = np.zeros((grid.nx + 1, grid.ny + 1), dtype=int)
         for di in (0, 1):
             for dj in (0, 1):
@@ -262,6 +276,10 @@ class Cel2DSolver:
             # a deep body (a T-bar) needs the uniform core only around itself
             core_height=B + cfg.core_margin_widths * B if self.circular else None,
         )
+        if not cfg.economies.symmetry:  # the whole section: the half grid and its mirror image
+            from dsmv.cel.grid import Grid
+
+            grid = Grid(np.concatenate([-grid.x[:0:-1], grid.x]), grid.y, grid.h)
         self.grid, self.h, self.n_half, self.travel = grid, h, n_half, travel
         return grid
 
@@ -294,7 +312,8 @@ class Cel2DSolver:
         if self.axisym:
             scale = 2.0 * math.pi
         else:
-            scale = 2.0 * (body_cfg.width_m if self.longitudinal else body_cfg.contact_length_m)
+            scale = (2.0 if cfg.economies.symmetry else 1.0) * (
+                body_cfg.width_m if self.longitudinal else body_cfg.contact_length_m)
         drop = landing.kind == "drop"
         par = stepper_parameters(
             dt=dt, density=rho, elastic=elastic, h=self.h, gravity=grav, su0=soil.su0_pa, ks=soil.ks_pa_per_m,
