@@ -1,0 +1,54 @@
+"""Each economy of the CEL solver leaves the result as it was (dsmv-bench times what it saves).
+
+Truths: skipping arithmetic that multiplies by exactly 1 changes nothing, bit for bit; running
+on after the body has come to rest cannot change the deepest point already reached; the half
+model with a symmetry plane is the whole section's mirror image, to the asymmetry of the
+directionally split remap (tolerance 1e-3 relative).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from dsmv.cel.solver import Cel2DSolver
+from dsmv.errors import ConfigError
+from dsmv.scene import build_scene
+
+BASE = ["solver=cel2d", "mesh=coarse", "tracking=disabled", "output.plots=false", "solver.progress=off"]
+
+
+@pytest.fixture
+def landing(compose_cfg):
+    def _run(*overrides):
+        result = Cel2DSolver(build_scene(compose_cfg([*BASE, *overrides]))).solve(None)
+        assert result.status == "ok", result.message
+        return result.metrics
+
+    return _run
+
+
+def test_skipping_an_inactive_law_changes_nothing(landing):
+    on, off = landing(), landing("solver.economies.skip_inactive_law=false")
+    assert off["max_sinkage_m"] == on["max_sinkage_m"]
+    assert off["energy_plastic_j"] == on["energy_plastic_j"]
+
+
+def test_stopping_at_rest_keeps_the_max_sinkage_and_time_to_rest(landing):
+    on, off = landing(), landing("solver.economies.stop_at_rest=false")
+    assert off["max_sinkage_m"] == on["max_sinkage_m"]
+    assert off["time_to_rest_s"] == on["time_to_rest_s"]
+    assert off["steps"] > 1.9 * on["steps"]  # it did run on, to twice the time at rest
+    assert off["energy_error"] < 0.02
+
+
+def test_the_half_model_is_the_whole_section_mirrored(landing):
+    half, whole = landing(), landing("solver.economies.symmetry=false")
+    assert whole["cells"] == 2 * half["cells"]
+    assert whole["max_sinkage_m"] == pytest.approx(half["max_sinkage_m"], rel=1e-3)
+    assert whole["mass_error"] < 1e-10 and whole["energy_error"] < 0.02
+
+
+def test_the_whole_section_refuses_what_it_does_not_model(compose_cfg):
+    for extra in (["geometry=fall_cone_30deg"], ["geometry.roughness=smooth"], ["output.fields=true"]):
+        with pytest.raises(ConfigError, match="solver.economies.symmetry"):
+            build_scene(compose_cfg([*BASE, "solver.economies.symmetry=false", *extra]))
