@@ -45,6 +45,7 @@ class Economies(Schema):
     skip_inactive_law: bool = Field(True, description="a law without softening or rate skips that arithmetic")
     stop_at_rest: bool = Field(True, description="a landing ends when the body first comes to rest; "
                                                  "false: it runs on to twice that time")
+    skip_void: bool = Field(True, description="cells without soil do no force arithmetic")
     symmetry: bool = Field(True, description="model half the section, with a symmetry plane on the body's axis; "
                                              "false: the whole section (plane strain, rough contact)")
 
@@ -325,6 +326,7 @@ class Cel2DSolver:
         ipar = stepper_flags(
             axisym=self.axisym, advection_order=cfg.advection_order, drop=drop, bottom_inflow=True,
             remap=cfg.remap, law_active=self.law.active or not cfg.economies.skip_inactive_law,
+            skip_void=cfg.economies.skip_void,
             exact_tresca=cfg.yield_surface == "tresca" or (cfg.yield_surface == "auto" and self.axisym),
         )
         law_fn, law_params = self.law.compiled(), self.law.packed()

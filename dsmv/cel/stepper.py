@@ -16,7 +16,7 @@ from numba import njit
 
 # Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
 # kernels it inlined until this file changes. After changing a kernel, bump this revision
-# (or clear the Numba cache). Kernel revision: 2 (advect_cells limits diverging outflows).
+# (or clear the Numba cache). Kernel revision: 3 (nodal_forces can be told not to skip void cells).
 from dsmv.cel.kernels import (
     JIT,
     advect_cells,
@@ -32,8 +32,8 @@ from dsmv.cel.kernels import (
  P_PUSH_V, P_K0, P_PHI_STRESS) = range(18)
 N_PAR = 18
 # integer parameters
-I_AXISYM, I_ORDER, I_DROP, I_INFLOW, I_REMAP, I_TRESCA, I_LAW = range(7)
-N_IPAR = 7
+I_AXISYM, I_ORDER, I_DROP, I_INFLOW, I_REMAP, I_TRESCA, I_LAW, I_SKIP_VOID = range(8)
+N_IPAR = 8
 # body state (mutable floats)
 B_TIME, B_OFFSET, B_VEL, B_MAXDISP, B_FSUM, B_FCOUNT, B_INFLOW, B_STEP = range(8)
 N_BODY = 8
@@ -74,7 +74,8 @@ def run_steps(
         # ---- Lagrangian phase
         nodal_mass(phi, vol, rho, mass)
         work[:] = 0.0
-        nodal_forces(x, y, phi, q, vx, vy, rho, par[P_C], par[P_HG], par[P_BL], par[P_BQ], axisym, fx, fy, work)
+        nodal_forces(x, y, phi, q, vx, vy, rho, par[P_C], par[P_HG], par[P_BL], par[P_BQ], axisym, fx, fy, work,
+                     ipar[I_SKIP_VOID] == 1)
         energy[E_HOURGLASS] += work[0] * dt
         energy[E_BULK] += work[1] * dt
         # rigid body with the soil nodes tied to it (vertical motion): a fully tied node moves
