@@ -178,7 +178,7 @@ class FieldRecorder:
         rate = np.where(soil, shear_strain_rate(x, y, snap.vx, snap.vy, self.axisym), 0.0)
         su = np.maximum(self.soil.su0_pa + self.soil.ks_pa_per_m * q[K.Z0], 0.0)
         if self.law.active:  # as in the stress update: an inactive law's factor is 1
-            su = su * self.law.strength_factor(q[K.XI], rate)
+            su = su * self.law.strength_factor(q[K.XI], rate, *q[K.NQ_BASE :])
         su = np.where(soil, su, 0.0)
         ratio = mobilised_strength(q, su, self.tresca)
         out = {"volume_fraction": phi}

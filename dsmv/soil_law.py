@@ -14,12 +14,19 @@ A law is one class with three things:
 
 - ``parameters()``: its parameters packed as up to ``N_PARAMS`` floats (from the ``soil``
   config);
-- ``factor(xi, gamma_dot, p0, …, p7)``: the strength factor for one material point, in plain
-  Python with ``math`` (no NumPy). dsmv compiles it with Numba into a C callback of a fixed
-  signature, so the CEL kernels call any law through the same cached machine code;
-- ``strength_factor(xi, gamma_dot)``: the same law written with NumPy arrays. It is the
-  reference ("twin") that the tests hold the compiled kernel to, and what the analytic
+- ``factor(xi, gamma_dot, s0, s1, p0, …, p7)``: the strength factor for one material point,
+  in plain Python with ``math`` (no NumPy). dsmv compiles it with Numba into a C callback of
+  a fixed signature, so the CEL kernels call any law through the same cached machine code;
+- ``strength_factor(xi, gamma_dot, *state)``: the same law written with NumPy arrays. It is
+  the reference ("twin") that the tests hold the compiled kernel to, and what the analytic
   solver uses.
+
+A law may also carry up to ``N_STATE`` named per-cell **state variables** (``s0``, ``s1``):
+``state_variables()`` names them with their initial values, and ``evolve(k, s0, s1, xi, dxi,
+gamma_dot, dt, p0, …, p7)`` returns state k's new value after a step in which the cell's
+plastic shear strain grew by ``dxi`` over ``dt`` seconds. The solver stores them with the
+material and advects them with it, exactly as it carries ξ and z0; soil entering the domain
+brings the initial values. A law without state ignores ``s0`` and ``s1``.
 
 A law that neither softens nor depends on rate for the given soil says so (``softens``,
 ``rate_dependent``): the solvers then skip the call and the strain-rate arithmetic, so it
@@ -36,15 +43,17 @@ from dsmv.scene import SoilConfig
 
 #: the number of float parameters a compiled law receives
 N_PARAMS = 8
+#: the most per-cell state variables a law may carry
+N_STATE = 2
 
 
-def _signature():
+def _signature(n_leading: int):
     from numba import types
 
-    return types.float64(*([types.float64] * (2 + N_PARAMS)))
+    return types.float64(*([types.float64] * (n_leading + N_PARAMS)))
 
 
-_COMPILED: dict[type, object] = {}
+_COMPILED: dict[tuple[type, str], object] = {}
 
 
 class SoilLaw:
@@ -65,32 +74,60 @@ class SoilLaw:
     def rate_dependent(self) -> bool:
         return False
 
+    def state_variables(self) -> dict[str, float]:
+        """The law's per-cell state variables, by name, with their initial values (at most N_STATE)."""
+        return {}
+
     @property
     def active(self) -> bool:
-        """Whether solvers must evaluate the law at all (else factor ≡ 1)."""
-        return self.softens or self.rate_dependent
+        """Whether solvers must evaluate the law at all (else factor ≡ 1 and no state)."""
+        return self.softens or self.rate_dependent or bool(self.state_variables())
 
     def parameters(self) -> np.ndarray:
         """The law's parameters as ``N_PARAMS`` floats (unused ones zero)."""
         return np.zeros(N_PARAMS)
 
     @staticmethod
-    def factor(xi, gamma_dot, p0, p1, p2, p3, p4, p5, p6, p7):
-        """su/su_intact at one material point (scalar, plain Python + math)."""
+    def factor(xi, gamma_dot, s0, s1, p0, p1, p2, p3, p4, p5, p6, p7):
+        """su/su_intact at one material point (scalar, plain Python + math); s0, s1: its state."""
         return 1.0
 
-    def strength_factor(self, xi: np.ndarray, gamma_dot_per_s: np.ndarray) -> np.ndarray:
-        """su/su_intact (-) at accumulated plastic shear strain ξ and shear strain rate γ̇ (1/s): NumPy twin."""
+    @staticmethod
+    def evolve(k, s0, s1, xi, dxi, gamma_dot, dt, p0, p1, p2, p3, p4, p5, p6, p7):
+        """State variable k's value after a step (dxi: plastic shear strain gained, dt: s)."""
+        return s0 if k == 0.0 else s1
+
+    def strength_factor(self, xi: np.ndarray, gamma_dot_per_s: np.ndarray, *state: np.ndarray) -> np.ndarray:
+        """su/su_intact (-) at accumulated plastic shear strain ξ, shear strain rate γ̇ (1/s) and
+        the law's state variables (in ``state_variables()`` order): the NumPy twin."""
         raise NotImplementedError
 
     @classmethod
     def compiled(cls):
         """The law's ``factor`` compiled as a C callback (cached on disk by Numba)."""
-        if cls not in _COMPILED:
+        return cls._compile("factor", 4)
+
+    @classmethod
+    def compiled_evolve(cls):
+        """The law's ``evolve`` compiled as a C callback (cached on disk by Numba)."""
+        return cls._compile("evolve", 7)
+
+    @classmethod
+    def _compile(cls, method: str, n_leading: int):
+        if (cls, method) not in _COMPILED:
             from numba import cfunc
 
-            _COMPILED[cls] = cfunc(_signature(), cache=True)(cls.factor)
-        return _COMPILED[cls]
+            _COMPILED[cls, method] = cfunc(_signature(n_leading), cache=True)(getattr(cls, method))
+        return _COMPILED[cls, method]
+
+    def initial_state(self) -> np.ndarray:
+        """The initial values of the state variables, checked (N_STATE at most, finite)."""
+        values = np.array(list(self.state_variables().values()), dtype=float)
+        if values.size > N_STATE:
+            raise ValueError(f"soil law {self.name} declares {values.size} state variables; at most {N_STATE}")
+        if not np.all(np.isfinite(values)):
+            raise ValueError(f"soil law {self.name} starts its state at non-finite values {values}")
+        return values
 
     def packed(self) -> np.ndarray:
         """``parameters()`` checked and padded to ``N_PARAMS`` floats."""

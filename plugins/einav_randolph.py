@@ -48,7 +48,7 @@ class EinavRandolphLaw(SoilLaw):
         ])
 
     @staticmethod
-    def factor(xi, gamma_dot, d_rem, xi95, rate_law, eta, n, gamma_dot_ref, mu, unused):
+    def factor(xi, gamma_dot, s0, s1, d_rem, xi95, rate_law, eta, n, gamma_dot_ref, mu, unused):
         softening = d_rem + (1.0 - d_rem) * math.exp(-3.0 * xi / xi95)
         if rate_law == 0.0:
             rate = 1.0 + eta * (max(gamma_dot, 0.0) / gamma_dot_ref) ** n
@@ -56,7 +56,7 @@ class EinavRandolphLaw(SoilLaw):
             rate = 1.0 + mu * math.log10(max(gamma_dot, gamma_dot_ref) / gamma_dot_ref)
         return softening * rate
 
-    def strength_factor(self, xi, gamma_dot_per_s):
+    def strength_factor(self, xi, gamma_dot_per_s, *state):
         soil, rate = self.soil, self.soil.rate
         xi = np.asarray(xi, dtype=float)
         gamma_dot = np.asarray(gamma_dot_per_s, dtype=float)

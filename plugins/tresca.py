@@ -14,5 +14,5 @@ from dsmv.soil_law import SoilLaw
 class TrescaLaw(SoilLaw):
     name = "tresca"
 
-    def strength_factor(self, xi, gamma_dot_per_s):
+    def strength_factor(self, xi, gamma_dot_per_s, *state):
         return np.ones(np.broadcast(np.asarray(xi), np.asarray(gamma_dot_per_s)).shape)

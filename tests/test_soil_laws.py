@@ -1,5 +1,6 @@
 """Every registered soil law against its own NumPy twin, closed forms, limits and monotonicity."""
 
+import json
 import math
 
 import numpy as np
@@ -33,7 +34,7 @@ def test_compiled_kernel_equals_numpy_twin(compose_cfg, name, rate_law):
     xi = rng.uniform(0, 100, 500)
     gamma_dot = 10 ** rng.uniform(-9, 3, 500)
     kernel, params = law.compiled(), law.packed()
-    compiled = np.array([kernel.ctypes(a, b, *params) for a, b in zip(xi, gamma_dot)])
+    compiled = np.array([kernel.ctypes(a, b, 0.0, 0.0, *params) for a, b in zip(xi, gamma_dot)])
     np.testing.assert_allclose(compiled, law.strength_factor(xi, gamma_dot), rtol=1e-13)
 
 
@@ -87,7 +88,7 @@ def simple_shear(law, soil, gamma_dot, gamma_total, n_steps=4000):
     gammas, taus = [], []
     for step in range(n_steps):
         K.update_stress(x, y, phi, q, vx, vy, dt, G, Kb, soil.su0_pa, 0.0, False, 0.01, True,
-                        law.compiled(), law.packed(), law.active, out)
+                        law.compiled(), law.packed(), law.active, law.compiled_evolve(), out)
         gammas.append((step + 1) * gamma_dot * dt)
         taus.append(q[K.SXY, 0, 0])
     return np.array(gammas), np.array(taus), G
@@ -152,10 +153,10 @@ class LinearSofteningLaw(SoilLaw):
         return np.array([self.soil.params["slope"], 1.0 / self.soil.sensitivity])
 
     @staticmethod
-    def factor(xi, gamma_dot, slope, floor, p2, p3, p4, p5, p6, p7):
+    def factor(xi, gamma_dot, s0, s1, slope, floor, p2, p3, p4, p5, p6, p7):
         return max(1.0 - slope * xi, floor)
 
-    def strength_factor(self, xi, gamma_dot_per_s):
+    def strength_factor(self, xi, gamma_dot_per_s, *state):
         return np.maximum(1.0 - self.soil.params["slope"] * np.asarray(xi), 1.0 / self.soil.sensitivity)
 '''
 
@@ -187,3 +188,53 @@ def test_fall_cone_implied_hansbo_factor(compose_cfg):
     k_er, k_tresca = hansbo_k("einav_randolph"), hansbo_k("tresca")
     assert 0.5 <= k_er <= 1.33
     assert k_tresca > k_er
+
+
+STATEFUL_LAW = '''
+import math
+import numpy as np
+from dsmv.soil_law import SoilLaw
+
+
+class XiMemoryLaw(SoilLaw):
+    """Einav-Randolph softening (no rate) read from a state variable that accumulates ξ itself."""
+    name = "xi_memory"
+
+    def state_variables(self):
+        return {"xi_copy": 0.0}
+
+    def parameters(self):
+        return np.array([1.0 / self.soil.sensitivity, self.soil.xi95])
+
+    @staticmethod
+    def factor(xi, gamma_dot, s0, s1, d_rem, xi95, p2, p3, p4, p5, p6, p7):
+        return d_rem + (1.0 - d_rem) * math.exp(-3.0 * s0 / xi95)
+
+    @staticmethod
+    def evolve(k, s0, s1, xi, dxi, gamma_dot, dt, d_rem, xi95, p2, p3, p4, p5, p6, p7):
+        return s0 + dxi
+
+    def strength_factor(self, xi, gamma_dot_per_s, *state):
+        d_rem = 1.0 / self.soil.sensitivity
+        return d_rem + (1.0 - d_rem) * np.exp(-3.0 * np.asarray(state[0]) / self.soil.xi95)
+'''
+
+
+def test_a_law_state_variable_is_carried_with_the_material(run_cli, install_plugin, tmp_path):
+    """A state variable that sums the plastic strain increments, advected with the soil, is ξ
+    itself: the landing matches Einav–Randolph without rate effect to round-off. It also shows
+    that soil entering at the base brings the initial state and that the remap moves it."""
+    install_plugin("xi_memory_law", STATEFUL_LAW, "dsmv.soil_laws", "xi_memory", "XiMemoryLaw")
+    common = ["solver=cel2d", "mesh=coarse", "tracking=disabled", "output.plots=false", "soil.sensitivity=5",
+              "soil.xi95=2", "landing.velocity_m_s=3"]
+    sinkages = []
+    for law in (["soil.law=xi_memory"], ["soil.law=einav_randolph", "soil.rate.eta=0"]):
+        proc = run_cli("dsmv", *common, *law, "hydra.run.dir=run_" + law[0].split("=")[1])
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        result = json.loads((tmp_path / ("run_" + law[0].split("=")[1]) / "result.json").read_text())
+        assert result["status"] == "ok", result["message"]
+        sinkages.append(result["metrics"]["max_sinkage_m"])
+    tresca = run_cli("dsmv", *common, "soil.law=tresca", "hydra.run.dir=run_tresca")
+    tresca_sinkage = json.loads((tmp_path / "run_tresca" / "result.json").read_text())["metrics"]["max_sinkage_m"]
+    assert sinkages[0] == pytest.approx(sinkages[1], rel=1e-9)
+    assert sinkages[0] > tresca_sinkage * 1.01  # the state did soften the soil

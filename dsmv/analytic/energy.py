@@ -111,7 +111,7 @@ class AnalyticEnergySolver:
         law = registry.load("soil_laws", soil.law, "soil.law")(soil)
         xi = cfg.operative_shear_strain or 0.0
         rate = landing.velocity_m_s / body.width_m if cfg.rate_effect else 0.0
-        self.strength_factor = float(law.strength_factor(np.asarray(xi), np.asarray(rate)))
+        self.strength_factor = float(law.strength_factor(np.asarray(xi), np.asarray(rate), *law.initial_state()))
         #: Ra = Nc·sc·f·A (m²): resistance per unit of su
         self.resistance_area_m2 = cfg.bearing_factor * self.shape_factor * self.strength_factor * body.contact_area_m2
 

@@ -165,6 +165,7 @@ class Cel2DCheckSolver:
                              exact_tresca=False, law_active=False)
         vx = np.zeros((nx + 1, ny + 1))
         vy = np.zeros_like(vx)
+        tresca = registry.load("soil_laws", "tresca", "soil.law")
         none = np.zeros(0, dtype=np.int64)
         body = np.zeros(S.N_BODY)
         energy = np.zeros(S.N_ENERGY)
@@ -172,7 +173,7 @@ class Cel2DCheckSolver:
                 np.zeros_like(vx), np.zeros_like(vx), np.zeros((nx + 1, ny)), np.zeros((ny + 1, nx)),
                 none, none, none.astype(np.bool_), np.zeros(0), np.zeros(0), np.zeros((nx, ny), dtype=np.bool_),
                 np.zeros((K.NQ_BASE, nx)), np.zeros(nx),
-                par, ipar, body, energy, registry.load("soil_laws", "tresca", "soil.law").compiled(), np.zeros(8))
+                par, ipar, body, energy, tresca.compiled(), np.zeros(8), tresca.compiled_evolve())
         n_steps = int(math.ceil(cfg.duration_s / dt))
         samples = 100
         times, speeds = [0.0], [0.0]

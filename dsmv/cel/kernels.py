@@ -188,8 +188,20 @@ def tresca_return(s1, s2, s3, su, shear_mod):
 
 
 @njit(**JIT)
+def _evolve_state(q, i, j, evolve, xi_before, gamma_dot, dt, p):
+    """A soil law's state variables (rows NQ_BASE… of q) after the step of cell (i, j)."""
+    n_state = q.shape[0] - NQ_BASE
+    s0 = q[NQ_BASE, i, j]
+    s1 = q[NQ_BASE + 1, i, j] if n_state > 1 else 0.0
+    xi = q[XI, i, j]
+    for k in range(n_state):
+        q[NQ_BASE + k, i, j] = evolve(float(k), s0, s1, xi, xi - xi_before, gamma_dot, dt,
+                                      p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7])
+
+
+@njit(**JIT)
 def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym, phi_min, exact_tresca,
-                  law, law_params, law_active, out):
+                  law, law_params, law_active, evolve, out):
     """Stress update for undrained soil of strength su: Jaumann rotation, elastic trial, return.
 
     su = (su0 + ks·z0)·law(ξ, γ̇, params) with z0 the depth where the soil started and
@@ -200,8 +212,13 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
     are the same in plane strain; in axisymmetry only Tresca matches Tresca's exact solutions
     (J2 matched in shear is weaker in triaxial states by √3/2). Accumulates the plastic shear
     strain ξ += Δε1^p − Δε3^p (Δγ in simple shear); ``out[0]`` accumulates plastic work (J).
+    A law's state variables, the rows of ``q`` beyond NQ_BASE, reach ``law`` as s0, s1 and
+    are updated by its compiled ``evolve`` after the return.
     """
     nx, ny = phi.shape
+    has_state = q.shape[0] > NQ_BASE
+    s0 = 0.0
+    s1 = 0.0
     lam = bulk_mod - 2.0 * shear_mod / 3.0
     plastic = 0.0
     for i in range(nx):
@@ -243,13 +260,18 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
             su = su0 + ks * q[Z0, i, j]
             if su < 0.0:
                 su = 0.0
+            xi_before = q[XI, i, j]
+            gamma_dot = 0.0
             if law_active:
                 # shear strain rate (Δε1 − Δε3)/Δt from the principal total strain increments
                 ring = math.sqrt(0.25 * (dxx - dyy) ** 2 + dxy * dxy)
                 e_hi = max(0.5 * (dxx + dyy) + ring, dzz)
                 e_lo = min(0.5 * (dxx + dyy) - ring, dzz)
                 gamma_dot = (e_hi - e_lo) / dt if dt > 0.0 else 0.0
-                su *= law(q[XI, i, j], gamma_dot, law_params[0], law_params[1], law_params[2], law_params[3],
+                if has_state:
+                    s0 = q[NQ_BASE, i, j]
+                    s1 = q[NQ_BASE + 1, i, j] if q.shape[0] > NQ_BASE + 1 else 0.0
+                su *= law(q[XI, i, j], gamma_dot, s0, s1, law_params[0], law_params[1], law_params[2], law_params[3],
                           law_params[4], law_params[5], law_params[6], law_params[7])
             if exact_tresca:
                 # principal stresses: the in-plane pair and the out-of-plane one
@@ -287,6 +309,8 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
                 q[SYY, i, j] = syy
                 q[SZZ, i, j] = szz
                 q[SXY, i, j] = sxy
+                if has_state:
+                    _evolve_state(q, i, j, evolve, xi_before, gamma_dot, dt, law_params)
                 continue
             # radial return
             p = (sxx + syy + szz) / 3.0
@@ -307,6 +331,8 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
             q[SYY, i, j] = p + ey
             q[SZZ, i, j] = p + ez
             q[SXY, i, j] = sxy
+            if has_state:
+                _evolve_state(q, i, j, evolve, xi_before, gamma_dot, dt, law_params)
     out[0] += plastic
 
 

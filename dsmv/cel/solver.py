@@ -306,6 +306,9 @@ class Cel2DSolver:
         d0 = self.mudline
         solid, tie_i, tie_j, tie_full, tie_nx, tie_ny = self.body_cells_and_ties(grid, j_base)
         phi, q = geostatic_state(grid, rho, grav, elastic.k0, d0, solid)
+        # the soil law's state variables ride with the material, as ξ and z0 do
+        initial_state = self.law.initial_state()
+        q = np.concatenate([q, np.broadcast_to(initial_state[:, None, None], (len(initial_state), nx, ny))])
         vol = K.cell_volumes(x, y, self.axisym)
 
         # the model carries a share of the body: the half-section per metre of the out-of-plane
@@ -329,7 +332,7 @@ class Cel2DSolver:
             skip_void=cfg.economies.skip_void,
             exact_tresca=cfg.yield_surface == "tresca" or (cfg.yield_surface == "auto" and self.axisym),
         )
-        law_fn, law_params = self.law.compiled(), self.law.packed()
+        law_fn, law_params, law_evolve = self.law.compiled(), self.law.packed(), self.law.compiled_evolve()
 
         vx = np.zeros((nx + 1, ny + 1))
         vy = np.zeros((nx + 1, ny + 1))
@@ -350,7 +353,8 @@ class Cel2DSolver:
         vy[tie_i[~tie_full], tie_j[~tie_full]] = v0 * tie_ny[~tie_full] ** 2
         energy = np.zeros(S.N_ENERGY)
         elastic0 = K.elastic_energy(phi, q, vol, G, Kb)
-        ghost = np.zeros((K.NQ_BASE, nx))
+        ghost = np.zeros((q.shape[0], nx))
+        ghost[K.NQ_BASE :] = initial_state[:, None]  # soil entering at the base brings the initial state
         ghost_depth0 = np.full(nx, d0 - (y[0] - 0.5 * (y[1] - y[0])))
         work = dict(
             fx=np.zeros_like(vx), fy=np.zeros_like(vx), ux=np.zeros_like(vx), uy=np.zeros_like(vx),
@@ -362,7 +366,7 @@ class Cel2DSolver:
             return S.run_steps(
                 n, x, y, vol, phi, q, vx, vy, mass, work["fx"], work["fy"], work["ux"], work["uy"],
                 work["flux_x"], work["flux_y"], tie_i, tie_j, tie_full, tie_nx, tie_ny, solid, ghost, ghost_depth0,
-                par, ipar, body, energy, law_fn, law_params,
+                par, ipar, body, energy, law_fn, law_params, law_evolve,
             )
 
         # expected duration → steps per history sample

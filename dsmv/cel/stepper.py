@@ -16,7 +16,7 @@ from numba import njit
 
 # Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
 # kernels it inlined until this file changes. After changing a kernel, bump this revision
-# (or clear the Numba cache). Kernel revision: 3 (nodal_forces can be told not to skip void cells).
+# (or clear the Numba cache). Kernel revision: 4 (soil-law state variables in update_stress).
 from dsmv.cel.kernels import (
     JIT,
     advect_cells,
@@ -50,12 +50,13 @@ RUNNING, AT_REST, NOT_FINITE = 0, 1, 2
 def run_steps(
     n_steps, x, y, vol, phi, q, vx, vy, mass, fx, fy, ux, uy, flux_x, flux_y,
     tie_i, tie_j, tie_full, tie_nx, tie_ny, solid, ghost, ghost_depth0, par, ipar, body, energy,
-    law, law_params,
+    law, law_params, evolve,
 ):
     """Advance up to ``n_steps`` steps; return (steps done, exit code).
 
     ``law`` is the soil law's compiled strength factor (dsmv.soil_law), ``law_params`` its
-    packed parameters; it is called only when ``ipar[I_LAW]`` is set.
+    packed parameters; it is called only when ``ipar[I_LAW]`` is set. ``evolve`` updates the
+    law's state variables, the rows of ``q`` (and ``ghost``) beyond NQ_BASE.
     """
     dt = par[P_DT]
     rho = par[P_RHO]
@@ -134,7 +135,7 @@ def run_steps(
             energy[E_SOIL_GRAV] += -grav * dt * 0.5 * (momentum_before + momentum_after)
         stress_out[0] = 0.0
         update_stress(x, y, phi, q, vx, vy, dt, par[P_G], par[P_K], par[P_SU0], par[P_KS], axisym,
-                      par[P_PHI_STRESS], ipar[I_TRESCA] == 1, law, law_params, ipar[I_LAW] == 1, stress_out)
+                      par[P_PHI_STRESS], ipar[I_TRESCA] == 1, law, law_params, ipar[I_LAW] == 1, evolve, stress_out)
         energy[E_PLASTIC] += stress_out[0]
         body[B_OFFSET] += body[B_VEL] * dt
         body[B_TIME] += dt
