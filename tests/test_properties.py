@@ -252,9 +252,12 @@ def legal_scene(draw):
     return draw(st.sampled_from(["track_pioneer_i", "strip"])), values
 
 
-#: a tiny CEL model: 0.15 m cells, the domain 2 B deep and wide, a step budget as a time limit
+#: a tiny CEL model: 0.15 m cells, the domain 2 B deep and wide and sized for 2 m of travel, a
+#: step budget as a time limit. (Sized from the energy method, a heavy body on weak soil with a
+#: small ks gets a domain for hundreds of metres of travel: 10⁴–10⁵ cells, minutes per example.)
 TINY_CEL = ["solver=cel2d", "mesh=coarse", "mesh.cell_size_m=0.15", "solver.domain_depth_widths=2",
-            "solver.domain_half_width_widths=2", "solver.progress=off", "solver.max_steps=20000"]
+            "solver.domain_half_width_widths=2", "solver.initial_travel_m=2", "solver.progress=off",
+            "solver.max_steps=20000"]
 
 
 @pytest.fixture(scope="module")
