@@ -134,7 +134,6 @@ def _rate_effect_holds_up(run, other):
 def _too_heavy(run, other):
     # q/su0 = 10500·9.81/(2.5·2000) = 20.6, beyond the deep rough factor 11.94 plus the side
     # adhesion of one width (2·B/B = 2): ks = 0 soil cannot stop it
-    assert 10500 * 9.81 / (2.5 * 2000) > 11.94 + 2
     assert "without slowing down" in run.result["message"]
     assert run.metrics["max_sinkage_m"] >= WIDTH_M
 
