@@ -22,12 +22,12 @@ from typing import Any, Callable, Literal
 
 import numpy as np
 import pandas as pd
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import DictConfig
 from pydantic import Field
 
 from dsmv import registry
 from dsmv.errors import ConfigError
-from dsmv.scene import Count, Number, Schema, _validate, build_tracking
+from dsmv.scene import Count, Number, Schema, _resolve, _validate, build_tracking
 from dsmv.surrogate import evaluate
 from dsmv.surrogate.base import Surrogate, SurrogateConfig
 from dsmv.surrogate.dataset import PARAMETERS, TARGET_METRIC, Dataset, DatasetError, load_dataset
@@ -95,9 +95,8 @@ class Training:
 
 def settings_from(cfg: DictConfig) -> tuple[TrainSettings, SurrogateConfig]:
     """Validate ``train`` and ``surrogate``; an unknown surrogate lists the installed ones."""
-    container = OmegaConf.to_container(cfg, resolve=True)
-    settings = _validate(TrainSettings, container.get("train"), "train")
-    surrogate = _validate(SurrogateConfig, container.get("surrogate"), "surrogate")
+    settings = _validate(TrainSettings, _resolve(cfg.get("train")), "train")
+    surrogate = _validate(SurrogateConfig, _resolve(cfg.get("surrogate")), "surrogate")
     registry.check_name("surrogates", surrogate.name, "surrogate.name")
     return settings, surrogate
 
@@ -114,9 +113,11 @@ def fit_and_evaluate(surrogate: Surrogate, config: SurrogateConfig, settings: Tr
     train_idx, test_idx = evaluate.split(n, settings.test_fraction, settings.seed)
     base = functools.partial(surrogate.make, **config.params)
     folds = min(config.grid_cv_folds, len(train_idx))
+    clock = time.perf_counter()
     best, grid_results = evaluate.grid_search(base, config.grid, X.iloc[train_idx], y[train_idx], folds,
                                               settings.seed, settings.n_jobs)
     result = Training(surrogate, config, settings, dataset, features, None, best, train_idx, test_idx)
+    grid_s = time.perf_counter() - clock
 
     started = time.perf_counter()
     result.estimator = result.make().fit(X.iloc[train_idx], y[train_idx])
@@ -131,13 +132,17 @@ def fit_and_evaluate(surrogate: Surrogate, config: SurrogateConfig, settings: Tr
         extra = functools.partial(_implicit_scores, features=features, table=table, y=y,
                                   points=settings.implicit_points)
         metrics |= extra(result.estimator, train_idx, test_idx)
+    clock = time.perf_counter()
     cv = evaluate.cross_validation(result.make, X, y, settings.cv_folds, settings.seed, settings.n_jobs, extra)
+    cv_s, clock = time.perf_counter() - clock, time.perf_counter()
     mc = evaluate.monte_carlo(result.make, X, y, settings.mc_splits, settings.test_fraction, settings.seed,
                               settings.n_jobs)
+    mc_s = time.perf_counter() - clock
     metrics |= cv.summary("cv") | mc.summary("mc")
     metrics |= {"grid_best_cv_r2": float(grid_results["mean_test_score"].max()) if len(grid_results) else np.nan,
                 "grid_combinations": len(grid_results), "n_samples": n, "n_train": len(train_idx),
-                "n_test": len(test_idx), "n_excluded": len(dataset.excluded), "fit_s": fit_s}
+                "n_test": len(test_idx), "n_excluded": len(dataset.excluded), "fit_s": fit_s, "grid_s": grid_s,
+                "cv_s": cv_s, "mc_s": mc_s}
     result.metrics = metrics
     importance = evaluate.feature_importance(result.estimator, features.columns)
     result.frames = {"grid_search": grid_results, "cv_folds": cv.frame, "monte_carlo": mc.frame,
