@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import hydra
@@ -22,12 +23,40 @@ Plugins.instance().register(CaseSweeper)
 CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 
 
+def check_group_choices(argv: list[str], program: str, config_dir: str = CONFIG_DIR) -> None:
+    """Fail in one line (exit 2) on ``group=option`` naming no ``conf/<group>/<option>.yaml``.
+
+    Hydra's own message for an unknown option is many lines long. Sweeps (``soil=a,b``) are
+    checked value by value; Hydra's own groups (``hydra/launcher=…``), deletions (``~group``)
+    and sweep functions (``range(…)``) are left to Hydra.
+    """
+    from dsmv.errors import ConfigError
+    from dsmv.runner import fail_user_error
+
+    for arg in argv:
+        key, sep, value = arg.partition("=")
+        group = key.lstrip("+")
+        folder = Path(config_dir) / group
+        if not sep or key.startswith("~") or "/" in group or "(" in value or not folder.is_dir():
+            continue
+        options = sorted(p.stem for p in folder.glob("*.yaml"))
+        for choice in value.split(","):
+            if choice not in options and choice != "null":
+                fail_user_error(ConfigError(group, choice, f"not a {group} option; available: {', '.join(options)}"),
+                                program)
+
+
 @hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="config")
-def simulate(cfg: DictConfig) -> None:
-    """``dsmv``: run one scene, or a sweep with ``-m``."""
+def _simulate_app(cfg: DictConfig) -> None:
     from dsmv.runner import run_job
 
     run_job(cfg)
+
+
+def simulate() -> None:
+    """``dsmv``: run one scene, or a sweep with ``-m``."""
+    check_group_choices(sys.argv[1:], "dsmv")
+    _simulate_app()
 
 
 @hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="train")
@@ -39,11 +68,7 @@ def _train_app(cfg: DictConfig) -> None:
 
 def train() -> None:
     """``dsmv-train``: train and evaluate a surrogate on a study's tracked runs."""
-    import sys
-
-    from dsmv.surrogate.train import check_surrogate_choice
-
-    check_surrogate_choice(sys.argv[1:], CONFIG_DIR)
+    check_group_choices(sys.argv[1:], "dsmv-train")
     _train_app()
 
 

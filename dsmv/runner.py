@@ -32,9 +32,9 @@ def pin_numba_threads(n: int) -> None:
         numba.set_num_threads(min(n, numba.config.NUMBA_NUM_THREADS))
 
 
-def fail_user_error(error: DsmvError) -> None:
+def fail_user_error(error: DsmvError, program: str = "dsmv") -> None:
     """Report a user mistake in one line on stderr and exit with status 2."""
-    print(f"dsmv: error: {error}", file=sys.stderr)
+    print(f"{program}: error: {error}", file=sys.stderr)
     sys.exit(2)
 
 

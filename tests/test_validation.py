@@ -61,11 +61,12 @@ def test_push_needs_a_velocity(compose_cfg):
 
 @pytest.mark.parametrize(
     "override,expected",
-    [("landing.mass_kg=-1", "landing.mass_kg = -1"), ("soil.law=nope", "tresca")],
+    [("landing.mass_kg=-1", "landing.mass_kg = -1"), ("soil.law=nope", "tresca"),
+     ("soil=nope", "available: nodule_field, sample_I"), ("mesh=coarse,tiny", "mesh = 'tiny'")],
 )
 def test_cli_reports_one_line_without_traceback(run_cli, override, expected):
     proc = run_cli("dsmv", override, "tracking=disabled")
-    assert proc.returncode != 0
+    assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and expected in lines[0]
     assert "Traceback" not in proc.stderr + proc.stdout

@@ -401,22 +401,13 @@ def predict(cfg: DictConfig) -> dict | None:
         fail(error)
 
 
-def _check_surrogate_choice(argv: list[str], config_dir: str) -> None:
-    """``surrogate=<name>`` with no ``conf/surrogate/<name>.yaml``: one line (Hydra's is many)."""
-    options = sorted(p.stem for p in (Path(config_dir) / "surrogate").glob("*.yaml"))
-    for arg in argv:
-        key, sep, value = arg.partition("=")
-        if sep and key.lstrip("+~") == "surrogate" and value not in options:
-            fail(ConfigError("surrogate", value, f"not a surrogate; available: {', '.join(options)}"))
-
-
 def main() -> None:
     """``dsmv-predict`` (console script: ``dsmv-predict = "dsmv.surrogate.predict:main"``)."""
     import hydra
 
-    from dsmv.cli import CONFIG_DIR
+    from dsmv.cli import CONFIG_DIR, check_group_choices
 
-    _check_surrogate_choice(sys.argv[1:], CONFIG_DIR)
+    check_group_choices(sys.argv[1:], PROG)
     hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="predict")(predict)()
 
 
