@@ -45,6 +45,9 @@ class SolveResult:
             # A NaN never leaves silently: a solver must report 'unstable' instead.
             if not math.isfinite(value):
                 raise ValueError(f"metric {name} = {value} is not finite")
+        for name, values in (self.history or {}).items():
+            if not np.all(np.isfinite(np.asarray(values, dtype=float))):
+                raise ValueError(f"history column {name} holds a non-finite value")
 
 
 def write_result(run_dir: Path, result: SolveResult, solver: str, soil_law: str, config_hash: str) -> Path:

@@ -112,3 +112,16 @@ def test_push_gives_the_resistance_curve(compose_cfg):
     # a strip on uniform soil: q/su = 2 + π at every depth
     assert result.metrics["bearing_factor_at_end"] == pytest.approx(2 + math.pi, rel=1e-12)
     assert np.allclose(result.history["force_n"], (2 + math.pi) * 5000.0)
+
+
+def test_a_non_finite_history_never_leaves_silently():
+    """A solver bug that writes NaN into the history fails loudly instead of an 'ok' with NaNs."""
+    import numpy as np
+    import pytest
+
+    from dsmv.results import SolveResult
+
+    history = {"time_s": np.array([0.0, 1.0]), "sinkage_m": np.array([0.0, np.nan]),
+               "velocity_m_s": np.zeros(2), "force_n": np.zeros(2)}
+    with pytest.raises(ValueError, match="sinkage_m"):
+        SolveResult("ok", "", {"max_sinkage_m": 0.1}, history=history)
