@@ -264,20 +264,6 @@ def print_summary(result: Training, run_dir: Path, logged: dict, wall_s: float) 
           f"model {logged['model']})")
 
 
-def check_surrogate_choice(argv: list[str], config_dir: str) -> None:
-    """Fail in one line on ``surrogate=<name>`` with no ``conf/surrogate/<name>.yaml``.
-
-    (Hydra's own message for an unknown option is several lines long.)
-    """
-    from dsmv.runner import fail_user_error
-
-    options = sorted(p.stem for p in (Path(config_dir) / "surrogate").glob("*.yaml"))
-    for arg in argv:
-        key, sep, value = arg.partition("=")
-        if sep and key.lstrip("+~") == "surrogate" and value not in options:
-            fail_user_error(ConfigError("surrogate", value, f"not a surrogate; available: {', '.join(options)}"))
-
-
 def main(cfg: DictConfig) -> None:
     """The body of the Hydra app: user mistakes end in one line and exit status 2."""
     from hydra.core.hydra_config import HydraConfig
@@ -289,8 +275,8 @@ def main(cfg: DictConfig) -> None:
     try:
         run_training(cfg, run_dir)
     except DsmvError as error:
-        fail_user_error(error)
+        fail_user_error(error, "dsmv-train")
 
 
-__all__ = ["run_training", "fit_and_evaluate", "Training", "TrainSettings", "check_surrogate_choice", "main",
+__all__ = ["run_training", "fit_and_evaluate", "Training", "TrainSettings", "main",
            "METRICS_FILE"]
