@@ -103,6 +103,9 @@ def test_design_is_seeded_on_table3_levels_and_reports_what_it_dropped(compose_c
     assert cases == design.table3_cases(cfg)  # seeded: the same design every time
     other = design.table3_cases(compose_cfg(["experiment=dataset_table3", "dataset.n_samples=12", "dataset.seed=7"]))
     assert other != cases
+    # a sweep can run part of the design (to resume failed jobs): the same scenes, no others
+    part = design.table3_cases(compose_cfg(["experiment=dataset_table3", "dataset.n_samples=12", "dataset.jobs=8:"]))
+    assert part == cases[8:]
     lengths = {round(a / 0.6, 9) for a in design.TABLE3_LEVELS["contact_area_m2"]}
     for case in cases:
         values = dict(item.split("=") for item in case)
@@ -147,6 +150,8 @@ def test_design_needs_a_dataset_block(compose_cfg):
         design.table3_cases(compose_cfg([]))
     with pytest.raises(ConfigError, match="dataset.n_samples"):
         design.table3_cases(compose_cfg(["experiment=dataset_table3", "dataset.n_samples=0"]))
+    with pytest.raises(ConfigError, match="dataset.jobs"):
+        design.table3_cases(compose_cfg(["experiment=dataset_table3", "dataset.jobs=first"]))
 
 
 # ----------------------------------------------------------------------------- dataset

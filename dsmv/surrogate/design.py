@@ -57,6 +57,7 @@ class DatasetConfig:
     n_samples: int = 257  # scenes to run (-), the study's 257
     seed: int = 2025  # seed of the Latin hypercube (-)
     max_analytic_sinkage_m: float = 1.0  # operational limit on the energy-method sinkage (m)
+    jobs: str | None = None  # "start:stop": run only these scenes of the design (resume failed ones)
 
     @classmethod
     def from_cfg(cls, cfg) -> "DatasetConfig":
@@ -72,7 +73,25 @@ class DatasetConfig:
             raise ConfigError("dataset.seed", seed, "must be an integer ≥ 0")
         if isinstance(limit, bool) or not isinstance(limit, (int, float)) or not limit > 0:
             raise ConfigError("dataset.max_analytic_sinkage_m", limit, "must be a number > 0 (m)")
-        return cls(n, seed, float(limit))
+        jobs = values["jobs"]
+        if jobs is not None and not _parse_slice(str(jobs)):
+            raise ConfigError("dataset.jobs", jobs, "must be null (all scenes) or 'start:stop', scene numbers of the design")
+        return cls(n, seed, float(limit), None if jobs is None else str(jobs))
+
+    def selected(self) -> slice:
+        """The scenes of the design this sweep runs."""
+        return slice(None) if self.jobs is None else _parse_slice(self.jobs)
+
+
+def _parse_slice(text: str) -> slice | None:
+    start, sep, stop = text.partition(":")
+    try:
+        bounds = [int(v) if v.strip() else None for v in (start, stop)]
+    except ValueError:
+        return None
+    if not sep or any(b is not None and b < 0 for b in bounds):
+        return None
+    return slice(*bounds)
 
 
 @dataclass(frozen=True)
@@ -90,9 +109,9 @@ class Design:
                 f"dropped {sum(self.dropped.values())} (analytic sinkage limit {limit_m:g} m: {reasons}), "
                 f"running {len(self.scenes)}")
 
-    def overrides(self) -> list[list[str]]:
-        """One list of Hydra override strings per scene."""
-        return [[f"{key}={value!r}" for key, value in scene.items()] for scene in self.scenes]
+    def overrides(self, selected: slice = slice(None)) -> list[list[str]]:
+        """One list of Hydra override strings per scene (of the ``selected`` ones)."""
+        return [[f"{key}={value!r}" for key, value in scene.items()] for scene in self.scenes[selected]]
 
 
 def latin_hypercube_levels(n: int, seed: int, levels: dict[str, tuple[float, ...]] = TABLE3_LEVELS) -> np.ndarray:
@@ -192,12 +211,16 @@ def table3_cases(cfg: Any) -> list[list[str]]:
     dataset = DatasetConfig.from_cfg(cfg)
     plain = OmegaConf.create({k: cfg[k] for k in cfg if k != "hydra"})
     design = table3_design(build_scene(plain), dataset)
-    print(design.report(dataset.max_analytic_sinkage_m))
+    report = design.report(dataset.max_analytic_sinkage_m)
+    cases = design.overrides(dataset.selected())
+    if dataset.jobs is not None:
+        report += f"; this sweep runs scenes {dataset.jobs} ({len(cases)} jobs)"
+    print(report)
     sweep_dir = _sweep_dir(cfg)
     if sweep_dir is not None:
         write_design(design, sweep_dir / DESIGN_FILE)
         _log_to_parent(cfg, sweep_dir, design)
-    return design.overrides()
+    return cases
 
 
 def _sweep_dir(cfg) -> Path | None:
