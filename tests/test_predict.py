@@ -186,7 +186,7 @@ def test_user_mistakes_are_one_line_with_exit_2(store, overrides, message, capsy
 
 @pytest.mark.parametrize("args, message", [
     (["task=bogus"], "dsmv-predict: error: task = 'bogus': must be"),
-    (["surrogate=svm"], "dsmv-predict: error: surrogate = 'svm': not a surrogate; available: rf, xgboost"),
+    (["surrogate=svm"], "dsmv-predict: error: surrogate = 'svm': not a surrogate option; available: rf, xgboost"),
 ])
 def test_cli_mistakes_are_one_line_with_exit_2(tmp_path, args, message):
     done = cli(tmp_path, *args)
