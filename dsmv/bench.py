@@ -46,7 +46,7 @@ PRANDTL = ["solver=cel2d", "geometry=strip", "landing=push", "soil.su0_pa=10000"
 LANDING = ["solver=cel2d"]
 COMMON = ["tracking=disabled", "output.plots=false", "solver.progress=off"]
 #: economies are timed on/off interleaved at least this often: their gains can be a few per cent
-ECONOMY_REPEATS = 3
+ECONOMY_REPEATS = 5
 #: a setting is repeated until this much wall time is spent (s): a 2-minute run is timed once
 REPEAT_BUDGET_S = 60.0
 
