@@ -147,3 +147,27 @@ def test_inverse_errors():
         solve_inverse(quadratic_upper(), BASE, "soil.su0_pa", (0.1, 3.0), 0.3)
     with pytest.raises(InverseError, match="range"):
         solve_inverse(quadratic_upper(), BASE, "landing.velocity_m_s", (3.0, 0.1), 0.3)
+
+
+def test_out_of_bag_intervals_cover_as_asked_with_one_fit_per_split():
+    """A random forest's out-of-bag residuals calibrate 90 % intervals on a noisy linear truth:
+    mean coverage over re-splits inside the binomial band, half-width about 1.645·σ."""
+    import functools
+
+    from sklearn.ensemble import RandomForestRegressor
+
+    from dsmv.surrogate.intervals import ConformalRegressor, coverage_over_resplits
+
+    rng = np.random.default_rng(3)
+    X = rng.uniform(0, 1, (300, 2))
+    sigma = 0.1
+    y = 2 * X[:, 0] + X[:, 1] + rng.normal(0, sigma, 300)
+    make = functools.partial(RandomForestRegressor, n_estimators=60, min_samples_leaf=3, random_state=0)
+    coverage = coverage_over_resplits(make, X, y, n_splits=20, test_fraction=0.1, confidence=0.9, method="oob")
+    assert coverage.band[0] <= coverage.mean <= coverage.band[1]
+    model = ConformalRegressor(make, method="oob").fit(X, y)
+    assert model.quantile_ == pytest.approx(1.645 * sigma, rel=0.35)
+    with pytest.raises(ValueError, match="oob_score"):
+        from sklearn.linear_model import LinearRegression
+
+        ConformalRegressor(LinearRegression, method="oob").fit(X, y)

@@ -303,7 +303,8 @@ def test_study_features_report_the_implicit_solve():
 # ----------------------------------------------------------------------------- CLI
 
 METRIC_KEYS = {"test_r2", "train_r2", "cv_r2_mean", "cv_r2_std", "mc_r2_mean", "mc_r2_std", "test_mse", "test_mae",
-               "test_rmse", "train_mse", "train_mae", "train_rmse", "cv_train_r2_mean", "mc_train_r2_mean"}
+               "test_rmse", "train_mse", "train_mae", "train_rmse", "cv_train_r2_mean", "mc_train_r2_mean",
+               "interval_coverage_mean", "interval_coverage_band_low", "interval_coverage_band_high"}
 
 
 @pytest.mark.parametrize("surrogate", ["rf", pytest.param("xgboost", marks=pytest.mark.slow)])
@@ -327,6 +328,10 @@ def test_train_cli_writes_metrics_and_registers_the_model(run_cli, tmp_path, sto
     assert METRIC_KEYS <= set(metrics)
     assert metrics["n_samples"] == 24 and metrics["n_excluded"] == 3
     assert (metrics_file.parent / "dataset.csv").exists() and (metrics_file.parent / "kendall_tau.png").exists()
+    # the registered model carries its interval calibration, for dsmv-predict
+    calibration = json.loads((metrics_file.parent / "conformal.json").read_text())
+    assert calibration["target"] == "z_over_b" and len(calibration["residuals"]) == metrics["n_train"]
+    assert 0.0 < metrics["interval_coverage_mean"] <= 1.0
 
     client = MlflowClient(uri)
     (run,) = client.search_runs([client.get_experiment_by_name("dsmv-surrogates").experiment_id],

@@ -17,6 +17,11 @@ run for both: K models are fitted with one fold held out each, and every run get
     theory for unstable learners (the full-data model is a little better than the fold models,
     so the interval is, if anything, conservative); it is *measured* by
     :func:`coverage_over_resplits`.
+``oob`` (for bagged ensembles such as the random forest)
+    As ``pooled``, with each run's residual taken from the trees that did not see it in their
+    bootstrap sample (``oob_prediction_``): one fit instead of K + 1, the out-of-bag analogue of
+    the jackknife+-after-bootstrap (Kim, Xu & Barber 2020, NeurIPS). The estimator must accept
+    ``oob_score`` (scikit-learn's forests); dsmv-train picks it for those.
 ``cv_plus`` (Barber, Candès, Ramdas & Tibshirani 2021, "Predictive inference with the
     jackknife+", Ann. Stat. 49)
     ``lower = q̂⁻{μ₋ₖ₍ᵢ₎(x) − R_i}``, ``upper = q̂⁺{μ₋ₖ₍ᵢ₎(x) + R_i}`` over the n runs, with the
@@ -37,7 +42,7 @@ from typing import Callable, Literal
 
 import numpy as np
 
-METHODS = ("pooled", "cv_plus")
+METHODS = ("pooled", "cv_plus", "oob")
 
 
 def check_confidence(confidence: float) -> float:
@@ -91,7 +96,7 @@ class ConformalRegressor:
     make_estimator: Callable
     folds: int = 10
     confidence: float = 0.9
-    method: Literal["pooled", "cv_plus"] = "pooled"
+    method: Literal["pooled", "cv_plus", "oob"] = "pooled"
     seed: int = 0
     estimator_: object = field(default=None, init=False, repr=False)
     fold_models_: list = field(default_factory=list, init=False, repr=False)
@@ -115,6 +120,14 @@ class ConformalRegressor:
             raise ValueError(f"y must be 1-D with one value per row of X: {len(X)} rows, y of shape {y.shape}")
         if len(y) < self.folds:
             raise ValueError(f"{len(y)} rows cannot make {self.folds} folds")
+        if self.method == "oob":  # one bagged fit: every run's residual from the trees that never saw it
+            model = self.make_estimator()
+            if "oob_score" not in model.get_params():
+                raise ValueError(f"method 'oob' needs a bagged estimator with oob_score; {type(model).__name__} has none")
+            self.estimator_ = model.set_params(oob_score=True, bootstrap=True).fit(X, y)
+            self.residuals_ = np.abs(y - np.asarray(self.estimator_.oob_prediction_, dtype=float))
+            self.fold_models_, self.fold_of_ = [], None
+            return self
         self.fold_of_ = np.empty(len(y), dtype=int)
         self.residuals_ = np.empty(len(y))
         self.fold_models_ = []
@@ -142,7 +155,7 @@ class ConformalRegressor:
         c = self.confidence if confidence is None else check_confidence(confidence)
         X = _as_2d(X)
         mid = np.asarray(self.estimator_.predict(X), dtype=float)
-        if self.method == "pooled":
+        if self.method in ("pooled", "oob"):
             q = residual_quantile(self.residuals_, c)
             return mid, mid - q, mid + q
         # CV+: for each test row, n lower and n upper candidates, one per calibration run
@@ -167,7 +180,8 @@ def calibration_record(model: ConformalRegressor, target: str, confidences=(0.8,
     people reading the file.
     """
     model._check_fitted()
-    return {"method": "cross_conformal_pooled", "target": target, "folds": int(model.folds), "seed": int(model.seed),
+    method = "out_of_bag_pooled" if model.method == "oob" else "cross_conformal_pooled"
+    return {"method": method, "target": target, "folds": int(model.folds), "seed": int(model.seed),
             "n": int(len(model.residuals_)), "residuals": [float(r) for r in model.residuals_],
             "quantiles": {f"{c:g}": residual_quantile(model.residuals_, c) for c in confidences}}
 

@@ -52,6 +52,10 @@ class TrainSettings(Schema):
     experiment: str = Field(description="MLflow experiment dsmv-<experiment> of the surrogate runs")
     register_model: bool = Field(description="register the model in MLflow's model registry")
     implicit_points: Count = Field(ge=10, description="depths on which the study set's implicit equation is solved (-)")
+    interval_confidence: Number = Field(0.9, gt=0, lt=1, description="level of the prediction intervals (-)")
+    interval_method: Literal["auto", "pooled", "oob"] = Field(
+        "auto", description="auto: out-of-bag residuals for bagged models (one fit), pooled cross-conformal otherwise")
+    interval_folds: Count = Field(5, ge=2, description="folds of the pooled cross-conformal residuals (-)")
 
 
 @dataclass
@@ -71,6 +75,7 @@ class Training:
     frames: dict[str, pd.DataFrame] = field(default_factory=dict)  # CSV outputs by file stem
     plots: list[Path] = field(default_factory=list)
     predictions: dict[str, np.ndarray] = field(default_factory=dict)
+    calibration: dict | None = None  # the registered model's conformal record (dsmv-predict reads it)
 
     @property
     def make(self) -> Callable:
@@ -90,7 +95,7 @@ class Training:
             "implicit_z_max_m": float(IMPLICIT_RANGE * table[TARGET_METRIC].iloc[self.train_idx].max()),
             "ranges": {c: [float(table[c].min()), float(table[c].max())] for c in PARAMETERS
                        if table[c].notna().any()},
-        }
+        } | ({"conformal": self.calibration} if self.calibration else {})
 
 
 def settings_from(cfg: DictConfig) -> tuple[TrainSettings, SurrogateConfig]:
@@ -139,6 +144,9 @@ def fit_and_evaluate(surrogate: Surrogate, config: SurrogateConfig, settings: Tr
                               settings.n_jobs)
     mc_s = time.perf_counter() - clock
     metrics |= cv.summary("cv") | mc.summary("mc")
+    clock = time.perf_counter()
+    metrics |= _intervals(result, X, y, settings)
+    metrics["interval_s"] = time.perf_counter() - clock
     metrics |= {"grid_best_cv_r2": float(grid_results["mean_test_score"].max()) if len(grid_results) else np.nan,
                 "grid_combinations": len(grid_results), "n_samples": n, "n_train": len(train_idx),
                 "n_test": len(test_idx), "n_excluded": len(dataset.excluded), "fit_s": fit_s, "grid_s": grid_s,
@@ -150,6 +158,30 @@ def fit_and_evaluate(surrogate: Surrogate, config: SurrogateConfig, settings: Tr
                      "feature_importance": importance.rename("importance").to_frame()}
     result.frames["_cv"], result.frames["_mc"] = cv.frame, mc.frame
     return result
+
+
+def interval_method(result: "Training", settings: TrainSettings) -> str:
+    """The conformal method: ``oob`` for bagged models (one fit per re-split), else ``pooled``."""
+    if settings.interval_method != "auto":
+        return settings.interval_method
+    return "oob" if "oob_score" in result.make().get_params() else "pooled"
+
+
+def _intervals(result: "Training", X, y, settings: TrainSettings) -> dict[str, float]:
+    """Calibrate the registered model's intervals on the training split, and measure their
+    coverage over the same Monte Carlo re-splits as ``mc_r2`` (issue #7)."""
+    from dsmv.surrogate.intervals import ConformalRegressor, calibration_record, coverage_over_resplits
+
+    method = interval_method(result, settings)
+    c = settings.interval_confidence
+    train = result.train_idx
+    conformal = ConformalRegressor(result.make, settings.interval_folds, c, method, settings.seed)
+    result.calibration = calibration_record(conformal.fit(X.iloc[train], y[train]), TARGET)
+    coverage = coverage_over_resplits(result.make, X, y, settings.mc_splits, settings.test_fraction, c,
+                                      settings.seed, settings.interval_folds, method)
+    return {"interval_coverage_mean": coverage.mean, "interval_coverage_band_low": coverage.band[0],
+            "interval_coverage_band_high": coverage.band[1], "interval_width_mean": coverage.mean_width,
+            "interval_confidence": c}
 
 
 def _implicit_scores(model, train, test, *, features: StudyFeatures, table, y, points) -> dict[str, float]:
@@ -190,6 +222,11 @@ def write_outputs(result: Training, run_dir: Path) -> list[Path]:
     summary = {"best_params": result.best_params, "excluded": result.dataset.excluded_counts,
                **result.metadata()}
     (run_dir / SUMMARY_FILE).write_text(json.dumps(summary, indent=2, default=str) + "\n")
+    if result.calibration:  # dsmv-predict reads it back from the run's artifacts
+        from dsmv.surrogate.predict import CALIBRATION_FILE
+
+        (run_dir / CALIBRATION_FILE).write_text(json.dumps(result.calibration) + "\n")
+        files.append(run_dir / CALIBRATION_FILE)
     return [run_dir / METRICS_FILE, run_dir / SUMMARY_FILE, *files]
 
 
