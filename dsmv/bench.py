@@ -185,7 +185,7 @@ def in_subprocess(overrides: list[str], env: dict) -> dict:
         return json.loads((Path(scratch) / "run" / "result.json").read_text())["metrics"]
 
 
-def economies(plan: Plan, reference: float) -> list[dict]:
+def economies(plan: Plan) -> list[dict]:
     """Each economy off and on in the same run: speed-up (off/on wall time) and result change."""
     from dsmv.scene import OutputConfig
 
@@ -350,7 +350,7 @@ def main(argv: list[str] | None = None) -> None:
     figures = threads_and_compile(plan)
     figures["cost_exponent"] = cost_exponent([r for r in rows if r.part in ("landing", "throughput")])
     print("skipping", flush=True)
-    economy_rows = economies(plan, reference)
+    economy_rows = economies(plan)
     write_outputs(out, rows, economy_rows, figures, plan, reference)
     print(f"dsmv-bench: wrote {out / 'bench.md'}, bench.csv and bench.png in {time.perf_counter() - started:.0f} s")
 
