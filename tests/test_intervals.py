@@ -171,3 +171,46 @@ def test_out_of_bag_intervals_cover_as_asked_with_one_fit_per_split():
         from sklearn.linear_model import LinearRegression
 
         ConformalRegressor(LinearRegression, method="oob").fit(X, y)
+
+
+def heteroscedastic(n: int, seed: int = 0):
+    """y = x·(1 + N(0, 0.2)), x ~ U(0.1, 1): the scatter grows in proportion to y, as sinkage's does."""
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(0.1, 1.0, size=(n, 1))
+    return x, x[:, 0] * (1.0 + rng.normal(0.0, 0.2, n))
+
+
+def test_relative_score_widens_in_proportion_to_the_prediction():
+    X, y = heteroscedastic(400, seed=3)
+    model = ConformalRegressor(LinearRegression, folds=5, confidence=0.9, score="relative").fit(X, y)
+    mid, lower, upper = model.predict(np.array([[0.2], [0.8]]))
+    width = upper - lower
+    assert width[1] / width[0] == pytest.approx(mid[1] / mid[0], rel=1e-12)  # both above the floor
+    # exact: y/x − 1 ~ N(0, 0.2), so the 90 % half-width is 1.645·0.2·x
+    assert width / 2 == pytest.approx(Z95 * 0.2 * mid, rel=0.15)
+    record = calibration_record(model, "z_over_b")
+    assert record["score"] == "relative" and record["scale_floor"] == pytest.approx(0.1 * np.median(np.abs(y)))
+
+
+def test_relative_score_covers_the_deep_end_where_the_absolute_one_does_not():
+    """Same data, same learner: the absolute score undercovers where the prediction is in the
+    largest third of y (the errors are largest there), the relative one covers every third within
+    its binomial band."""
+    X, y = heteroscedastic(600, seed=4)
+    absolute = coverage_over_resplits(LinearRegression, X, y, n_splits=40, confidence=0.9, folds=5)
+    relative = coverage_over_resplits(LinearRegression, X, y, n_splits=40, confidence=0.9, folds=5,
+                                      score="relative")
+    band = binomial_band(0.9, relative.n_distinct // 3)  # one third of the distinct rows
+    assert absolute.by_tercile[2] < band[0], absolute.by_tercile
+    assert absolute.by_tercile[0] > band[1], absolute.by_tercile
+    assert band[0] <= relative.by_tercile[2] <= band[1], (relative.by_tercile, band)
+    spread = {name: max(cov.by_tercile) - min(cov.by_tercile) for name, cov in [("abs", absolute), ("rel", relative)]}
+    assert spread["rel"] < 0.5 * spread["abs"], (absolute.by_tercile, relative.by_tercile)
+    assert relative.band[0] <= relative.mean <= relative.band[1]
+
+
+def test_bad_score_settings_are_refused():
+    with pytest.raises(ValueError, match="score"):
+        ConformalRegressor(LinearRegression, score="quantile")
+    with pytest.raises(ValueError, match="scale_floor"):
+        ConformalRegressor(LinearRegression, score="relative", scale_floor=0.0)

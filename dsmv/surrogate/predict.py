@@ -11,18 +11,20 @@ groups), turned into a dataset row (:func:`dsmv.surrogate.model.scene_table`) an
 registered model ``surrogate.registered_model`` (:func:`dsmv.surrogate.model.load_registered`).
 
 Intervals (:mod:`dsmv.surrogate.intervals`, pooled cross-conformal): the model's MLflow run
-carries the out-of-fold absolute residuals of its training data, either in the model metadata
+carries the out-of-fold conformal scores of its training data, either in the model metadata
 under ``conformal`` or as the run artifact ``conformal.json`` (the record written by
 :func:`dsmv.surrogate.intervals.calibration_record`)::
 
-    {"method": "cross_conformal_pooled", "target": "z_over_b", "folds": 10, "seed": 0, "n": 257,
-     "residuals": [...n floats, |y − ŷ₋ₖ| in the target's units...], "quantiles": {"0.9": ...}}
+    {"method": "out_of_bag_pooled", "target": "z_over_b", "folds": 5, "seed": 0, "n": 231,
+     "score": "relative", "scale_floor": 0.0146,
+     "residuals": [...n floats, |y − ŷ₋ₖ| / max(|ŷ₋ₖ|, scale_floor)...], "quantiles": {"0.9": ...}}
 
-With ``target = z_over_b`` the interval of z is ``B·(ŷ ± q)`` with q the ⌈c·(n+1)⌉-th smallest
-residual, so its width in metres scales with the track width B; the lower bound is clipped at
-0 m (a sinkage is never negative; clipping cannot lose coverage). Without a calibration the
-sinkage is printed without an interval, and the inverse tasks (which need upper bounds) stop
-with a one-line error.
+With q the ⌈c·(n+1)⌉-th smallest score and ``target = z_over_b``, the interval of z is
+``B·(ŷ ± q·max(ŷ, scale_floor))`` for the relative score (dsmv-train's default: the width grows
+with the predicted sinkage, as the surrogates' errors do) and ``B·(ŷ ± q)`` for the absolute one
+(records without ``score`` are absolute). The lower bound is clipped at 0 m (a sinkage is never
+negative; clipping cannot lose coverage). Without a calibration the sinkage is printed without an
+interval, and the inverse tasks (which need upper bounds) stop with a one-line error.
 
 User mistakes (no store, no registered model, no calibration for an inverse task, unknown
 task, a limit ≤ 0, a bad CSV) end in one line ``dsmv-predict: error: …`` and exit status 2.
@@ -46,7 +48,7 @@ from pydantic import Field
 from dsmv.errors import ConfigError, DsmvError
 from dsmv.scene import Count, Number, Schema, _validate, build_scene, build_tracking
 from dsmv.surrogate.dataset import PARAMETERS
-from dsmv.surrogate.intervals import residual_quantile
+from dsmv.surrogate.intervals import SCORES, residual_quantile, score_scale
 from dsmv.surrogate.inverse import COLUMNS, GOALS, TASK_PARAMETERS, InverseResult, solve_inverse
 from dsmv.surrogate.model import TrainedSurrogate, scene_table
 
@@ -97,11 +99,15 @@ def settings_from(cfg: DictConfig) -> PredictSettings:
 
 @dataclass(frozen=True)
 class Calibration:
-    """Out-of-fold absolute residuals of a surrogate, in its target's units (conformal.json)."""
+    """Out-of-fold conformal scores of a surrogate (conformal.json): absolute residuals in its
+    target's units, or relative ones (residual / max(|ŷ|, scale_floor)); records written before
+    ``score`` existed are absolute."""
 
     target: str
     residuals: np.ndarray
     method: str = "cross_conformal_pooled"
+    score: str = "absolute"
+    scale_floor: float = 1.0  # units of the target; used by the relative score only
 
     @classmethod
     def from_record(cls, record: dict, source: str) -> "Calibration":
@@ -113,13 +119,21 @@ class Calibration:
             raise PredictError(f"{source}: target {target!r} is not one of {', '.join(TARGET_SCALES)}")
         if residuals.ndim != 1 or not len(residuals) or not np.all(np.isfinite(residuals)) or np.any(residuals < 0):
             raise PredictError(f"{source}: residuals must be a non-empty list of finite numbers ≥ 0")
-        return cls(target, residuals, str(record.get("method", cls.method)))
+        score, floor = record.get("score", cls.score), record.get("scale_floor", cls.scale_floor)
+        if score not in SCORES:
+            raise PredictError(f"{source}: score {score!r} is not one of {', '.join(SCORES)}")
+        if not (isinstance(floor, (int, float)) and math.isfinite(floor) and floor > 0):
+            raise PredictError(f"{source}: scale_floor {floor!r} must be a number > 0")
+        return cls(target, residuals, str(record.get("method", cls.method)), score, float(floor))
 
-    def half_width_m(self, table: pd.DataFrame, confidence: float) -> np.ndarray:
-        """Half-width of the interval of z (m) per row: B·q for z/B, q for z."""
+    def half_width_m(self, table: pd.DataFrame, sinkage_m: np.ndarray, confidence: float) -> np.ndarray:
+        """Half-width of the interval of z (m) per row, given the predicted z (m):
+        B·q·s(z/B) for the z/B target, q·s(z) for z; s = 1 (absolute) or max(|ŷ|, floor) (relative)."""
         q = residual_quantile(self.residuals, confidence)
-        scale = table["width_m"].to_numpy(float) if TARGET_SCALES[self.target] == "width" else np.ones(len(table))
-        return q * scale
+        metres_per_unit = table["width_m"].to_numpy(float) if TARGET_SCALES[self.target] == "width" \
+            else np.ones(len(table))
+        prediction = np.asarray(sinkage_m, dtype=float) / metres_per_unit  # in the target's units
+        return q * score_scale(prediction, self.score, self.scale_floor) * metres_per_unit
 
 
 @dataclass
@@ -138,7 +152,7 @@ class Predictor:
         if self.calibration is None:
             nan = np.full_like(mid, np.nan)
             return mid, nan, nan
-        half = self.calibration.half_width_m(table, confidence)
+        half = self.calibration.half_width_m(table, mid, confidence)
         return mid, np.maximum(mid - half, 0.0), mid + half
 
     def upper(self, confidence: float):

@@ -56,6 +56,8 @@ class TrainSettings(Schema):
     interval_method: Literal["auto", "pooled", "oob"] = Field(
         "auto", description="auto: out-of-bag residuals for bagged models (one fit), pooled cross-conformal otherwise")
     interval_folds: Count = Field(5, ge=2, description="folds of the pooled cross-conformal residuals (-)")
+    interval_score: Literal["relative", "absolute"] = Field(
+        "relative", description="conformal score: relative (width ∝ prediction) or absolute (constant width in z/B)")
 
 
 @dataclass
@@ -175,13 +177,16 @@ def _intervals(result: "Training", X, y, settings: TrainSettings) -> dict[str, f
     method = interval_method(result, settings)
     c = settings.interval_confidence
     train = result.train_idx
-    conformal = ConformalRegressor(result.make, settings.interval_folds, c, method, settings.seed)
+    score = settings.interval_score
+    conformal = ConformalRegressor(result.make, settings.interval_folds, c, method, settings.seed, score)
     result.calibration = calibration_record(conformal.fit(X.iloc[train], y[train]), TARGET)
     coverage = coverage_over_resplits(result.make, X, y, settings.mc_splits, settings.test_fraction, c,
-                                      settings.seed, settings.interval_folds, method)
+                                      settings.seed, settings.interval_folds, method, score)
+    shallow, middle, deep = coverage.by_tercile
     return {"interval_coverage_mean": coverage.mean, "interval_coverage_band_low": coverage.band[0],
             "interval_coverage_band_high": coverage.band[1], "interval_width_mean": coverage.mean_width,
-            "interval_confidence": c}
+            "interval_coverage_shallow": shallow, "interval_coverage_middle": middle,
+            "interval_coverage_deep": deep, "interval_confidence": c}
 
 
 def _implicit_scores(model, train, test, *, features: StudyFeatures, table, y, points) -> dict[str, float]:
