@@ -180,37 +180,45 @@ def heteroscedastic(n: int, seed: int = 0):
     return x, x[:, 0] * (1.0 + rng.normal(0.0, 0.2, n))
 
 
-def test_relative_score_widens_in_proportion_to_the_prediction():
+def test_scaled_score_fits_the_difficulty_model_and_widens_with_the_prediction():
     X, y = heteroscedastic(400, seed=3)
-    model = ConformalRegressor(LinearRegression, folds=5, confidence=0.9, score="relative").fit(X, y)
+    model = ConformalRegressor(LinearRegression, folds=5, confidence=0.9, score="scaled").fit(X, y)
+    # exact: |y − x| = 0.2·x·|N(0, 1)|, mean 0.2·√(2/π)·x: intercept 0, slope 0.160
+    assert model.scale_.slope == pytest.approx(0.2 * math.sqrt(2 / math.pi), rel=0.15)
+    assert model.scale_.intercept < 0.1 * model.scale_.slope
     mid, lower, upper = model.predict(np.array([[0.2], [0.8]]))
     width = upper - lower
-    assert width[1] / width[0] == pytest.approx(mid[1] / mid[0], rel=1e-12)  # both above the floor
-    # exact: y/x − 1 ~ N(0, 0.2), so the 90 % half-width is 1.645·0.2·x
-    assert width / 2 == pytest.approx(Z95 * 0.2 * mid, rel=0.15)
+    assert width[1] / width[0] == pytest.approx(mid[1] / mid[0], rel=0.15)
+    assert width / 2 == pytest.approx(Z95 * 0.2 * mid, rel=0.2)  # the exact 90 % half-width: 1.645·0.2·x
     record = calibration_record(model, "z_over_b")
-    assert record["score"] == "relative" and record["scale_floor"] == pytest.approx(0.1 * np.median(np.abs(y)))
+    assert record["score"] == "scaled"
+    assert (record["scale_intercept"], record["scale_slope"]) == (model.scale_.intercept, model.scale_.slope)
 
 
-def test_relative_score_covers_the_deep_end_where_the_absolute_one_does_not():
+def test_scaled_score_covers_the_deep_end_where_the_absolute_one_does_not():
     """Same data, same learner: the absolute score undercovers where the prediction is in the
-    largest third of y (the errors are largest there), the relative one covers every third within
-    its binomial band."""
+    largest third of y (the errors are largest there) and overcovers the smallest third; the
+    scaled one covers every third within its binomial band."""
     X, y = heteroscedastic(600, seed=4)
     absolute = coverage_over_resplits(LinearRegression, X, y, n_splits=40, confidence=0.9, folds=5)
-    relative = coverage_over_resplits(LinearRegression, X, y, n_splits=40, confidence=0.9, folds=5,
-                                      score="relative")
-    band = binomial_band(0.9, relative.n_distinct // 3)  # one third of the distinct rows
+    scaled = coverage_over_resplits(LinearRegression, X, y, n_splits=40, confidence=0.9, folds=5, score="scaled")
+    band = binomial_band(0.9, scaled.n_distinct // 3)  # one third of the distinct rows
     assert absolute.by_tercile[2] < band[0], absolute.by_tercile
     assert absolute.by_tercile[0] > band[1], absolute.by_tercile
-    assert band[0] <= relative.by_tercile[2] <= band[1], (relative.by_tercile, band)
-    spread = {name: max(cov.by_tercile) - min(cov.by_tercile) for name, cov in [("abs", absolute), ("rel", relative)]}
-    assert spread["rel"] < 0.5 * spread["abs"], (absolute.by_tercile, relative.by_tercile)
-    assert relative.band[0] <= relative.mean <= relative.band[1]
+    assert all(band[0] <= c <= band[1] for c in scaled.by_tercile), (scaled.by_tercile, band)
+    assert scaled.band[0] <= scaled.mean <= scaled.band[1]
 
 
-def test_bad_score_settings_are_refused():
+def test_scale_model_and_bad_score_settings():
+    from dsmv.surrogate.intervals import ScoreScale
+
+    assert ScoreScale.fit(np.array([1.0, 2.0, 3.0]), np.zeros(3)) == ScoreScale()  # a perfect fit: absolute
+    flat = ScoreScale.fit(np.array([1.0, 2.0]), np.array([0.5, 0.5]))  # residuals independent of ŷ
+    assert (flat.intercept, flat.slope) == pytest.approx((0.5, 0.0))
+    assert ScoreScale(0.0, 2.0)(np.array([0.0, -1.0])) == pytest.approx([2e-6, 2.0])  # never zero width
     with pytest.raises(ValueError, match="score"):
         ConformalRegressor(LinearRegression, score="quantile")
-    with pytest.raises(ValueError, match="scale_floor"):
-        ConformalRegressor(LinearRegression, score="relative", scale_floor=0.0)
+    with pytest.raises(ValueError, match="both 0"):
+        ScoreScale(0.0, 0.0)
+    with pytest.raises(ValueError, match="slope"):
+        ScoreScale(1.0, -0.1)

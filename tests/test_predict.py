@@ -82,23 +82,24 @@ def test_quantile_of_the_test_residuals():
     assert residual_quantile(RESIDUALS, 0.9) == pytest.approx(Q90) == pytest.approx(0.182)
 
 
-def test_relative_calibration_scales_the_half_width_with_the_prediction():
-    """A relative record (dsmv-train's default): half-width = B·q·max(z/B, floor), in metres."""
+def test_scaled_calibration_widens_the_interval_with_the_prediction():
+    """A scaled record (dsmv-train's default): half-width = B·q·(a + b·z/B), in metres."""
     from dsmv.surrogate.predict import Calibration, PredictError
 
-    record = {"target": "z_over_b", "residuals": RESIDUALS.tolist(), "score": "relative", "scale_floor": 0.02}
+    record = {"target": "z_over_b", "residuals": RESIDUALS.tolist(), "score": "scaled",
+              "scale_intercept": 0.01, "scale_slope": 0.1}
     calibration = Calibration.from_record(record, "test")
-    table = pd.DataFrame({"width_m": [1.0, 2.0, 2.0]})
-    sinkage_m = np.array([0.3, 0.3, 0.01])  # z/B = 0.3, 0.15, 0.005 (under the floor)
+    table = pd.DataFrame({"width_m": [1.0, 2.0]})
+    sinkage_m = np.array([0.3, 0.3])  # z/B = 0.3, 0.15
     half = calibration.half_width_m(table, sinkage_m, 0.9)
-    assert half == pytest.approx(Q90 * np.array([0.3, 0.3, 2.0 * 0.02]), rel=1e-12)
+    assert half == pytest.approx(Q90 * np.array([1.0 * (0.01 + 0.03), 2.0 * (0.01 + 0.015)]), rel=1e-12)
     old_record = {"target": "z_over_b", "residuals": RESIDUALS.tolist()}  # before scores existed: absolute
     assert Calibration.from_record(old_record, "test").half_width_m(table, sinkage_m, 0.9) == \
         pytest.approx(Q90 * table["width_m"].to_numpy(), rel=1e-12)
-    with pytest.raises(PredictError, match="score 'log' is not one of absolute, relative"):
+    with pytest.raises(PredictError, match="score 'log' is not one of absolute, scaled"):
         Calibration.from_record(record | {"score": "log"}, "test")
-    with pytest.raises(PredictError, match="scale_floor"):
-        Calibration.from_record(record | {"scale_floor": -1}, "test")
+    with pytest.raises(PredictError, match="scale_intercept and scale_slope"):
+        Calibration.from_record(record | {"scale_slope": -1}, "test")
 
 
 def test_default_scene_prediction_and_interval(store, tmp_path, capsys):

@@ -16,12 +16,12 @@ under ``conformal`` or as the run artifact ``conformal.json`` (the record writte
 :func:`dsmv.surrogate.intervals.calibration_record`)::
 
     {"method": "out_of_bag_pooled", "target": "z_over_b", "folds": 5, "seed": 0, "n": 231,
-     "score": "relative", "scale_floor": 0.0146,
-     "residuals": [...n floats, |y − ŷ₋ₖ| / max(|ŷ₋ₖ|, scale_floor)...], "quantiles": {"0.9": ...}}
+     "score": "scaled", "scale_intercept": 0.008, "scale_slope": 0.09,
+     "residuals": [...n floats, |y − ŷ₋ₖ| / (scale_intercept + scale_slope·|ŷ₋ₖ|)...], "quantiles": {...}}
 
 With q the ⌈c·(n+1)⌉-th smallest score and ``target = z_over_b``, the interval of z is
-``B·(ŷ ± q·max(ŷ, scale_floor))`` for the relative score (dsmv-train's default: the width grows
-with the predicted sinkage, as the surrogates' errors do) and ``B·(ŷ ± q)`` for the absolute one
+``B·(ŷ ± q·(scale_intercept + scale_slope·ŷ))`` for the scaled score (dsmv-train's default: the
+width grows with the predicted sinkage, as the surrogates' errors do) and ``B·(ŷ ± q)`` for the absolute one
 (records without ``score`` are absolute). The lower bound is clipped at 0 m (a sinkage is never
 negative; clipping cannot lose coverage). Without a calibration the sinkage is printed without an
 interval, and the inverse tasks (which need upper bounds) stop with a one-line error.
@@ -48,7 +48,7 @@ from pydantic import Field
 from dsmv.errors import ConfigError, DsmvError
 from dsmv.scene import Count, Number, Schema, _validate, build_scene, build_tracking
 from dsmv.surrogate.dataset import PARAMETERS
-from dsmv.surrogate.intervals import SCORES, residual_quantile, score_scale
+from dsmv.surrogate.intervals import SCORES, ScoreScale, residual_quantile
 from dsmv.surrogate.inverse import COLUMNS, GOALS, TASK_PARAMETERS, InverseResult, solve_inverse
 from dsmv.surrogate.model import TrainedSurrogate, scene_table
 
@@ -100,14 +100,14 @@ def settings_from(cfg: DictConfig) -> PredictSettings:
 @dataclass(frozen=True)
 class Calibration:
     """Out-of-fold conformal scores of a surrogate (conformal.json): absolute residuals in its
-    target's units, or relative ones (residual / max(|ŷ|, scale_floor)); records written before
-    ``score`` existed are absolute."""
+    target's units, or scaled ones (residual / (scale_intercept + scale_slope·|ŷ|)); records
+    written before ``score`` existed are absolute."""
 
     target: str
     residuals: np.ndarray
     method: str = "cross_conformal_pooled"
     score: str = "absolute"
-    scale_floor: float = 1.0  # units of the target; used by the relative score only
+    scale: ScoreScale = ScoreScale()  # s(ŷ) in the target's units; (1, 0) for the absolute score
 
     @classmethod
     def from_record(cls, record: dict, source: str) -> "Calibration":
@@ -119,21 +119,24 @@ class Calibration:
             raise PredictError(f"{source}: target {target!r} is not one of {', '.join(TARGET_SCALES)}")
         if residuals.ndim != 1 or not len(residuals) or not np.all(np.isfinite(residuals)) or np.any(residuals < 0):
             raise PredictError(f"{source}: residuals must be a non-empty list of finite numbers ≥ 0")
-        score, floor = record.get("score", cls.score), record.get("scale_floor", cls.scale_floor)
+        score = record.get("score", cls.score)
         if score not in SCORES:
             raise PredictError(f"{source}: score {score!r} is not one of {', '.join(SCORES)}")
-        if not (isinstance(floor, (int, float)) and math.isfinite(floor) and floor > 0):
-            raise PredictError(f"{source}: scale_floor {floor!r} must be a number > 0")
-        return cls(target, residuals, str(record.get("method", cls.method)), score, float(floor))
+        try:
+            scale = ScoreScale(record["scale_intercept"], record["scale_slope"]) if score == "scaled" else ScoreScale()
+        except (KeyError, ValueError) as error:
+            raise PredictError(f"{source}: a scaled score needs scale_intercept and scale_slope, numbers ≥ 0, "
+                               f"not both 0 ({error})") from None
+        return cls(target, residuals, str(record.get("method", cls.method)), score, scale)
 
     def half_width_m(self, table: pd.DataFrame, sinkage_m: np.ndarray, confidence: float) -> np.ndarray:
         """Half-width of the interval of z (m) per row, given the predicted z (m):
-        B·q·s(z/B) for the z/B target, q·s(z) for z; s = 1 (absolute) or max(|ŷ|, floor) (relative)."""
+        B·q·s(z/B) for the z/B target, q·s(z) for z; s = 1 (absolute) or a + b·|ŷ| (scaled)."""
         q = residual_quantile(self.residuals, confidence)
         metres_per_unit = table["width_m"].to_numpy(float) if TARGET_SCALES[self.target] == "width" \
             else np.ones(len(table))
         prediction = np.asarray(sinkage_m, dtype=float) / metres_per_unit  # in the target's units
-        return q * score_scale(prediction, self.score, self.scale_floor) * metres_per_unit
+        return q * self.scale(prediction) * metres_per_unit
 
 
 @dataclass
