@@ -102,6 +102,20 @@ def test_scaled_calibration_widens_the_interval_with_the_prediction():
         Calibration.from_record(record | {"scale_slope": -1}, "test")
 
 
+def test_check_command_reproduces_the_training_runs_kind_and_the_scene():
+    from dsmv.surrogate.model import TrainedSurrogate
+    from dsmv.surrogate.predict import Predictor, check_command
+
+    metadata = {"run_settings": {"solver": "cel2d", "soil.law": "einav_randolph", "mesh": "medium"},
+                "ranges": {"velocity_m_s": [1.0, 8.0], "su0_pa": [2000.0, 10000.0], "gravity_m_s2": [9.81, 9.81]}}
+    predictor = Predictor("m", "1", "-", TrainedSurrogate(None, LeakFreeFeatures(), metadata), None)
+    base = pd.DataFrame([{c: 1.0 for c in PARAMETERS} | {"su0_pa": 3000.0, "velocity_m_s": 2.0}])
+    command = check_command(predictor, base, "landing.velocity_m_s", 3.25)
+    # the varied parameters written out (gravity is constant in the data: left to the config)
+    assert command == ("dsmv solver=cel2d soil.law=einav_randolph mesh=medium soil.su0_pa=3000 "
+                       "landing.velocity_m_s=3.25")
+
+
 def test_default_scene_prediction_and_interval(store, tmp_path, capsys):
     from dsmv.surrogate.predict import run_predict
 

@@ -164,6 +164,7 @@ def test_dataset_reads_ok_runs_typed_and_counts_the_rest(store):
     assert data.excluded_counts == {"bearing_failure": 1, "duplicate": 1, "unstable": 1}
     assert all(data.table[c].dtype == np.float64 for c in [*PARAMETERS, TARGET_METRIC])
     assert sorted(data.table[TARGET_METRIC]) == pytest.approx(sorted(r[TARGET_METRIC] for r in rows))
+    assert data.settings == {"soil.law": "einav_randolph"}  # shared by every run; solver/mesh not logged here
 
 
 def test_dataset_hash_depends_on_content_only(store):

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import hashlib
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -42,6 +42,9 @@ PARAMETERS: dict[str, str] = {
 }
 TARGET_METRIC = "max_sinkage_m"  # the CEL run's maximum sinkage z (m)
 OPTIONAL = {"inertial_mass_kg"}  # may be null in the config
+#: config choices that are not features but define what the runs computed; a dataset records
+#: the ones all its runs share, so a prediction can be checked by a CEL run of the same kind
+SETTING_GROUPS = {"solver.name": "solver", "soil.law": "soil.law", "mesh.name": "mesh"}
 DATASET_FILE = "dataset.csv"
 EXCLUDED_FILE = "dataset_excluded.csv"
 
@@ -57,6 +60,7 @@ class Dataset:
     study: str
     table: pd.DataFrame  # run_id, PARAMETERS columns (float64), TARGET_METRIC (m)
     excluded: pd.DataFrame  # run_id, status, message
+    settings: dict = field(default_factory=dict)  # SETTING_GROUPS override → value shared by every ok run
 
     @property
     def content_hash(self) -> str:
@@ -128,7 +132,7 @@ def load_dataset(tracking_uri: str, study: str) -> Dataset:
 
 def build_dataset(study: str, runs: list) -> Dataset:
     """Split MLflow runs into the typed ``ok`` table and the excluded runs with their reasons."""
-    rows, excluded, seen = [], [], {}
+    rows, excluded, seen, settings = [], [], {}, []
     for run in sorted(runs, key=lambda r: r.info.start_time or 0, reverse=True):  # latest first
         tags, info = run.data.tags, run.info
         status = tags.get("dsmv.status", "unknown")
@@ -156,6 +160,7 @@ def build_dataset(study: str, runs: list) -> Dataset:
         if key:
             seen[key] = info.run_id
         rows.append(row)
+        settings.append({override: run.data.params.get(param) for param, override in SETTING_GROUPS.items()})
     if not rows:
         counts = pd.Series([e[1] for e in excluded]).value_counts().to_dict()
         raise DatasetError(f"study '{study}' has no ok run to train on ({len(runs)} runs: "
@@ -165,4 +170,6 @@ def build_dataset(study: str, runs: list) -> Dataset:
     # canonical order (by content, not by run id): the same runs give the same splits and scores
     table = table.sort_values([*PARAMETERS, TARGET_METRIC], ignore_index=True)
     excluded_frame = pd.DataFrame(excluded, columns=["run_id", "status", "message"])
-    return Dataset(study, table, excluded_frame)
+    shared = {override: settings[0][override] for override in SETTING_GROUPS.values()
+              if settings[0][override] is not None and all(s[override] == settings[0][override] for s in settings)}
+    return Dataset(study, table, excluded_frame, shared)

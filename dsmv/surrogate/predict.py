@@ -300,7 +300,21 @@ def _search_range(settings: PredictSettings, predictor: Predictor, parameter: st
     return float(low), float(high)
 
 
-def _print_inverse(result: InverseResult, predictor: Predictor, confidence: float) -> None:
+def check_command(predictor: Predictor, base: pd.DataFrame, key: str, value: float) -> str:
+    """The ``dsmv`` command of a CEL run of the scene with ``key = value``, of the kind the model
+    was trained on: its runs' shared solver, soil law and mesh, and every scene parameter the
+    training data vary, written out (what the surrogate saw is what CEL gets)."""
+    settings = predictor.model.metadata.get("run_settings") or {"solver": "cel2d"}
+    ranges = predictor.model.metadata.get("ranges", {})
+    parts = [f"{k}={v}" for k, v in settings.items()]
+    for column, config_key in PARAMETERS.items():
+        varied = column in ranges and ranges[column][0] < ranges[column][1]
+        if config_key != key and varied:
+            parts.append(f"{config_key}={float(base[column].iloc[0]):.6g}")
+    return "dsmv " + " ".join([*parts, f"{key}={value:.4g}"])
+
+
+def _print_inverse(result: InverseResult, predictor: Predictor, confidence: float, base: pd.DataFrame) -> None:
     key, limit = result.parameter, result.sinkage_limit_m
     word = "largest" if GOALS[key] == "max" else "smallest"
     if result.status == "no_value_passes":
@@ -316,7 +330,7 @@ def _print_inverse(result: InverseResult, predictor: Predictor, confidence: floa
     if not result.monotone:
         print(f"warning: the predicted upper bound is not monotone in {key} over the range: "
               "the answer is the first crossing from the safe end (conservative)")
-    print(f"  check    : dsmv solver=cel2d {key}={result.value:.4g} (the CEL run at the answer)")
+    print(f"  check    : {check_command(predictor, base, key, result.value)}")
 
 
 def run_predict(cfg: DictConfig, run_dir: Path | None = None) -> dict:
@@ -380,8 +394,9 @@ def run_predict(cfg: DictConfig, run_dir: Path | None = None) -> dict:
         low, high = _search_range(settings, predictor, parameter)
         answer = solve_inverse(predictor.upper(c), base, parameter, (low, high), settings.sinkage_limit_m,
                                points=settings.search.points)
-        _print_inverse(answer, predictor, c)
+        _print_inverse(answer, predictor, c, base)
         out |= {"parameter": parameter, "value": answer.value, "status": answer.status,
+                "check": check_command(predictor, base, parameter, answer.value),
                 "upper_at_value_m": answer.upper_at_value, "monotone": answer.monotone,
                 "sinkage_limit_m": settings.sinkage_limit_m}
         if settings.plot and run_dir is not None:

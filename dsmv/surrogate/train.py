@@ -94,6 +94,7 @@ class Training:
             "target": TARGET,
             "study": self.dataset.study,
             "dataset_hash": self.dataset.content_hash,
+            "run_settings": self.dataset.settings,  # e.g. {"solver": "cel2d", "soil.law": "einav_randolph"}
             "implicit_z_max_m": float(IMPLICIT_RANGE * table[TARGET_METRIC].iloc[self.train_idx].max()),
             "ranges": {c: [float(table[c].min()), float(table[c].max())] for c in PARAMETERS
                        if table[c].notna().any()},
