@@ -201,7 +201,7 @@ def _evolve_state(q, i, j, evolve, xi_before, gamma_dot, dt, p):
 
 @njit(**JIT)
 def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym, phi_min, exact_tresca,
-                  law, law_params, law_active, evolve, out):
+                  law, law_params, law_active, evolve, su_cell, out):
     """Stress update for undrained soil of strength su: Jaumann rotation, elastic trial, return.
 
     su = (su0 + ks·z0)·law(ξ, γ̇, params) with z0 the depth where the soil started and
@@ -213,7 +213,8 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
     (J2 matched in shear is weaker in triaxial states by √3/2). Accumulates the plastic shear
     strain ξ += Δε1^p − Δε3^p (Δγ in simple shear); ``out[0]`` accumulates plastic work (J).
     A law's state variables, the rows of ``q`` beyond NQ_BASE, reach ``law`` as s0, s1 and
-    are updated by its compiled ``evolve`` after the return.
+    are updated by its compiled ``evolve`` after the return. ``su_cell`` receives each cell's
+    current strength su (Pa; 0 without soil), which limited-adhesion contact reads.
     """
     nx, ny = phi.shape
     has_state = q.shape[0] > NQ_BASE
@@ -233,6 +234,7 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
                 q[SYY, i, j] = 0.0
                 q[SXY, i, j] = 0.0
                 q[SZZ, i, j] = 0.0
+                su_cell[i, j] = 0.0
                 continue
             dy = y[j + 1] - y[j]
             vx0, vx1, vx2, vx3 = vx[i, j], vx[i + 1, j], vx[i + 1, j + 1], vx[i, j + 1]
@@ -273,6 +275,7 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
                     s1 = q[NQ_BASE + 1, i, j] if q.shape[0] > NQ_BASE + 1 else 0.0
                 su *= law(q[XI, i, j], gamma_dot, s0, s1, law_params[0], law_params[1], law_params[2], law_params[3],
                           law_params[4], law_params[5], law_params[6], law_params[7])
+            su_cell[i, j] = su
             if exact_tresca:
                 # principal stresses: the in-plane pair and the out-of-plane one
                 centre = 0.5 * (sxx + syy)
@@ -334,6 +337,20 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
             if has_state:
                 _evolve_state(q, i, j, evolve, xi_before, gamma_dot, dt, law_params)
     out[0] += plastic
+
+
+@njit(**JIT)
+def node_strength(su_cell, phi, i, j, phi_min):
+    """The soil strength at node (i, j) (Pa): the mean su of the cells around it that hold soil."""
+    nx, ny = phi.shape
+    total = 0.0
+    count = 0
+    for ci in (i - 1, i):
+        for cj in (j - 1, j):
+            if 0 <= ci < nx and 0 <= cj < ny and phi[ci, cj] > phi_min:
+                total += su_cell[ci, cj]
+                count += 1
+    return total / count if count > 0 else 0.0
 
 
 @njit(**JIT)

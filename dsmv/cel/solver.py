@@ -130,9 +130,11 @@ class Cel2DSolver:
         if getattr(body, "view", "cross_section") == "longitudinal" and body.roughness != "rough":
             raise ConfigError("geometry.roughness", body.roughness,
                               "the longitudinal view (plates and grousers) models a rough track only")
-        if body.adhesion_factor not in (0.0, 1.0):
+        flat = body.kind in ("strip", "track") and getattr(body, "view", "cross_section") == "cross_section"
+        if body.adhesion_factor not in (0.0, 1.0) and not flat:
             raise ConfigError("geometry.roughness", body.roughness,
-                              "cel2d supports 'rough' (1) or 'smooth' (0); limited adhesion is to come")
+                              "limited adhesion α in (0, 1) needs a flat-faced body (strip, or a track's cross-section); "
+                              "a curved staircase body takes 'rough' (1) or 'smooth' (0)")
         if body.kind == "cone" and body.adhesion_factor == 0.0:
             raise ConfigError("geometry.roughness", body.roughness, "a cone is 'rough' in cel2d for now "
                                                                    "(a smooth staircase cone needs cut cells)")
@@ -176,7 +178,10 @@ class Cel2DSolver:
 
         A node of a body cell is tied fully (moves with the body) when the contact is rough or
         the node is inside; on a smooth surface only its normal velocity is tied, n being the
-        surface normal. Returns (solid, tie_i, tie_j, tie_full, tie_nx, tie_ny).
+        surface normal. With limited adhesion (roughness α in (0, 1), flat faces) the normally
+        tied nodes also carry ``tie_cap`` = α × their share of the face (m per unit thickness,
+        m²/rad axisymmetric): the stepper lets the face pull them along by up to tie_cap·su.
+        Returns (solid, tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap).
         """
         from dsmv.cel.grid import Grid
 
@@ -215,7 +220,9 @@ class Cel2DSolver:
         inside = touching[tie_i, tie_j] == cells_around[tie_i, tie_j]
         tie_full = np.ones(len(tie_i), dtype=np.bool_)
         nx_, ny_ = np.zeros(len(tie_i)), np.zeros(len(tie_i))
-        if self.scene.geometry.roughness == "smooth":
+        cap = np.zeros(len(tie_i))
+        alpha = self.scene.geometry.adhesion_factor
+        if alpha < 1.0:
             xs, ys = grid.x[tie_i], grid.y[tie_j]
             if self.circular:
                 r = np.hypot(xs, ys - 0.5 * B)
@@ -227,7 +234,17 @@ class Cel2DSolver:
                 ny_[on_base] = 1.0
                 nx_[on_side] = 1.0
                 tie_full = ~(on_base | on_side)
-        return solid, tie_i.astype(np.int64), tie_j.astype(np.int64), tie_full, nx_, ny_
+                if alpha > 0.0:  # each node's share of the base (x) or of the wall (y)
+                    xg, yg = grid.x, grid.y
+                    left = np.where(tie_i > 0, xs - xg[np.maximum(tie_i - 1, 0)], 0.0)
+                    right = np.minimum(xg[np.minimum(tie_i + 1, grid.nx)], 0.5 * B) - xs
+                    below = ys - yg[np.maximum(tie_j - 1, 0)]
+                    above = np.where(tie_j < grid.ny, yg[np.minimum(tie_j + 1, grid.ny)] - ys, 0.0)
+                    radius = xs if self.axisym else 1.0
+                    cap[on_base] = (alpha * 0.5 * (left + right) * radius)[on_base]
+                    radius = 0.5 * B if self.axisym else 1.0
+                    cap[on_side] = (alpha * 0.5 * (below + above) * radius)[on_side]
+        return solid, tie_i.astype(np.int64), tie_j.astype(np.int64), tie_full, nx_, ny_, cap
 
     # ------------------------------------------------------------------ setup
 
@@ -304,7 +321,7 @@ class Cel2DSolver:
         B = self.characteristic_width_m(self.travel)  # the width that scales guards and ratios (m)
 
         d0 = self.mudline
-        solid, tie_i, tie_j, tie_full, tie_nx, tie_ny = self.body_cells_and_ties(grid, j_base)
+        solid, tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap = self.body_cells_and_ties(grid, j_base)
         phi, q = geostatic_state(grid, rho, grav, elastic.k0, d0, solid)
         # the soil law's state variables ride with the material, as ξ and z0 do
         initial_state = self.law.initial_state()
@@ -358,14 +375,15 @@ class Cel2DSolver:
         ghost_depth0 = np.full(nx, d0 - (y[0] - 0.5 * (y[1] - y[0])))
         work = dict(
             fx=np.zeros_like(vx), fy=np.zeros_like(vx), ux=np.zeros_like(vx), uy=np.zeros_like(vx),
-            flux_x=np.zeros((nx + 1, ny)), flux_y=np.zeros((ny + 1, nx)),
+            flux_x=np.zeros((nx + 1, ny)), flux_y=np.zeros((ny + 1, nx)), su_cell=np.zeros((nx, ny)),
         )
         mass0 = float(rho * (phi * vol).sum())
 
         def advance(n):
             return S.run_steps(
                 n, x, y, vol, phi, q, vx, vy, mass, work["fx"], work["fy"], work["ux"], work["uy"],
-                work["flux_x"], work["flux_y"], tie_i, tie_j, tie_full, tie_nx, tie_ny, solid, ghost, ghost_depth0,
+                work["flux_x"], work["flux_y"], tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap, work["su_cell"],
+                solid, ghost, ghost_depth0,
                 par, ipar, body, energy, law_fn, law_params, law_evolve,
             )
 
@@ -554,6 +572,7 @@ class Cel2DSolver:
             "energy_bulk_viscosity_j": energy[S.E_BULK],
             "energy_touchdown_loss_j": touchdown_loss,
             "energy_remap_loss_j": -(energy[S.E_REMAP_ELASTIC] + energy[S.E_REMAP_KINETIC]),
+            "energy_contact_slip_j": energy[S.E_FRICTION],
         }
         inputs = sum(v for k, v in terms.items() if k.startswith("energy_in_"))
         outputs = sum(v for k, v in terms.items() if not k.startswith("energy_in_"))

@@ -16,13 +16,14 @@ from numba import njit
 
 # Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
 # kernels it inlined until this file changes. After changing a kernel, bump this revision
-# (or clear the Numba cache). Kernel revision: 4 (soil-law state variables in update_stress).
+# (or clear the Numba cache). Kernel revision: 5 (limited adhesion: su_cell, node_strength).
 from dsmv.cel.kernels import (
     JIT,
     advect_cells,
     advect_momentum,
     nodal_forces,
     nodal_mass,
+    node_strength,
     update_stress,
     update_velocities,
 )
@@ -35,13 +36,16 @@ N_PAR = 18
 I_AXISYM, I_ORDER, I_DROP, I_INFLOW, I_REMAP, I_TRESCA, I_LAW, I_SKIP_VOID = range(8)
 N_IPAR = 8
 # body state (mutable floats)
-B_TIME, B_OFFSET, B_VEL, B_MAXDISP, B_FSUM, B_FCOUNT, B_INFLOW, B_STEP = range(8)
-N_BODY = 8
+# B_FRICTION: the adhesive ties' pull on the body in the last step (N, up +), applied in the next
+B_TIME, B_OFFSET, B_VEL, B_MAXDISP, B_FSUM, B_FCOUNT, B_INFLOW, B_STEP, B_FRICTION = range(9)
+N_BODY = 9
 # energy accumulators of the model (J per unit thickness or per radian): plastic, hourglass and
 # bulk-viscosity dissipation, work of the push, of gravity on the body and on the soil, and the
-# changes of elastic and kinetic energy that the remap makes
-E_PLASTIC, E_HOURGLASS, E_BULK, E_PUSH, E_BODY_GRAV, E_SOIL_GRAV, E_REMAP_ELASTIC, E_REMAP_KINETIC = range(8)
-N_ENERGY = 8
+# changes of elastic and kinetic energy that the remap makes, and the work lost to slip at a
+# limited-adhesion contact
+(E_PLASTIC, E_HOURGLASS, E_BULK, E_PUSH, E_BODY_GRAV, E_SOIL_GRAV, E_REMAP_ELASTIC, E_REMAP_KINETIC,
+ E_FRICTION) = range(9)
+N_ENERGY = 9
 # exit codes
 RUNNING, AT_REST, NOT_FINITE = 0, 1, 2
 
@@ -49,7 +53,7 @@ RUNNING, AT_REST, NOT_FINITE = 0, 1, 2
 @njit(**JIT)
 def run_steps(
     n_steps, x, y, vol, phi, q, vx, vy, mass, fx, fy, ux, uy, flux_x, flux_y,
-    tie_i, tie_j, tie_full, tie_nx, tie_ny, solid, ghost, ghost_depth0, par, ipar, body, energy,
+    tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap, su_cell, solid, ghost, ghost_depth0, par, ipar, body, energy,
     law, law_params, evolve,
 ):
     """Advance up to ``n_steps`` steps; return (steps done, exit code).
@@ -57,6 +61,16 @@ def run_steps(
     ``law`` is the soil law's compiled strength factor (dsmv.soil_law), ``law_params`` its
     packed parameters; it is called only when ``ipar[I_LAW]`` is set. ``evolve`` updates the
     law's state variables, the rows of ``q`` (and ``ghost``) beyond NQ_BASE.
+
+    Contact: a fully tied node moves with the body; a normally tied one only along its normal n.
+    A normally tied node with ``tie_cap`` > 0 (limited adhesion, α·su) also feels the body's
+    pull along the face, up to ``tie_cap·su`` (N per unit thickness or per radian; tie_cap = α ×
+    the node's share of the face, m or m²/rad), su being the node's soil strength (``su_cell``,
+    written by the stress update of the step before). The pull's reaction reaches the body in
+    the next step. The contact's dissipation ``energy[E_FRICTION]`` is the pull times the slip it
+    leaves, m·|Δw|·|w'| per step (w' the slip speed after the pull): zero when the node sticks,
+    as a full tie dissipates nothing (the kinetic energy a tie removes is the internal forces'
+    work already counted; the audit closes to the same 1e-4 as for rough and smooth contact).
     """
     dt = par[P_DT]
     rho = par[P_RHO]
@@ -81,7 +95,7 @@ def run_steps(
         energy[E_BULK] += work[1] * dt
         # rigid body with the soil nodes tied to it (vertical motion): a fully tied node moves
         # with the body, a normally tied one (smooth contact) only along its normal n
-        soil_on_nodes = 0.0
+        soil_on_nodes = body[B_FRICTION]  # the adhesive pull of the last step
         tied_mass = 0.0
         for k in range(n_tied):
             i, j = tie_i[k], tie_j[k]
@@ -127,6 +141,23 @@ def run_steps(
                 gap = body[B_VEL] * tie_ny[k] - (vx[i, j] * tie_nx[k] + vy[i, j] * tie_ny[k])
                 vx[i, j] += gap * tie_nx[k]
                 vy[i, j] += gap * tie_ny[k]
+        friction = 0.0
+        for k in range(n_tied):
+            if tie_full[k] or tie_cap[k] <= 0.0:
+                continue
+            i, j = tie_i[k], tie_j[k]
+            m = mass[i, j]
+            if m <= par[P_MFLOOR]:
+                continue
+            tx, ty = -tie_ny[k], tie_nx[k]  # along the face
+            w = vx[i, j] * tx + (vy[i, j] - body[B_VEL]) * ty  # slip speed relative to the body
+            dw_max = tie_cap[k] * node_strength(su_cell, phi, i, j, par[P_PHI_STRESS]) * dt / m
+            dw = -w if abs(w) <= dw_max else (-dw_max if w > 0.0 else dw_max)
+            vx[i, j] += dw * tx
+            vy[i, j] += dw * ty
+            energy[E_FRICTION] += -m * dw * (w + dw)  # the pull times the slip it leaves: 0 when it sticks
+            friction -= m * dw * ty / dt  # the reaction on the body (N, up +)
+        body[B_FRICTION] = friction
         if grav != 0.0:
             momentum_after = 0.0
             for i in range(nxn):
@@ -135,7 +166,8 @@ def run_steps(
             energy[E_SOIL_GRAV] += -grav * dt * 0.5 * (momentum_before + momentum_after)
         stress_out[0] = 0.0
         update_stress(x, y, phi, q, vx, vy, dt, par[P_G], par[P_K], par[P_SU0], par[P_KS], axisym,
-                      par[P_PHI_STRESS], ipar[I_TRESCA] == 1, law, law_params, ipar[I_LAW] == 1, evolve, stress_out)
+                      par[P_PHI_STRESS], ipar[I_TRESCA] == 1, law, law_params, ipar[I_LAW] == 1, evolve, su_cell,
+                      stress_out)
         energy[E_PLASTIC] += stress_out[0]
         body[B_OFFSET] += body[B_VEL] * dt
         body[B_TIME] += dt

@@ -1,0 +1,70 @@
+"""Limited adhesion at the contact (geometry.roughness = α in (0, 1)): the face pulls the soil
+along by at most α·su, on flat-faced bodies (strip, track cross-section).
+
+Truths: Prandtl's 2 + π does not depend on the roughness of the base (Prandtl's mechanism for a
+rough base, Hill's for a smooth one, the same limit load), so every α must give the same small-
+strain load; on an embedded strip the walls add a shear of at most α·su, so the load rises with
+α from smooth to rough; and the energy audit closes with the slip dissipation counted on its own.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from dsmv.cel.solver import Cel2DSolver
+from dsmv.errors import ConfigError
+from dsmv.scene import build_scene
+
+STRIP = ["solver=cel2d", "geometry=strip", "landing=push", "landing.velocity_m_s=0.1", "landing.gravity_m_s2=0",
+         "soil.su0_pa=10000", "soil.ks_pa_per_m=0", "solver.progress=off", "solver.remap=false",
+         "solver.initial_travel_m=0.1", "mesh.cell_size_m=0.1"]
+
+
+@pytest.fixture
+def push(compose_cfg):
+    def _run(roughness, *overrides):
+        result = Cel2DSolver(build_scene(compose_cfg([*STRIP, f"geometry.roughness={roughness}", *overrides]))).solve()
+        assert result.status == "ok", result.message
+        return result.metrics
+
+    return _run
+
+
+def test_base_adhesion_leaves_prandtl_unchanged(push):
+    loads = {r: push(r, "landing.displacement_m=0.06")["nc_at_0p05B"] for r in ("rough", 0.5, 0.2, "smooth")}
+    for r, nc in loads.items():  # B/10: +6.3 % over 2 + π for every roughness (mesh error, not roughness)
+        assert nc == pytest.approx(loads["rough"], rel=2e-3), loads
+
+
+def test_wall_adhesion_raises_the_load_with_alpha_and_the_audit_counts_the_slip(push):
+    """A strip wished in place 1 B deep: its walls slide past the soil. The load grows with α,
+    the slip dissipation is a term of its own (dropping it breaks the 2 % audit)."""
+    runs = {r: push(r, "landing.initial_depth_m=1.0", "landing.displacement_m=0.06") for r in ("smooth", 0.25, 0.5, "rough")}
+    loads = [m["nc_at_0p05B"] for m in runs.values()]
+    assert all(a < b for a, b in zip(loads, loads[1:])), loads
+    assert loads[-1] - loads[0] > 1.5, loads  # walls 1 B high on each side: up to +2·su·D/(su·B) = +2
+    m = runs[0.5]
+    assert m["energy_error"] < 1e-3
+    assert runs["smooth"]["energy_contact_slip_j"] == 0.0 == runs["rough"]["energy_contact_slip_j"]
+    delivered = m["energy_in_push_j"]
+    assert m["energy_contact_slip_j"] > 0.02 * delivered
+    inputs = sum(v for k, v in m.items() if k.startswith("energy_in_"))
+    outputs = sum(v for k, v in m.items() if k.startswith("energy_") and not k.startswith("energy_in_")
+                  and k not in ("energy_error", "energy_contact_slip_j"))
+    assert abs(inputs - outputs) / delivered > 0.02
+
+
+def test_a_landing_sinks_deeper_the_less_the_track_adheres(compose_cfg):
+    base = ["solver=cel2d", "mesh=coarse", "solver.progress=off", "soil.su0_pa=3000"]
+    sinkage = []
+    for r in ("rough", 0.3, "smooth"):
+        result = Cel2DSolver(build_scene(compose_cfg([*base, f"geometry.roughness={r}"]))).solve()
+        assert result.status == "ok" and result.metrics["energy_error"] < 0.02, result.message
+        sinkage.append(result.metrics["max_sinkage_m"])
+    assert sinkage[0] < sinkage[1] < sinkage[2], sinkage  # coarse mesh, su0 3 kPa: 0.2434, 0.2450, 0.2488 m
+
+
+def test_curved_bodies_refuse_limited_adhesion(compose_cfg):
+    for geometry in ("tbar", "fall_cone_30deg"):
+        with pytest.raises(ConfigError, match="flat-faced body"):
+            build_scene(compose_cfg(["solver=cel2d", f"geometry={geometry}", "geometry.roughness=0.5"]))
