@@ -165,6 +165,22 @@ def test_inverse_tasks_agree_with_a_brute_force_scan_of_the_model(store, tmp_pat
     assert out["upper_at_value_m"] <= 0.3
 
 
+def test_verify_runs_cel_at_the_answer_and_beyond(store, tmp_path, monkeypatch, capsys):
+    """verify=true: two real CEL landings (medium mesh), at the answer and 20 % faster."""
+    from dsmv.surrogate.predict import run_predict
+
+    monkeypatch.chdir(tmp_path)  # the check runs track into ./runs
+    out = run_predict(config(store, "task=max_velocity", "sinkage_limit_m=0.3", "verify=true", "plot=false"),
+                      tmp_path / "predict")
+    at, beyond = out["verify"]
+    assert at["value"] == pytest.approx(out["value"], rel=1e-3) and beyond["value"] == pytest.approx(1.2 * at["value"])
+    assert at["status"] == beyond["status"] == "ok"
+    assert beyond["max_sinkage_m"] > at["max_sinkage_m"] > 0.0
+    assert at["under_limit"] == (at["max_sinkage_m"] <= 0.3)
+    assert (tmp_path / "predict" / "check_0" / "result.json").is_file()
+    assert "verify   : CEL at the answer" in capsys.readouterr().out
+
+
 def test_csv_in_bulk(store, tmp_path, capsys):
     from dsmv.surrogate.predict import run_predict
 

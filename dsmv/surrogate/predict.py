@@ -78,6 +78,7 @@ class PredictSettings(Schema):
     model_version: str = Field("latest", description="registered model version")
     search: SearchSettings = Field(default_factory=SearchSettings)
     plot: bool = Field(True, description="inverse tasks: write inverse.png into the run dir")
+    verify: bool = Field(False, description="inverse tasks: run the CEL check at the answer and 20 % beyond it")
 
 
 def settings_from(cfg: DictConfig) -> PredictSettings:
@@ -314,6 +315,50 @@ def check_command(predictor: Predictor, base: pd.DataFrame, key: str, value: flo
     return "dsmv " + " ".join([*parts, f"{key}={value:.4g}"])
 
 
+#: "20 % beyond the answer", on the unsafe side: faster, or a shorter track
+BEYOND = {"landing.velocity_m_s": 1.2, "geometry.contact_length_m": 1.0 / 1.2}
+
+
+def verify_answer(predictor: Predictor, base: pd.DataFrame, result: InverseResult, run_dir: Path) -> list[dict]:
+    """Run the CEL check (``dsmv``, as :func:`check_command` writes it) at the answer and 20 %
+    beyond it, each into ``run_dir/check_<i>``; return what each gave against the limit."""
+    import subprocess
+
+    program = Path(sys.executable).parent / "dsmv"
+    checks = []
+    for i, factor in enumerate((1.0, BEYOND[result.parameter])):
+        value = result.value * factor
+        folder = run_dir / f"check_{i}"
+        command = check_command(predictor, base, result.parameter, value).split()[1:]
+        done = subprocess.run([str(program), *command, "output.plots=false", "solver.progress=off",
+                               f"hydra.run.dir={folder}"], capture_output=True, text=True)
+        try:
+            answer = json.loads((folder / "result.json").read_text())
+        except (OSError, ValueError):
+            raise PredictError(f"the CEL check at {result.parameter} = {value:.4g} did not finish "
+                               f"(exit {done.returncode}): {(done.stderr or done.stdout).strip().splitlines()[-1:]}") from None
+        sinkage = answer["metrics"].get("max_sinkage_m", math.nan)
+        checks.append({"value": value, "factor": factor, "status": answer["status"], "max_sinkage_m": sinkage,
+                       "under_limit": bool(answer["status"] == "ok" and sinkage <= result.sinkage_limit_m),
+                       "run_dir": str(folder)})
+    return checks
+
+
+def _print_checks(checks: list[dict], result: InverseResult) -> None:
+    limit = result.sinkage_limit_m
+    for check in checks:
+        where = "at the answer" if check["factor"] == 1.0 else "20 % beyond"
+        if check["status"] != "ok":
+            print(f"  verify   : CEL {where} ({result.parameter} = {check['value']:.4g}): {check['status']}")
+            continue
+        verdict = "≤" if check["under_limit"] else ">"
+        print(f"  verify   : CEL {where} ({result.parameter} = {check['value']:.4g}): max sinkage "
+              f"{check['max_sinkage_m']:.4f} m {verdict} {limit:g} m")
+    if checks and not checks[0]["under_limit"]:
+        print("warning: the CEL run at the answer exceeds the limit: the surrogate underpredicts this scene; "
+              "take a smaller value, or check more CEL runs around it")
+
+
 def _print_inverse(result: InverseResult, predictor: Predictor, confidence: float, base: pd.DataFrame) -> None:
     key, limit = result.parameter, result.sinkage_limit_m
     word = "largest" if GOALS[key] == "max" else "smallest"
@@ -399,6 +444,10 @@ def run_predict(cfg: DictConfig, run_dir: Path | None = None) -> dict:
                 "check": check_command(predictor, base, parameter, answer.value),
                 "upper_at_value_m": answer.upper_at_value, "monotone": answer.monotone,
                 "sinkage_limit_m": settings.sinkage_limit_m}
+        if settings.verify and answer.status != "no_value_passes":
+            checks = verify_answer(predictor, base, answer, run_dir or Path.cwd() / "predict_checks")
+            _print_checks(checks, answer)
+            out["verify"] = checks
         if settings.plot and run_dir is not None:
             column = COLUMNS[parameter]
             grid_table = base.loc[base.index.repeat(len(answer.grid))].reset_index(drop=True)
