@@ -85,16 +85,10 @@ def simple_shear(law, soil, gamma_dot, gamma_total, n_steps=4000):
     Kb = soil.youngs_modulus_pa / (3 * (1 - 2 * soil.poisson_ratio))
     dt = gamma_total / gamma_dot / n_steps
     out = np.zeros(1)
-    factor, rate, xi_prev = np.ones((1, 1)), np.zeros((1, 1)), np.zeros((1, 1))  # the law's per-cell outputs
     gammas, taus = [], []
     for step in range(n_steps):
-        # the solver's sequence: the law's factor, the return, the law's state variables
-        K.law_factors(x, y, phi, q, vx, vy, dt, False, 0.01, law.compiled(), law.packed(), law.active,
-                      factor, rate, xi_prev)
-        K.update_stress(x, y, phi, q, vx, vy, dt, G, Kb, soil.su0_pa, 0.0, False, 0.01, True, factor, law.active,
-                        np.zeros((1, 1)), out)
-        if q.shape[0] > K.NQ_BASE:
-            K.evolve_states(q, phi, 0.01, law.compiled_evolve(), xi_prev, rate, dt, law.packed())
+        K.update_stress(x, y, phi, q, vx, vy, dt, G, Kb, soil.su0_pa, 0.0, False, 0.01, True,
+                        law.compiled(), law.packed(), law.active, law.compiled_evolve(), np.zeros((1, 1)), out)
         gammas.append((step + 1) * gamma_dot * dt)
         taus.append(q[K.SXY, 0, 0])
     return np.array(gammas), np.array(taus), G

@@ -188,90 +188,38 @@ def tresca_return(s1, s2, s3, su, shear_mod):
 
 
 @njit(**JIT)
-def _strain_increments(x, y, vx, vy, i, j, dt, axisym):
-    """Strain increments (dxx, dyy, dxy, dzz) and spin w of cell (i, j) over dt (one-point rule)."""
-    dx = x[i + 1] - x[i]
-    dy = y[j + 1] - y[j]
-    r = 0.5 * (x[i] + x[i + 1]) if axisym else 1.0
-    vx0, vx1, vx2, vx3 = vx[i, j], vx[i + 1, j], vx[i + 1, j + 1], vx[i, j + 1]
-    vy0, vy1, vy2, vy3 = vy[i, j], vy[i + 1, j], vy[i + 1, j + 1], vy[i, j + 1]
-    dxx = dt * (vx1 + vx2 - vx0 - vx3) / (2.0 * dx)
-    dyy = dt * (vy2 + vy3 - vy0 - vy1) / (2.0 * dy)
-    dvx_dy = (vx2 + vx3 - vx0 - vx1) / (2.0 * dy)
-    dvy_dx = (vy1 + vy2 - vy0 - vy3) / (2.0 * dx)
-    dxy = 0.5 * dt * (dvx_dy + dvy_dx)
-    dzz = dt * 0.25 * (vx0 + vx1 + vx2 + vx3) / r if axisym else 0.0
-    w = 0.5 * dt * (dvx_dy - dvy_dx)  # spin increment
-    return dxx, dyy, dxy, dzz, w
-
-
-@njit(**JIT)
-def law_factors(x, y, phi, q, vx, vy, dt, axisym, phi_min, law, law_params, law_active, factor, gamma_dot, xi_prev):
-    """What the soil law says before the stress update, per cell with soil: the strength factor
-    ``law(ξ, γ̇, s0, s1, params)`` (``factor``, when ``law_active``), the shear strain rate
-    γ̇ = (Δε1 − Δε3)/Δt (``gamma_dot``, 1/s; 0 when the law is inactive) and ξ before the step
-    (``xi_prev``, for the state variables' evolution).
-
-    The law is a compiled callback (dsmv.soil_law). It is called here, in a loop of its own,
-    so that :func:`update_stress` takes no function arguments: with them in its signature the
-    return loop ran 2–3 times slower, even for laws never called.
-    """
-    nx, ny = phi.shape
+def _evolve_state(q, i, j, evolve, xi_before, gamma_dot, dt, p):
+    """A soil law's state variables (rows NQ_BASE… of q) after the step of cell (i, j)."""
     n_state = q.shape[0] - NQ_BASE
-    for i in range(nx):
-        for j in range(ny):
-            xi_prev[i, j] = q[XI, i, j]
-            if phi[i, j] <= phi_min or not law_active:
-                gamma_dot[i, j] = 0.0
-                factor[i, j] = 1.0
-                continue
-            dxx, dyy, dxy, dzz, w = _strain_increments(x, y, vx, vy, i, j, dt, axisym)
-            # shear strain rate (Δε1 − Δε3)/Δt from the principal total strain increments
-            ring = math.sqrt(0.25 * (dxx - dyy) ** 2 + dxy * dxy)
-            e_hi = max(0.5 * (dxx + dyy) + ring, dzz)
-            e_lo = min(0.5 * (dxx + dyy) - ring, dzz)
-            rate = (e_hi - e_lo) / dt if dt > 0.0 else 0.0
-            gamma_dot[i, j] = rate
-            s0 = q[NQ_BASE, i, j] if n_state > 0 else 0.0
-            s1 = q[NQ_BASE + 1, i, j] if n_state > 1 else 0.0
-            factor[i, j] = law(q[XI, i, j], rate, s0, s1, law_params[0], law_params[1], law_params[2],
-                               law_params[3], law_params[4], law_params[5], law_params[6], law_params[7])
-
-
-@njit(**JIT)
-def evolve_states(q, phi, phi_min, evolve, xi_prev, gamma_dot, dt, p):
-    """A soil law's state variables (rows NQ_BASE… of q) after the stress update, per cell with soil."""
-    nx, ny = phi.shape
-    n_state = q.shape[0] - NQ_BASE
-    for i in range(nx):
-        for j in range(ny):
-            if phi[i, j] <= phi_min:
-                continue
-            s0 = q[NQ_BASE, i, j]
-            s1 = q[NQ_BASE + 1, i, j] if n_state > 1 else 0.0
-            xi = q[XI, i, j]
-            for k in range(n_state):
-                q[NQ_BASE + k, i, j] = evolve(float(k), s0, s1, xi, xi - xi_prev[i, j], gamma_dot[i, j], dt,
-                                              p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7])
+    s0 = q[NQ_BASE, i, j]
+    s1 = q[NQ_BASE + 1, i, j] if n_state > 1 else 0.0
+    xi = q[XI, i, j]
+    for k in range(n_state):
+        q[NQ_BASE + k, i, j] = evolve(float(k), s0, s1, xi, xi - xi_before, gamma_dot, dt,
+                                      p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7])
 
 
 @njit(**JIT)
 def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym, phi_min, exact_tresca,
-                  factor, law_active, su_cell, out):
+                  law, law_params, law_active, evolve, su_cell, out):
     """Stress update for undrained soil of strength su: Jaumann rotation, elastic trial, return.
 
-    su = (su0 + ks·z0)·factor with z0 the depth where the soil started and ``factor`` the soil
-    law's factor of each cell (:func:`law_factors`), applied only when ``law_active``: laws
-    without softening or rate cost nothing. The return is J2's radial return
+    su = (su0 + ks·z0)·law(ξ, γ̇, params) with z0 the depth where the soil started and
+    γ̇ = (Δε1 − Δε3)/Δt; the soil law ``law`` (a compiled callback, see dsmv.soil_law) is
+    called only when ``law_active``, so laws without softening or rate cost nothing. The
+    return is J2's radial return
     to √J2 ≤ su, or with ``exact_tresca`` the return to Tresca's hexagon s1 − s3 ≤ 2·su. Both
     are the same in plane strain; in axisymmetry only Tresca matches Tresca's exact solutions
     (J2 matched in shear is weaker in triaxial states by √3/2). Accumulates the plastic shear
     strain ξ += Δε1^p − Δε3^p (Δγ in simple shear); ``out[0]`` accumulates plastic work (J).
-    A law's state variables (rows of ``q`` beyond NQ_BASE) are updated afterwards by
-    :func:`evolve_states`. ``su_cell`` receives each cell's current strength su (Pa; 0 without
-    soil), which limited-adhesion contact reads.
+    A law's state variables, the rows of ``q`` beyond NQ_BASE, reach ``law`` as s0, s1 and
+    are updated by its compiled ``evolve`` after the return. ``su_cell`` receives each cell's
+    current strength su (Pa; 0 without soil), which limited-adhesion contact reads.
     """
     nx, ny = phi.shape
+    has_state = q.shape[0] > NQ_BASE
+    s0 = 0.0
+    s1 = 0.0
     lam = bulk_mod - 2.0 * shear_mod / 3.0
     plastic = 0.0
     for i in range(nx):
@@ -289,7 +237,15 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
                 su_cell[i, j] = 0.0
                 continue
             dy = y[j + 1] - y[j]
-            dxx, dyy, dxy, dzz, w = _strain_increments(x, y, vx, vy, i, j, dt, axisym)
+            vx0, vx1, vx2, vx3 = vx[i, j], vx[i + 1, j], vx[i + 1, j + 1], vx[i, j + 1]
+            vy0, vy1, vy2, vy3 = vy[i, j], vy[i + 1, j], vy[i + 1, j + 1], vy[i, j + 1]
+            dxx = dt * (vx1 + vx2 - vx0 - vx3) / (2.0 * dx)
+            dyy = dt * (vy2 + vy3 - vy0 - vy1) / (2.0 * dy)
+            dvx_dy = (vx2 + vx3 - vx0 - vx1) / (2.0 * dy)
+            dvy_dx = (vy1 + vy2 - vy0 - vy3) / (2.0 * dx)
+            dxy = 0.5 * dt * (dvx_dy + dvy_dx)
+            dzz = dt * 0.25 * (vx0 + vx1 + vx2 + vx3) / r if axisym else 0.0
+            w = 0.5 * dt * (dvx_dy - dvy_dx)  # spin increment
             sxx, syy, sxy, szz = q[SXX, i, j], q[SYY, i, j], q[SXY, i, j], q[SZZ, i, j]
             # Jaumann rotation
             rxx = 2.0 * w * sxy
@@ -306,8 +262,19 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
             su = su0 + ks * q[Z0, i, j]
             if su < 0.0:
                 su = 0.0
+            xi_before = q[XI, i, j]
+            gamma_dot = 0.0
             if law_active:
-                su *= factor[i, j]
+                # shear strain rate (Δε1 − Δε3)/Δt from the principal total strain increments
+                ring = math.sqrt(0.25 * (dxx - dyy) ** 2 + dxy * dxy)
+                e_hi = max(0.5 * (dxx + dyy) + ring, dzz)
+                e_lo = min(0.5 * (dxx + dyy) - ring, dzz)
+                gamma_dot = (e_hi - e_lo) / dt if dt > 0.0 else 0.0
+                if has_state:
+                    s0 = q[NQ_BASE, i, j]
+                    s1 = q[NQ_BASE + 1, i, j] if q.shape[0] > NQ_BASE + 1 else 0.0
+                su *= law(q[XI, i, j], gamma_dot, s0, s1, law_params[0], law_params[1], law_params[2], law_params[3],
+                          law_params[4], law_params[5], law_params[6], law_params[7])
             su_cell[i, j] = su
             if exact_tresca:
                 # principal stresses: the in-plane pair and the out-of-plane one
@@ -345,6 +312,8 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
                 q[SYY, i, j] = syy
                 q[SZZ, i, j] = szz
                 q[SXY, i, j] = sxy
+                if has_state:
+                    _evolve_state(q, i, j, evolve, xi_before, gamma_dot, dt, law_params)
                 continue
             # radial return
             p = (sxx + syy + szz) / 3.0
@@ -365,6 +334,8 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
             q[SYY, i, j] = p + ey
             q[SZZ, i, j] = p + ez
             q[SXY, i, j] = sxy
+            if has_state:
+                _evolve_state(q, i, j, evolve, xi_before, gamma_dot, dt, law_params)
     out[0] += plastic
 
 

@@ -16,14 +16,11 @@ from numba import njit
 
 # Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
 # kernels it inlined until this file changes. After changing a kernel, bump this revision
-# (or clear the Numba cache). Kernel revision: 6 (law factors and state evolution in loops of their own).
+# (or clear the Numba cache). Kernel revision: 5 (limited adhesion: su_cell, node_strength).
 from dsmv.cel.kernels import (
     JIT,
-    NQ_BASE,
     advect_cells,
     advect_momentum,
-    evolve_states,
-    law_factors,
     nodal_forces,
     nodal_mass,
     node_strength,
@@ -87,11 +84,6 @@ def run_steps(
     work = np.zeros(2)
     stress_out = np.zeros(1)
     audit = np.zeros(2)
-    law_active = ipar[I_LAW] == 1
-    has_state = q.shape[0] > NQ_BASE
-    factor = np.ones(phi.shape)
-    gamma_dot = np.zeros(phi.shape)
-    xi_prev = np.zeros(phi.shape)
     n_tied = len(tie_i)
     for step in range(n_steps):
         # ---- Lagrangian phase
@@ -173,13 +165,9 @@ def run_steps(
                     momentum_after += mass[i, j] * vy[i, j]
             energy[E_SOIL_GRAV] += -grav * dt * 0.5 * (momentum_before + momentum_after)
         stress_out[0] = 0.0
-        if law_active or has_state:
-            law_factors(x, y, phi, q, vx, vy, dt, axisym, par[P_PHI_STRESS], law, law_params, law_active,
-                        factor, gamma_dot, xi_prev)
         update_stress(x, y, phi, q, vx, vy, dt, par[P_G], par[P_K], par[P_SU0], par[P_KS], axisym,
-                      par[P_PHI_STRESS], ipar[I_TRESCA] == 1, factor, law_active, su_cell, stress_out)
-        if has_state:
-            evolve_states(q, phi, par[P_PHI_STRESS], evolve, xi_prev, gamma_dot, dt, law_params)
+                      par[P_PHI_STRESS], ipar[I_TRESCA] == 1, law, law_params, ipar[I_LAW] == 1, evolve, su_cell,
+                      stress_out)
         energy[E_PLASTIC] += stress_out[0]
         body[B_OFFSET] += body[B_VEL] * dt
         body[B_TIME] += dt
