@@ -221,6 +221,7 @@ def cli(cwd, *args):
     (["task=max_velocity", "sinkage_limit_m=-0.1"], "sinkage_limit_m = -0.1: must be greater than 0"),
     (["task=max_velocity"], "sinkage_limit_m = None: task=max_velocity needs a limit"),
     (["confidence=1.0"], "confidence = 1.0: must be less than 1"),
+    (["verify=true"], "verify = True: the CEL check is for the inverse tasks"),
     (["tracking.uri=sqlite:///nowhere/mlflow.db"], "no MLflow store at sqlite:///nowhere/mlflow.db"),
     (["csv=/nowhere/scenes.csv"], "csv = '/nowhere/scenes.csv': no such file"),
 ])

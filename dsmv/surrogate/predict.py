@@ -89,6 +89,9 @@ def settings_from(cfg: DictConfig) -> PredictSettings:
         settings = _validate(PredictSettings, data, "")
     except ConfigError as error:  # paths are top-level keys: "task", not ".task"
         raise ConfigError(error.path.lstrip("."), error.value, error.allowed) from None
+    if settings.verify and settings.task == "predict":
+        raise ConfigError("verify", True, "the CEL check is for the inverse tasks: task=max_velocity or "
+                                          "task=min_contact_length")
     if settings.task != "predict" and settings.sinkage_limit_m is None:
         raise ConfigError("sinkage_limit_m", None, f"task={settings.task} needs a limit (m) > 0, "
                                                    "e.g. sinkage_limit_m=0.3")
@@ -335,8 +338,9 @@ def verify_answer(predictor: Predictor, base: pd.DataFrame, result: InverseResul
         try:
             answer = json.loads((folder / "result.json").read_text())
         except (OSError, ValueError):
+            last = ((done.stderr or done.stdout).strip().splitlines() or ["no output"])[-1]
             raise PredictError(f"the CEL check at {result.parameter} = {value:.4g} did not finish "
-                               f"(exit {done.returncode}): {(done.stderr or done.stdout).strip().splitlines()[-1:]}") from None
+                               f"(exit {done.returncode}): {last}") from None
         sinkage = answer["metrics"].get("max_sinkage_m", math.nan)
         checks.append({"value": value, "factor": factor, "status": answer["status"], "max_sinkage_m": sinkage,
                        "under_limit": bool(answer["status"] == "ok" and sinkage <= result.sinkage_limit_m),
