@@ -550,9 +550,9 @@ class Cel2DSolver:
         In: the body's kinetic energy at touchdown, the work of gravity on body and soil, the work
         of the push. Out: kinetic (soil, body) and elastic energy now, plastic, hourglass and
         bulk-viscosity dissipation, slip at a limited-adhesion contact, the touchdown impact, and
-        what the remap changed (a remap
-        that smooths stress or velocity loses energy; soil entering at the base brings its
-        elastic energy). ``energy_error`` = |in − out| / (energy delivered to the soil).
+        what the remap changed (a remap that smooths stress or velocity loses energy; soil
+        entering at the base brings its elastic energy). ``energy_error`` = |in − out| /
+        (energy delivered to the soil).
         """
         from dsmv.cel import kernels as K
         from dsmv.cel import stepper as S
