@@ -10,6 +10,8 @@ must sink deeper, and the answer must not be so timid that a run at 50 % more st
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -27,19 +29,12 @@ VELOCITIES_M_S = np.linspace(0.5, 5.0, 10)
 LIMIT_M = 0.3
 
 
-@pytest.fixture(scope="module")
-def cel():
+@pytest.fixture
+def cel(compose_cfg):
     """velocity (m/s) → (scene, max sinkage (m)) of a CEL landing of the default scene."""
-    from hydra import compose, initialize_config_dir
-    from hydra.core.global_hydra import GlobalHydra
-
-    from dsmv.cli import CONFIG_DIR
 
     def land(velocity_m_s: float):
-        GlobalHydra.instance().clear()
-        with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):
-            scene = build_scene(compose("config", overrides=[*BASE, f"landing.velocity_m_s={velocity_m_s!r}"]))
-        GlobalHydra.instance().clear()
+        scene = build_scene(compose_cfg([*BASE, f"landing.velocity_m_s={velocity_m_s!r}"]))
         result = Cel2DSolver(scene).solve(None)
         assert result.status == "ok", result.message
         return scene, result.metrics["max_sinkage_m"]
@@ -55,7 +50,7 @@ def test_inverse_answer_holds_in_cel(cel):
     table[TARGET_METRIC] = [z for _, z in runs]
     assert np.all(np.diff(table[TARGET_METRIC]) > 0)  # the dataset itself: deeper with speed
     features = LeakFreeFeatures()
-    make = lambda: RandomForestSurrogate(seed=0).make(n_estimators=100)  # noqa: E731
+    make = functools.partial(RandomForestSurrogate(seed=0).make, n_estimators=100)
     conformal = ConformalRegressor(make, folds=5, confidence=0.9, method="pooled", score="scaled")
     conformal.fit(features.transform(table), target(table))
     ranges = {c: [float(table[c].min()), float(table[c].max())] for c in table.columns if table[c].notna().all()}

@@ -70,7 +70,7 @@ def run_steps(
     the next step. The contact's dissipation ``energy[E_FRICTION]`` is the pull times the slip it
     leaves, m·|Δw|·|w'| per step (w' the slip speed after the pull): zero when the node sticks,
     as a full tie dissipates nothing (the kinetic energy a tie removes is the internal forces'
-    work already counted; the audit closes to the same 1e-4 as for rough and smooth contact).
+    work, already counted).
     """
     dt = par[P_DT]
     rho = par[P_RHO]

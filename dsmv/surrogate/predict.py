@@ -333,14 +333,14 @@ def verify_answer(predictor: Predictor, base: pd.DataFrame, result: InverseResul
         value = result.value * factor
         folder = run_dir / f"check_{i}"
         command = check_command(predictor, base, result.parameter, value).split()[1:]
-        done = subprocess.run([str(program), *command, "output.plots=false", "solver.progress=off",
-                               f"hydra.run.dir={folder}"], capture_output=True, text=True)
+        completed = subprocess.run([str(program), *command, "output.plots=false", "solver.progress=off",
+                                    f"hydra.run.dir={folder}"], capture_output=True, text=True)
         try:
             answer = json.loads((folder / "result.json").read_text())
         except (OSError, ValueError):
-            last = ((done.stderr or done.stdout).strip().splitlines() or ["no output"])[-1]
+            last = ((completed.stderr or completed.stdout).strip().splitlines() or ["no output"])[-1]
             raise PredictError(f"the CEL check at {result.parameter} = {value:.4g} did not finish "
-                               f"(exit {done.returncode}): {last}") from None
+                               f"(exit {completed.returncode}): {last}") from None
         sinkage = answer["metrics"].get("max_sinkage_m", math.nan)
         checks.append({"value": value, "factor": factor, "status": answer["status"], "max_sinkage_m": sinkage,
                        "under_limit": bool(answer["status"] == "ok" and sinkage <= result.sinkage_limit_m),
