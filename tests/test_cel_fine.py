@@ -33,11 +33,13 @@ def test_large_deformation_prandtl_converges_at_first_order(compose_cfg):
     assert PRANDTL < limit < PRANDTL * 1.08
 
 
-def test_rough_tbar_at_d20_within_6_percent(compose_cfg):
+@pytest.mark.parametrize("roughness, exact", [("rough", 11.94), ("smooth", 9.20)])
+def test_tbar_at_d20_within_6_percent(compose_cfg, roughness, exact):
     r = run(compose_cfg, ["solver=cel2d", "geometry=tbar", "landing=push", "landing.velocity_m_s=0.1",
                           "landing.displacement_m=1.0", "landing.initial_depth_m=1.5", "landing.gravity_m_s2=0",
-                          "soil.su0_pa=10000", "soil.ks_pa_per_m=0", "mesh.cell_size_m=0.025", "solver.progress=off"])
-    assert r.metrics["nc_deep"] == pytest.approx(11.94, rel=0.06)
+                          "soil.su0_pa=10000", "soil.ks_pa_per_m=0", "mesh.cell_size_m=0.025", "solver.progress=off",
+                          f"geometry.roughness={roughness}"])
+    assert r.metrics["nc_deep"] == pytest.approx(exact, rel=0.06)
 
 
 def test_rough_circular_plate_at_b40(compose_cfg):

@@ -35,7 +35,7 @@ BAD_VALUES = [
     ("tracking.uri=null", "tracking.uri", "tracking=disabled"),
     ("sweep_plot=nope", "sweep_plot", "fall_cone"),
     ("geometry=tbar", "geometry.kind", "solver=cel2d"),
-    ("solver=cel2d geometry=tbar geometry.roughness=0.5", "geometry.roughness", "limited adhesion"),
+    ("solver=cel2d geometry=fall_cone_30deg geometry.roughness=0.5", "geometry.roughness", "limited adhesion"),
     ("solver=cel2d geometry.view=longitudinal geometry.roughness=smooth", "geometry.roughness", "rough track only"),
     ("solver=cel2d geometry.view=sideways", "geometry.view", "longitudinal"),
     ("geometry=fall_cone_30deg geometry.roughness=smooth", "geometry.roughness", "cut cells"),

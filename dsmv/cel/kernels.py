@@ -201,10 +201,11 @@ def _evolve_state(q, i, j, evolve, xi_before, gamma_dot, dt, p):
 
 @njit(**JIT)
 def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym, phi_min, exact_tresca,
-                  law, law_params, law_active, evolve, su_cell, out):
+                  law, law_params, law_active, evolve, strength_factor, su_cell, out):
     """Stress update for undrained soil of strength su: Jaumann rotation, elastic trial, return.
 
-    su = (su0 + ks·z0)·law(ξ, γ̇, params) with z0 the depth where the soil started and
+    su = (su0 + ks·z0)·f·law(ξ, γ̇, params) with z0 the depth where the soil started, f the
+    cell's ``strength_factor`` (α in the interface layer round a curved body, 1 elsewhere) and
     γ̇ = (Δε1 − Δε3)/Δt; the soil law ``law`` (a compiled callback, see dsmv.soil_law) is
     called only when ``law_active``, so laws without softening or rate cost nothing. The
     return is J2's radial return
@@ -259,7 +260,7 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
             syy += lam * tr + 2.0 * shear_mod * dyy
             szz += lam * tr + 2.0 * shear_mod * dzz
             sxy += 2.0 * shear_mod * dxy
-            su = su0 + ks * q[Z0, i, j]
+            su = (su0 + ks * q[Z0, i, j]) * strength_factor[i, j]
             if su < 0.0:
                 su = 0.0
             xi_before = q[XI, i, j]

@@ -131,10 +131,10 @@ class Cel2DSolver:
             raise ConfigError("geometry.roughness", body.roughness,
                               "the longitudinal view (plates and grousers) models a rough track only")
         flat = body.kind in ("strip", "track") and getattr(body, "view", "cross_section") == "cross_section"
-        if body.adhesion_factor not in (0.0, 1.0) and not flat:
+        if body.adhesion_factor not in (0.0, 1.0) and not (flat or body.kind == "tbar"):
             raise ConfigError("geometry.roughness", body.roughness,
-                              "limited adhesion α in (0, 1) needs a flat-faced body (strip, or a track's cross-section); "
-                              "a curved staircase body takes 'rough' (1) or 'smooth' (0)")
+                              "limited adhesion α in (0, 1) needs a flat-faced body (strip, or a track's cross-section) "
+                              "or a T-bar (an interface layer of strength α·su); a cone takes 'rough' (1)")
         if body.kind == "cone" and body.adhesion_factor == 0.0:
             raise ConfigError("geometry.roughness", body.roughness, "a cone is 'rough' in cel2d for now "
                                                                    "(a smooth staircase cone needs cut cells)")
@@ -150,6 +150,14 @@ class Cel2DSolver:
         self.mode = cfg.mode if cfg.mode != "auto" else ("axisymmetric" if self.cone else "plane_strain")
         self.axisym = self.mode == "axisymmetric"
         self.circular = body.kind == "tbar"  # a cylinder (plane strain) or a ball (axisymmetric)
+        # A curved body is a staircase of cells. Its contact is tied fully, and a smooth face or
+        # limited adhesion α lives in the interface layer, the soil cells that touch it, whose
+        # strength is α·su (the thin-layer interface of FE and CEL practice). Soil then slides
+        # round the body one layer out, through whole cells, which the remap carries. (Ties
+        # along the circle's normal let soil slide along the staircase instead, which the remap
+        # cannot carry past the steps: the soil piled up in front, a void opened behind, and a
+        # smooth T-bar read 6.6 for 9.20.)
+        self.interface_layer = self.circular and body.adhesion_factor < 1.0
         #: a track seen from the side: plates, grousers and sprockets in the plane, per metre of B
         self.longitudinal = getattr(body, "view", "cross_section") == "longitudinal"
 
@@ -176,9 +184,10 @@ class Cel2DSolver:
     def body_cells_and_ties(self, grid, j_base):
         """Cells inside the body, and the nodes tied to it.
 
-        A node of a body cell is tied fully (moves with the body) when the contact is rough or
-        the node is inside; on a smooth surface only its normal velocity is tied, n being the
-        surface normal. With limited adhesion (roughness α in (0, 1), flat faces) the normally
+        A node of a body cell is tied fully (moves with the body) when the contact is rough, the
+        node is inside, or the body is curved (its contact law lives in the interface layer, see
+        :meth:`strength_factors`); on a smooth flat face only its normal velocity is tied, n
+        being the face normal. With limited adhesion (roughness α in (0, 1), flat faces) the normally
         tied nodes also carry ``tie_cap`` = α × their share of the face (m per unit thickness,
         m²/rad axisymmetric): the stepper lets the face pull them along by up to tie_cap·su.
         Returns (solid, tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap).
@@ -222,29 +231,35 @@ class Cel2DSolver:
         nx_, ny_ = np.zeros(len(tie_i)), np.zeros(len(tie_i))
         cap = np.zeros(len(tie_i))
         alpha = self.scene.geometry.adhesion_factor
-        if alpha < 1.0:
+        if alpha < 1.0 and not self.interface_layer:
             xs, ys = grid.x[tie_i], grid.y[tie_j]
-            if self.circular:
-                r = np.hypot(xs, ys - 0.5 * B)
-                nx_, ny_ = xs / np.maximum(r, 1e-300), (ys - 0.5 * B) / np.maximum(r, 1e-300)
-                tie_full = inside.copy()
-            else:
-                on_base = (tie_j == j_base) & (xs < 0.5 * B - 1e-12)
-                on_side = (tie_j > j_base) & np.isclose(xs, 0.5 * B) & ~inside
-                ny_[on_base] = 1.0
-                nx_[on_side] = 1.0
-                tie_full = ~(on_base | on_side)
-                if alpha > 0.0:  # each node's share of the base (x) or of the wall (y)
-                    xg, yg = grid.x, grid.y
-                    left = np.where(tie_i > 0, xs - xg[np.maximum(tie_i - 1, 0)], 0.0)
-                    right = np.minimum(xg[np.minimum(tie_i + 1, grid.nx)], 0.5 * B) - xs
-                    below = ys - yg[np.maximum(tie_j - 1, 0)]
-                    above = np.where(tie_j < grid.ny, yg[np.minimum(tie_j + 1, grid.ny)] - ys, 0.0)
-                    radius = xs if self.axisym else 1.0
-                    cap[on_base] = (alpha * 0.5 * (left + right) * radius)[on_base]
-                    radius = 0.5 * B if self.axisym else 1.0
-                    cap[on_side] = (alpha * 0.5 * (below + above) * radius)[on_side]
+            on_base = (tie_j == j_base) & (xs < 0.5 * B - 1e-12)
+            on_side = (tie_j > j_base) & np.isclose(xs, 0.5 * B) & ~inside
+            ny_[on_base] = 1.0
+            nx_[on_side] = 1.0
+            tie_full = ~(on_base | on_side)
+            if alpha > 0.0:  # each node's share of the base (x) or of the wall (y)
+                xg, yg = grid.x, grid.y
+                left = np.where(tie_i > 0, xs - xg[np.maximum(tie_i - 1, 0)], 0.0)
+                right = np.minimum(xg[np.minimum(tie_i + 1, grid.nx)], 0.5 * B) - xs
+                below = ys - yg[np.maximum(tie_j - 1, 0)]
+                above = np.where(tie_j < grid.ny, yg[np.minimum(tie_j + 1, grid.ny)] - ys, 0.0)
+                radius = xs if self.axisym else 1.0
+                cap[on_base] = (alpha * 0.5 * (left + right) * radius)[on_base]
+                radius = 0.5 * B if self.axisym else 1.0
+                cap[on_side] = (alpha * 0.5 * (below + above) * radius)[on_side]
         return solid, tie_i.astype(np.int64), tie_j.astype(np.int64), tie_full, nx_, ny_, cap
+
+    def strength_factors(self, solid, tie_i, tie_j) -> np.ndarray:
+        """Each cell's share of the soil's strength (nx, ny): α in a curved body's interface layer
+        (the soil cells with a node tied to the body), 1 elsewhere."""
+        factor = np.ones(solid.shape)
+        if self.interface_layer:
+            tied = np.zeros((solid.shape[0] + 1, solid.shape[1] + 1), dtype=bool)
+            tied[tie_i, tie_j] = True
+            layer = (tied[:-1, :-1] | tied[1:, :-1] | tied[1:, 1:] | tied[:-1, 1:]) & ~solid
+            factor[layer] = self.scene.geometry.adhesion_factor
+        return factor
 
     # ------------------------------------------------------------------ setup
 
@@ -323,6 +338,7 @@ class Cel2DSolver:
         d0 = self.mudline
         solid, tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap = self.body_cells_and_ties(grid, j_base)
         phi, q = geostatic_state(grid, rho, grav, elastic.k0, d0, solid)
+        strength_factor = self.strength_factors(solid, tie_i, tie_j)
         # the soil law's state variables ride with the material, as ξ and z0 do
         initial_state = self.law.initial_state()
         q = np.concatenate([q, np.broadcast_to(initial_state[:, None, None], (len(initial_state), nx, ny))])
@@ -382,7 +398,7 @@ class Cel2DSolver:
         def advance(n):
             return S.run_steps(
                 n, x, y, vol, phi, q, vx, vy, mass, work["fx"], work["fy"], work["ux"], work["uy"],
-                work["flux_x"], work["flux_y"], tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap, work["su_cell"],
+                work["flux_x"], work["flux_y"], tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap, strength_factor, work["su_cell"],
                 solid, ghost, ghost_depth0,
                 par, ipar, body, energy, law_fn, law_params, law_evolve,
             )

@@ -16,7 +16,7 @@ from numba import njit
 
 # Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
 # kernels it inlined until this file changes. After changing a kernel, bump this revision
-# (or clear the Numba cache). Kernel revision: 5 (limited adhesion: su_cell, node_strength).
+# (or clear the Numba cache). Kernel revision: 6 (the interface layer's strength_factor).
 from dsmv.cel.kernels import (
     JIT,
     advect_cells,
@@ -53,7 +53,7 @@ RUNNING, AT_REST, NOT_FINITE = 0, 1, 2
 @njit(**JIT)
 def run_steps(
     n_steps, x, y, vol, phi, q, vx, vy, mass, fx, fy, ux, uy, flux_x, flux_y,
-    tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap, su_cell, solid, ghost, ghost_depth0, par, ipar, body, energy,
+    tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap, strength_factor, su_cell, solid, ghost, ghost_depth0, par, ipar, body, energy,
     law, law_params, evolve,
 ):
     """Advance up to ``n_steps`` steps; return (steps done, exit code).
@@ -166,7 +166,7 @@ def run_steps(
             energy[E_SOIL_GRAV] += -grav * dt * 0.5 * (momentum_before + momentum_after)
         stress_out[0] = 0.0
         update_stress(x, y, phi, q, vx, vy, dt, par[P_G], par[P_K], par[P_SU0], par[P_KS], axisym,
-                      par[P_PHI_STRESS], ipar[I_TRESCA] == 1, law, law_params, ipar[I_LAW] == 1, evolve, su_cell,
+                      par[P_PHI_STRESS], ipar[I_TRESCA] == 1, law, law_params, ipar[I_LAW] == 1, evolve, strength_factor, su_cell,
                       stress_out)
         energy[E_PLASTIC] += stress_out[0]
         body[B_OFFSET] += body[B_VEL] * dt
