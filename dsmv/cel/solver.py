@@ -65,6 +65,8 @@ class Cel2DConfig(Schema):
     )
     stress_cutoff: Number = Field(0.01, ge=0, lt=1, description="cells with less soil carry no stress (-)")
     remap: bool = Field(True, description="false: small-strain analysis on the undeformed grid (verification)")
+    remap_courant: Number = Field(0.05, ge=0, le=0.5, description=(
+        "the remap runs once the soil has moved this fraction of a core cell through the grid; 0: every step (-)"))
     domain_depth_widths: Number = Field(5.0, ge=1, description="soil depth below the body, in body widths B")
     domain_half_width_widths: Number = Field(5.0, ge=1, description="half-width of the domain, in B")
     core_margin_widths: Number = Field(1.0, gt=0, description="uniform core beyond the body, in B")
@@ -357,7 +359,7 @@ class Cel2DSolver:
             hourglass=cfg.hourglass, bulk_linear=cfg.bulk_viscosity_linear,
             bulk_quadratic=cfg.bulk_viscosity_quadratic, stress_cutoff=cfg.stress_cutoff,
             body_mass=landing.inertia_per_track_kg / scale, body_weight=landing.weight_per_track_n / scale,
-            push_velocity=landing.velocity_m_s,
+            push_velocity=landing.velocity_m_s, remap_courant=cfg.remap_courant,
         )
         ipar = stepper_flags(
             axisym=self.axisym, advection_order=cfg.advection_order, drop=drop, bottom_inflow=True,

@@ -56,8 +56,12 @@ def geostatic_state(grid: Grid, density: float, gravity: float, k0: float, mudli
 
 
 def stepper_parameters(*, dt, density, elastic: Elastic, h, gravity, su0, ks, hourglass, bulk_linear,
-                       bulk_quadratic, stress_cutoff, body_mass=1.0, body_weight=0.0, push_velocity=0.0):
-    """The float parameters of :func:`dsmv.cel.stepper.run_steps`, packed in its order."""
+                       bulk_quadratic, stress_cutoff, body_mass=1.0, body_weight=0.0, push_velocity=0.0,
+                       remap_courant=0.0):
+    """The float parameters of :func:`dsmv.cel.stepper.run_steps`, packed in its order.
+
+    ``remap_courant``: the remap runs once the soil has moved this fraction of a core cell h
+    through the grid (0: every step)."""
     par = np.zeros(S.N_PAR)
     par[S.P_DT], par[S.P_RHO] = dt, density
     par[S.P_G], par[S.P_K], par[S.P_C], par[S.P_K0] = elastic.shear_pa, elastic.bulk_pa, elastic.wave_speed_m_s, elastic.k0
@@ -67,6 +71,7 @@ def stepper_parameters(*, dt, density, elastic: Elastic, h, gravity, su0, ks, ho
     par[S.P_PHIMIN] = 1e-9  # cells with less soil give none
     par[S.P_PHI_STRESS] = stress_cutoff
     par[S.P_BODY_M], par[S.P_BODY_W], par[S.P_PUSH_V] = body_mass, body_weight, push_velocity
+    par[S.P_REMAP_DISP] = remap_courant * h
     return par
 
 

@@ -16,7 +16,7 @@ from numba import njit
 
 # Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
 # kernels it inlined until this file changes. After changing a kernel, bump this revision
-# (or clear the Numba cache). Kernel revision: 6 (the interface layer's strength_factor).
+# (or clear the Numba cache). Kernel revision: 7 (the remap waits for a set travel).
 from dsmv.cel.kernels import (
     JIT,
     advect_cells,
@@ -29,16 +29,18 @@ from dsmv.cel.kernels import (
 )
 
 # float parameters
+# P_REMAP_DISP: the remap runs once the soil has moved this far through the grid (m)
 (P_DT, P_RHO, P_G, P_K, P_C, P_HG, P_BL, P_BQ, P_GRAV, P_SU0, P_KS, P_MFLOOR, P_PHIMIN, P_BODY_M, P_BODY_W,
- P_PUSH_V, P_K0, P_PHI_STRESS) = range(18)
-N_PAR = 18
+ P_PUSH_V, P_K0, P_PHI_STRESS, P_REMAP_DISP) = range(19)
+N_PAR = 19
 # integer parameters
 I_AXISYM, I_ORDER, I_DROP, I_INFLOW, I_REMAP, I_TRESCA, I_LAW, I_SKIP_VOID = range(8)
 N_IPAR = 8
 # body state (mutable floats)
-# B_FRICTION: the adhesive ties' pull on the body in the last step (N, up +), applied in the next
-B_TIME, B_OFFSET, B_VEL, B_MAXDISP, B_FSUM, B_FCOUNT, B_INFLOW, B_STEP, B_FRICTION = range(9)
-N_BODY = 9
+# B_FRICTION: the adhesive ties' pull on the body in the last step (N, up +), applied in the next;
+# B_REMAP_OFFSET: the body's offset at the last remap (m); B_REMAPS: remaps done
+B_TIME, B_OFFSET, B_VEL, B_MAXDISP, B_FSUM, B_FCOUNT, B_INFLOW, B_STEP, B_FRICTION, B_REMAP_OFFSET, B_REMAPS = range(11)
+N_BODY = 11
 # energy accumulators of the model (J per unit thickness or per radian): plastic, hourglass and
 # bulk-viscosity dissipation, work of the push, of gravity on the body and on the soil, and the
 # changes of elastic and kinetic energy that the remap makes, and the work lost to slip at a
@@ -180,32 +182,43 @@ def run_steps(
             return step + 1, AT_REST
         if not remap:
             continue
-        # ---- Eulerian phase: carry soil and momentum through the grid moving at the body's velocity
+        # ---- Eulerian phase: carry soil and momentum through the grid moving at the body's velocity.
+        # The soil moves a small fraction of a cell per step (the step is set by the elastic wave
+        # speed, not by the flow): ux, uy gather each node's travel through the grid (m), and the
+        # remap runs once some node has gone par[P_REMAP_DISP] (0: every step).
         v_grid = body[B_VEL]
+        travel = 0.0
         for i in range(nxn):
             for j in range(nyn):
-                ux[i, j] = vx[i, j]
-                uy[i, j] = vy[i, j] - v_grid
-        # soil entering at the base: intact and geostatic at the depth it has there now
+                ux[i, j] += vx[i, j] * dt
+                uy[i, j] += (vy[i, j] - v_grid) * dt
+                travel = max(travel, abs(ux[i, j]), abs(uy[i, j]))
+        if travel < par[P_REMAP_DISP]:
+            continue
+        # soil entering at the base: intact and geostatic at its depth halfway through the travel
         if inflow:
             for i in range(ghost.shape[1]):
-                depth = ghost_depth0[i] - (body[B_OFFSET] - body[B_VEL] * dt)
+                depth = ghost_depth0[i] - 0.5 * (body[B_REMAP_OFFSET] + body[B_OFFSET])
                 ghost[1, i] = -rho * grav * depth
                 ghost[0, i] = par[P_K0] * ghost[1, i]
                 ghost[3, i] = ghost[0, i]
                 ghost[5, i] = depth
         audit[:] = 0.0
-        first = int(body[B_STEP]) % 2
-        for sweep in range(2):
+        first = int(body[B_REMAPS]) % 2  # the sweeps alternate their order
+        for sweep in range(2):  # with the gathered travel as velocity × time: Δt = 1
             axis = first if sweep == 0 else 1 - first
             if axis == 0:
-                body[B_INFLOW] += advect_cells(0, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, False,
+                body[B_INFLOW] += advect_cells(0, x, y, vol, phi, q, ux, uy, 1.0, order, axisym, ghost, False,
                                                flux_x, par[P_PHIMIN], par[P_G], par[P_K], audit, solid)
                 advect_momentum(0, flux_x, rho, mass, vx, vy, order, par[P_MFLOOR], audit)
             else:
-                body[B_INFLOW] += advect_cells(1, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, inflow,
+                body[B_INFLOW] += advect_cells(1, x, y, vol, phi, q, ux, uy, 1.0, order, axisym, ghost, inflow,
                                                flux_y, par[P_PHIMIN], par[P_G], par[P_K], audit, solid)
                 advect_momentum(1, flux_y, rho, mass, vx, vy, order, par[P_MFLOOR], audit)
         energy[E_REMAP_ELASTIC] += audit[0]
         energy[E_REMAP_KINETIC] += audit[1]
+        ux[:, :] = 0.0
+        uy[:, :] = 0.0
+        body[B_REMAP_OFFSET] = body[B_OFFSET]
+        body[B_REMAPS] += 1.0
     return n_steps, RUNNING
