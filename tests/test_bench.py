@@ -24,3 +24,20 @@ def test_cost_exponent_is_one_for_cost_linear_in_cells_times_steps():
     assert cost_exponent(rows) == pytest.approx(1.0, abs=1e-9)
     quadratic = [_row((c * s) ** 2, 0.0, c, s) for c, s in ((1e3, 1e3), (4e3, 2e3))]
     assert cost_exponent(quadratic) == pytest.approx(2.0, abs=1e-9)
+
+
+def test_the_reference_landing_is_recomputed_when_the_solver_changes(tmp_path, monkeypatch):
+    from dsmv import bench
+
+    runs = []
+
+    def fake_solve(overrides, repeats, run_dir=None):
+        runs.append(overrides)
+        return {"max_sinkage_m": 0.1 + 0.01 * len(runs), "wall_s": 1.0}, "ok", [1.0]
+
+    monkeypatch.setattr(bench, "solve", fake_solve)
+    monkeypatch.setattr(bench, "solver_fingerprint", lambda overrides: "version-a")
+    first = bench.landing_reference(bench.QUICK, tmp_path)
+    assert bench.landing_reference(bench.QUICK, tmp_path) == first and len(runs) == 1  # cached
+    monkeypatch.setattr(bench, "solver_fingerprint", lambda overrides: "version-b")
+    assert bench.landing_reference(bench.QUICK, tmp_path) != first and len(runs) == 2  # stale: run again
