@@ -4,7 +4,9 @@ A step (Benson 1992 operator split) in the grid frame that moves with the body:
 Lagrangian phase — nodal masses and forces from the cell stresses, the rigid body's motion
 with the soil nodes tied to it, explicit velocity update, boundary conditions, stress update —
 then the Eulerian phase: the soil state and momentum are carried through the grid by the
-velocity relative to the grid, in two directional sweeps whose order alternates.
+travel relative to the grid, in two directional sweeps whose order alternates. The Eulerian
+phase waits until some node has travelled ``P_REMAP_DISP`` (a set fraction of a cell): the
+elastic step moves the soil only about 1 % of a cell.
 """
 
 from __future__ import annotations
