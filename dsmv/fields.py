@@ -61,8 +61,9 @@ MAX_SINKAGE_FRAME = f"{FIELDS_DIR}/max_sinkage.vtu"
 STRESS_NAMES = {K.SXX: "stress_xx_pa", K.SYY: "stress_yy_pa", K.SXY: "stress_xy_pa", K.SZZ: "stress_zz_pa"}
 
 #: a cell counts as yielding when its mobilised strength √J2/su is at least this. The return
-#: puts a yielding cell on the surface exactly; the remap after it blends the cell with its
-#: neighbours. Measured over all frames of the default landing (coarse and medium meshes): of
+#: puts a yielding cell on the surface exactly; the remap blends the cell with its neighbours.
+#: Measured (session 3, with a remap after every step) over all frames of the default landing
+#: (coarse and medium meshes): of
 #: the soil cells above 0.9, 66–67 % lie within 0.1 % of 1, 5 % between 0.99 and 0.999 (those
 #: blended) and 28 % between 0.9 and 0.99 (cells loading or unloading
 #: elastically). The plastic rate is thus an indicator of the yielding zone, not a return's output.

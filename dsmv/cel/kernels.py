@@ -401,8 +401,9 @@ def advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, bott
                  shear_mod, bulk_mod, audit, solid):
     """One directional sweep of the cell state: volume fraction and transported quantities.
 
-    ``ux``, ``uy`` are nodal velocities relative to the grid (m/s). A face's volume flux
-    comes from the mean normal velocity of its two nodes. Soil volume moves by the
+    ``ux``, ``uy`` are nodal velocities relative to the grid (m/s), or, with ``dt`` = 1, the
+    travel through the grid gathered since the last remap (m). A face's volume flux comes from
+    the mean normal velocity of its two nodes. Soil volume moves by the
     donor–acceptor rule; each transported quantity moves with it at the donor's value plus
     a van Leer limited slope when ``order`` = 2. Domain edges are closed, except the base
     (axis 1, face 0) when ``bottom_inflow``: soil enters there in the state ``ghost[k, i]``.

@@ -65,7 +65,9 @@ class Cel2DConfig(Schema):
     )
     stress_cutoff: Number = Field(0.01, ge=0, lt=1, description="cells with less soil carry no stress (-)")
     remap: bool = Field(True, description="false: small-strain analysis on the undeformed grid (verification)")
-    remap_courant: Number = Field(0.05, ge=0, le=0.5, description=(
+    # at most 0.25: next to the axis of an axisymmetric model a cell's volume Courant number is
+    # about twice the travel over h
+    remap_courant: Number = Field(0.05, ge=0, le=0.25, description=(
         "the remap runs once the soil has moved this fraction of a core cell through the grid; 0: every step (-)"))
     domain_depth_widths: Number = Field(5.0, ge=1, description="soil depth below the body, in body widths B")
     domain_half_width_widths: Number = Field(5.0, ge=1, description="half-width of the domain, in B")

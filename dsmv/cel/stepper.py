@@ -178,25 +178,25 @@ def run_steps(
         body[B_STEP] += 1.0
         if -body[B_OFFSET] > body[B_MAXDISP]:
             body[B_MAXDISP] = -body[B_OFFSET]
+        # The soil moves a small fraction of a cell per step (the step is set by the elastic wave
+        # speed, not by the flow): ux, uy gather each node's travel through the grid, which moves
+        # with the body (m), and the remap runs once some node has gone par[P_REMAP_DISP]
+        # (0: every step). Gathered before the exits, so a run that goes on keeps this step's.
+        travel = 0.0
+        if remap:
+            v_grid = body[B_VEL]
+            for i in range(nxn):
+                for j in range(nyn):
+                    ux[i, j] += vx[i, j] * dt
+                    uy[i, j] += (vy[i, j] - v_grid) * dt
+                    travel = max(travel, abs(ux[i, j]), abs(uy[i, j]))
         if not (math.isfinite(body[B_VEL]) and math.isfinite(resistance)):
             return step + 1, NOT_FINITE
         if drop and body[B_VEL] >= 0.0 and v_old < 0.0:
             return step + 1, AT_REST
-        if not remap:
+        if not remap or travel < par[P_REMAP_DISP]:
             continue
-        # ---- Eulerian phase: carry soil and momentum through the grid moving at the body's velocity.
-        # The soil moves a small fraction of a cell per step (the step is set by the elastic wave
-        # speed, not by the flow): ux, uy gather each node's travel through the grid (m), and the
-        # remap runs once some node has gone par[P_REMAP_DISP] (0: every step).
-        v_grid = body[B_VEL]
-        travel = 0.0
-        for i in range(nxn):
-            for j in range(nyn):
-                ux[i, j] += vx[i, j] * dt
-                uy[i, j] += (vy[i, j] - v_grid) * dt
-                travel = max(travel, abs(ux[i, j]), abs(uy[i, j]))
-        if travel < par[P_REMAP_DISP]:
-            continue
+        # ---- Eulerian phase: carry soil and momentum through the grid by the gathered travel
         # soil entering at the base: intact and geostatic at its depth halfway through the travel
         if inflow:
             for i in range(ghost.shape[1]):
