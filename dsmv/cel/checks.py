@@ -171,7 +171,8 @@ class Cel2DCheckSolver:
         energy = np.zeros(S.N_ENERGY)
         args = (x, y, vol, phi, q, vx, vy, np.zeros_like(vx), np.zeros_like(vx), np.zeros_like(vx),
                 np.zeros_like(vx), np.zeros_like(vx), np.zeros((nx + 1, ny)), np.zeros((ny + 1, nx)),
-                none, none, none.astype(np.bool_), np.zeros(0), np.zeros(0), np.zeros(0), np.ones((nx, ny)), np.zeros((nx, ny)),
+                none, none, none.astype(np.bool_), np.zeros(0), np.zeros(0), np.zeros(0),
+                np.ones((nx, ny)), np.zeros((nx, ny)),
                 np.zeros((nx, ny), dtype=np.bool_),
                 np.zeros((K.NQ_BASE, nx)), np.zeros(nx),
                 par, ipar, body, energy, tresca.compiled(), np.zeros(8), tresca.compiled_evolve())

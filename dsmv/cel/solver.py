@@ -235,7 +235,7 @@ class Cel2DSolver:
         nx_, ny_ = np.zeros(len(tie_i)), np.zeros(len(tie_i))
         cap = np.zeros(len(tie_i))
         alpha = self.scene.geometry.adhesion_factor
-        if alpha < 1.0 and not self.interface_layer:
+        if alpha < 1.0 and not self.circular:  # a flat face: normal ties, and α·su along the face
             xs, ys = grid.x[tie_i], grid.y[tie_j]
             on_base = (tie_j == j_base) & (xs < 0.5 * B - 1e-12)
             on_side = (tie_j > j_base) & np.isclose(xs, 0.5 * B) & ~inside
@@ -402,8 +402,8 @@ class Cel2DSolver:
         def advance(n):
             return S.run_steps(
                 n, x, y, vol, phi, q, vx, vy, mass, work["fx"], work["fy"], work["ux"], work["uy"],
-                work["flux_x"], work["flux_y"], tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap, strength_factor, work["su_cell"],
-                solid, ghost, ghost_depth0,
+                work["flux_x"], work["flux_y"], tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap, strength_factor,
+                work["su_cell"], solid, ghost, ghost_depth0,
                 par, ipar, body, energy, law_fn, law_params, law_evolve,
             )
 

@@ -57,7 +57,8 @@ RUNNING, AT_REST, NOT_FINITE = 0, 1, 2
 @njit(**JIT)
 def run_steps(
     n_steps, x, y, vol, phi, q, vx, vy, mass, fx, fy, ux, uy, flux_x, flux_y,
-    tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap, strength_factor, su_cell, solid, ghost, ghost_depth0, par, ipar, body, energy,
+    tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap, strength_factor, su_cell, solid, ghost, ghost_depth0,
+    par, ipar, body, energy,
     law, law_params, evolve,
 ):
     """Advance up to ``n_steps`` steps; return (steps done, exit code).
@@ -170,8 +171,8 @@ def run_steps(
             energy[E_SOIL_GRAV] += -grav * dt * 0.5 * (momentum_before + momentum_after)
         stress_out[0] = 0.0
         update_stress(x, y, phi, q, vx, vy, dt, par[P_G], par[P_K], par[P_SU0], par[P_KS], axisym,
-                      par[P_PHI_STRESS], ipar[I_TRESCA] == 1, law, law_params, ipar[I_LAW] == 1, evolve, strength_factor, su_cell,
-                      stress_out)
+                      par[P_PHI_STRESS], ipar[I_TRESCA] == 1, law, law_params, ipar[I_LAW] == 1, evolve,
+                      strength_factor, su_cell, stress_out)
         energy[E_PLASTIC] += stress_out[0]
         body[B_OFFSET] += body[B_VEL] * dt
         body[B_TIME] += dt
