@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-PRANDTL_NC = 2.0 + math.pi  # exact bearing factor of a strip on weightless Tresca soil (Prandtl 1920)
+from dsmv.analytic.bearing import PRANDTL_NC
 
 #: the Prandtl case: rough strip B = 1 m on weightless Tresca soil (su 10 kPa, E = 500·su),
 #: pushed quasi-statically just past s = 0.05·B (verify_prandtl, shortened)

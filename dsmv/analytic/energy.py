@@ -30,11 +30,11 @@ import numpy as np
 from pydantic import BeforeValidator, Field
 
 from dsmv import registry
+from dsmv.analytic.bearing import PRANDTL_NC
 from dsmv.errors import ConfigError
 from dsmv.results import SolveResult
 from dsmv.scene import Count, Number, Scene, Schema
 
-PRANDTL_NC = 2.0 + math.pi  # Prandtl (1920): rigid strip on weightless Tresca soil
 
 
 def _check_shape_factor(value):
