@@ -67,3 +67,19 @@ def test_a_landing_sinks_deeper_the_less_the_track_adheres(compose_cfg):
 def test_a_cone_refuses_limited_adhesion(compose_cfg):
     with pytest.raises(ConfigError, match="flat-faced body"):
         build_scene(compose_cfg(["solver=cel2d", "geometry=fall_cone_30deg", "geometry.roughness=0.5"]))
+
+
+def test_a_face_grips_a_partly_filled_cell_in_proportion_to_its_fill():
+    """The grip per unit su at a wall node: φ·su averaged over its cells outside the body. A cell
+    at the mudline a fifth full grips a fifth as hard (at full su it dragged the soil down)."""
+    import numpy as np
+
+    from dsmv.cel.kernels import node_strength
+
+    su_pa = 10_000.0
+    solid = np.array([[True, True], [False, False]])  # the body left of the node, soil right of it
+    phi = np.array([[0.0, 0.0], [1.0, 0.2]])  # below the node full, above it a fifth
+    su_cell = np.where(phi > 0.0, su_pa, 0.0)
+    assert node_strength(su_cell, phi, solid, 1, 1) == pytest.approx(0.5 * (1.0 + 0.2) * su_pa)
+    phi[1, 1] = 1.0
+    assert node_strength(su_cell, phi, solid, 1, 1) == pytest.approx(su_pa)  # fully in contact: su

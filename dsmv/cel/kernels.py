@@ -341,15 +341,18 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
 
 
 @njit(**JIT)
-def node_strength(su_cell, phi, i, j, phi_min):
-    """The soil strength at node (i, j) (Pa): the mean su of the cells around it that hold soil."""
+def node_strength(su_cell, phi, solid, i, j):
+    """The strength of the soil touching a body's face at node (i, j) (Pa): φ·su averaged over
+    the node's cells outside the body. A cell the soil only partly fills (at the mudline)
+    grips the face in proportion: counted at full su, the face dragged the last wisps of soil
+    down with it and dug a slot along the wall."""
     nx, ny = phi.shape
     total = 0.0
     count = 0
     for ci in (i - 1, i):
         for cj in (j - 1, j):
-            if 0 <= ci < nx and 0 <= cj < ny and phi[ci, cj] > phi_min:
-                total += su_cell[ci, cj]
+            if 0 <= ci < nx and 0 <= cj < ny and not solid[ci, cj]:
+                total += su_cell[ci, cj] * min(phi[ci, cj], 1.0)
                 count += 1
     return total / count if count > 0 else 0.0
 

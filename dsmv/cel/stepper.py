@@ -18,7 +18,7 @@ from numba import njit
 
 # Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
 # kernels it inlined until this file changes. After changing a kernel, bump this revision
-# (or clear the Numba cache). Kernel revision: 7 (the remap waits for a set travel).
+# (or clear the Numba cache). Kernel revision: 8 (a face grips partly filled cells by φ).
 from dsmv.cel.kernels import (
     JIT,
     advect_cells,
@@ -156,7 +156,7 @@ def run_steps(
                 continue
             tx, ty = -tie_ny[k], tie_nx[k]  # along the face
             w = vx[i, j] * tx + (vy[i, j] - body[B_VEL]) * ty  # slip speed relative to the body
-            dw_max = tie_cap[k] * node_strength(su_cell, phi, i, j, par[P_PHI_STRESS]) * dt / m
+            dw_max = tie_cap[k] * node_strength(su_cell, phi, solid, i, j) * dt / m
             dw = -w if abs(w) <= dw_max else (-dw_max if w > 0.0 else dw_max)
             vx[i, j] += dw * tx
             vy[i, j] += dw * ty
