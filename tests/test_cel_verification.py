@@ -78,17 +78,19 @@ def test_small_strain_prandtl_converges_to_two_plus_pi(small_strain_prandtl):
         assert r.status == "ok" and r.metrics["mass_error"] == 0.0
 
 
-def test_embedment_raises_the_capacity_within_the_upper_bound(compose_cfg, small_strain_prandtl):
+def test_embedment_raises_the_capacity_by_about_the_upper_bound(compose_cfg, small_strain_prandtl):
     """A rough strip wished in place 0.05 B deep (one cell at B/20) carries more than on the
-    surface, by less than the kinematic bound 6·d/B (dsmv.analytic.bearing) allows. Measured
-    (small strain, B/20, B/40, B/80): +0.274, +0.277, +0.264 against at most +0.30."""
+    surface. The rise is bounded by 2 + π ≤ N ≤ 2 + π + (16/3)·d/B (dsmv.analytic.bearing): at most
+    +0.267. Small strain gives +0.274, +0.277, +0.264, +0.258 at B/20 to B/160, falling under the
+    bound as the cells shrink; one-point quadrature is stiff by O(h) (+3 % at B/20 on the flat
+    surface), hence the 5 % allowance at B/20."""
     depth_over_width = 0.05
     placed = solve(compose_cfg, Cel2DSolver, STRIP + ["solver.remap=false", "landing.displacement_m=0.06",
                                                       f"landing.initial_depth_m={depth_over_width}",
                                                       "mesh.cell_size_m=0.05", "solver.initial_travel_m=0.1"])
     rise = placed.metrics["nc_at_0p05B"] - small_strain_prandtl[0.05].metrics["nc_at_0p05B"]
     bound = embedded_strip_upper_bound(depth_over_width, rough_walls=True) - PRANDTL
-    assert 0.5 * bound < rise < bound
+    assert 0.8 * bound < rise < 1.05 * bound
 
 
 @pytest.mark.parametrize("depth_m", [0.1, 0.2])
@@ -104,7 +106,7 @@ def test_large_deformation_equals_the_strip_wished_in_place_at_that_depth(compos
     nc_pushed = nc_at(pushed, depth_m)
     nc_placed = nc_at(placed, 0.04)  # fully yielded, geometry still that of depth D
     assert nc_pushed == pytest.approx(nc_placed, rel=0.02)
-    assert nc_pushed > PRANDTL  # embedment raises the capacity (Salgado et al. 2004: 1 + 0.27·√(D/B))
+    assert nc_pushed > PRANDTL  # embedment raises the capacity (lower bound 2 + π, dsmv.analytic.bearing)
 
 
 def test_push_speed_does_not_change_the_result(compose_cfg):
