@@ -5,7 +5,6 @@ residuals are known, so the interval's half-width is exactly B·q."""
 from __future__ import annotations
 
 import json
-import math
 import os
 import subprocess
 import sys

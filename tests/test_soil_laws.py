@@ -236,6 +236,7 @@ def test_a_law_state_variable_is_carried_with_the_material(run_cli, install_plug
         assert result["status"] == "ok", result["message"]
         sinkages.append(result["metrics"]["max_sinkage_m"])
     tresca = run_cli("dsmv", *common, "soil.law=tresca", "hydra.run.dir=run_tresca")
+    assert tresca.returncode == 0, tresca.stderr[-2000:]
     tresca_sinkage = json.loads((tmp_path / "run_tresca" / "result.json").read_text())["metrics"]["max_sinkage_m"]
     assert sinkages[0] == pytest.approx(sinkages[1], rel=1e-9)
     assert sinkages[0] > tresca_sinkage * 1.01  # the state did soften the soil
