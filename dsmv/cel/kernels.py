@@ -140,17 +140,25 @@ def nodal_forces(x, y, phi, q, vx, vy, rho, wave_speed, hourglass, bulk_lin, bul
 
 @njit(**JIT)
 def update_velocities(vx, vy, fx, fy, mass, gravity, dt, mass_floor):
-    """Explicit velocity update v += Δt·(f/m − g·ŷ) at nodes holding soil; empty nodes stop."""
+    """Explicit velocity update v += Δt·(f/m − g·ŷ) at nodes holding soil; empty nodes stop.
+
+    Returns the soil's vertical momentum Σ m·vy before and after (kg·m/s per unit thickness or
+    per radian), which the audit of gravity's work needs, gathered in the same pass."""
     n0, n1 = vx.shape
+    momentum_before = 0.0
+    momentum_after = 0.0
     for i in range(n0):
         for j in range(n1):
             m = mass[i, j]
+            momentum_before += m * vy[i, j]
             if m > mass_floor:
                 vx[i, j] += dt * fx[i, j] / m
                 vy[i, j] += dt * (fy[i, j] / m - gravity)
             else:
                 vx[i, j] = 0.0
                 vy[i, j] = 0.0
+            momentum_after += m * vy[i, j]
+    return momentum_before, momentum_after
 
 
 @njit(**JIT)

@@ -18,7 +18,7 @@ from numba import njit
 
 # Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
 # kernels it inlined until this file changes. After changing a kernel, bump this revision
-# (or clear the Numba cache). Kernel revision: 8 (a face grips partly filled cells by φ).
+# (or clear the Numba cache). Kernel revision: 10 (the momentum audit rides on the velocity update).
 from dsmv.cel.kernels import (
     JIT,
     advect_cells,
@@ -90,9 +90,10 @@ def run_steps(
     stress_out = np.zeros(1)
     audit = np.zeros(2)
     n_tied = len(tie_i)
+    # nodal masses change only where soil moves through the grid: here and after each remap
+    nodal_mass(phi, vol, rho, mass)
     for step in range(n_steps):
         # ---- Lagrangian phase
-        nodal_mass(phi, vol, rho, mass)
         work[:] = 0.0
         nodal_forces(x, y, phi, q, vx, vy, rho, par[P_C], par[P_HG], par[P_BL], par[P_BQ], axisym, fx, fy, work,
                      ipar[I_SKIP_VOID] == 1)
@@ -124,21 +125,20 @@ def run_steps(
             energy[E_PUSH] += -resistance * body[B_VEL] * dt
         body[B_FSUM] += resistance
         body[B_FCOUNT] += 1.0
-        momentum_before = 0.0
-        if grav != 0.0:  # only the audit of gravity's work needs it
-            for i in range(nxn):
-                for j in range(nyn):
-                    momentum_before += mass[i, j] * vy[i, j]
-        update_velocities(vx, vy, fx, fy, mass, grav, dt, par[P_MFLOOR])
+        # Σ m·vy before the update and after it, kept current through every later change of vy
+        # in this step (the audit of gravity's work on the soil needs both)
+        momentum_before, momentum_after = update_velocities(vx, vy, fx, fy, mass, grav, dt, par[P_MFLOOR])
         # boundary conditions: symmetry axis and far side are rollers, the base is fixed
         for j in range(nyn):
             vx[0, j] = 0.0
             vx[nxn - 1, j] = 0.0
         for i in range(nxn):
             vx[i, 0] = 0.0
+            momentum_after -= mass[i, 0] * vy[i, 0]
             vy[i, 0] = 0.0
         for k in range(n_tied):
             i, j = tie_i[k], tie_j[k]
+            vy_free = vy[i, j]
             if tie_full[k]:
                 vx[i, j] = 0.0
                 vy[i, j] = body[B_VEL]
@@ -146,6 +146,7 @@ def run_steps(
                 gap = body[B_VEL] * tie_ny[k] - (vx[i, j] * tie_nx[k] + vy[i, j] * tie_ny[k])
                 vx[i, j] += gap * tie_nx[k]
                 vy[i, j] += gap * tie_ny[k]
+            momentum_after += mass[i, j] * (vy[i, j] - vy_free)
         friction = 0.0
         for k in range(n_tied):
             if tie_full[k] or tie_cap[k] <= 0.0:
@@ -160,15 +161,11 @@ def run_steps(
             dw = -w if abs(w) <= dw_max else (-dw_max if w > 0.0 else dw_max)
             vx[i, j] += dw * tx
             vy[i, j] += dw * ty
+            momentum_after += m * dw * ty
             energy[E_FRICTION] += -m * dw * (w + dw)  # the pull times the slip it leaves: 0 when it sticks
             friction -= m * dw * ty / dt  # the reaction on the body (N, up +)
         body[B_FRICTION] = friction
-        if grav != 0.0:
-            momentum_after = 0.0
-            for i in range(nxn):
-                for j in range(nyn):
-                    momentum_after += mass[i, j] * vy[i, j]
-            energy[E_SOIL_GRAV] += -grav * dt * 0.5 * (momentum_before + momentum_after)
+        energy[E_SOIL_GRAV] += -grav * dt * 0.5 * (momentum_before + momentum_after)
         stress_out[0] = 0.0
         update_stress(x, y, phi, q, vx, vy, dt, par[P_G], par[P_K], par[P_SU0], par[P_KS], axisym,
                       par[P_PHI_STRESS], ipar[I_TRESCA] == 1, law, law_params, ipar[I_LAW] == 1, evolve,
@@ -222,6 +219,7 @@ def run_steps(
         energy[E_REMAP_KINETIC] += audit[1]
         ux[:, :] = 0.0
         uy[:, :] = 0.0
+        nodal_mass(phi, vol, rho, mass)
         body[B_REMAP_OFFSET] = body[B_OFFSET]
         body[B_REMAPS] += 1.0
     return n_steps, RUNNING
