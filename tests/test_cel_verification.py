@@ -199,7 +199,6 @@ def test_landings_end_with_the_right_status_and_no_nan(compose_cfg, overrides, s
     assert r.metrics["mass_error"] < 1e-10
 
 
-
 def test_a_non_finite_value_ends_unstable_with_finite_outputs(compose_cfg, monkeypatch):
     """The stepper's NaN guard: status unstable, a message that says what to change, no NaN out."""
     from dsmv.cel import stepper
@@ -220,6 +219,29 @@ def test_a_non_finite_value_ends_unstable_with_finite_outputs(compose_cfg, monke
     assert r.status == "unstable" and "solver.cfl" in r.message
     assert all(np.isfinite(v) for v in r.metrics.values())
     assert all(np.isfinite(col).all() for col in r.history.values())
+
+
+def test_nodal_masses_stay_those_of_the_cells(compose_cfg, monkeypatch):
+    """The stepper computes nodal masses only after a remap, the one place φ changes: after
+    every chunk of steps they must equal a fresh computation from the cells (a kernel that
+    changed φ mid-step would leave them stale)."""
+    from dsmv.cel import kernels, stepper
+
+    real = stepper.run_steps
+    worst = []
+
+    def checked(n_steps, *args):
+        out = real(n_steps, *args)
+        vol, phi, mass, par = args[2], args[3], args[7], args[25]
+        fresh = np.zeros_like(mass)
+        kernels.nodal_mass(phi, vol, par[stepper.P_RHO], fresh)
+        worst.append(np.abs(mass - fresh).max() / fresh.max())
+        return out
+
+    monkeypatch.setattr(stepper, "run_steps", checked)
+    r = solve(compose_cfg, Cel2DSolver, ["solver=cel2d", "mesh=coarse", "solver.progress=off"])
+    assert r.status == "ok" and len(worst) > 10
+    assert max(worst) == 0.0
 
 
 def test_a_body_at_rest_without_weight_stays_put(compose_cfg):

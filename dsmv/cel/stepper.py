@@ -1,12 +1,13 @@
 """The compiled time loop: N explicit CEL steps per call, Python steers between calls.
 
 A step (Benson 1992 operator split) in the grid frame that moves with the body:
-Lagrangian phase — nodal masses and forces from the cell stresses, the rigid body's motion
-with the soil nodes tied to it, explicit velocity update, boundary conditions, stress update —
-then the Eulerian phase: the soil state and momentum are carried through the grid by the
-travel relative to the grid, in two directional sweeps whose order alternates. The Eulerian
-phase waits until some node has travelled ``P_REMAP_DISP`` (a set fraction of a cell): the
-elastic step moves the soil only about 1 % of a cell.
+Lagrangian phase — nodal forces from the cell stresses, the rigid body's motion with the soil
+nodes tied to it, explicit velocity update, boundary conditions, stress update — then the
+Eulerian phase: the soil state and momentum are carried through the grid by the travel
+relative to the grid, in two directional sweeps whose order alternates. The Eulerian phase
+waits until some node has travelled ``P_REMAP_DISP`` (a set fraction of a cell): the elastic
+step moves the soil only about 1 % of a cell. It is the only place φ changes, so the nodal
+masses are computed on entry and after each remap, not every step.
 """
 
 from __future__ import annotations
