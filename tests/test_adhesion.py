@@ -61,7 +61,7 @@ def test_a_landing_sinks_deeper_the_less_the_track_adheres(compose_cfg):
         result = Cel2DSolver(build_scene(compose_cfg([*base, f"geometry.roughness={r}"]))).solve()
         assert result.status == "ok" and result.metrics["energy_error"] < 0.02, result.message
         sinkage.append(result.metrics["max_sinkage_m"])
-    assert sinkage[0] < sinkage[1] < sinkage[2], sinkage  # coarse mesh, su0 3 kPa: 0.2434, 0.2450, 0.2488 m
+    assert sinkage[0] < sinkage[1] < sinkage[2], sinkage  # coarse mesh, su0 3 kPa: 0.2452, 0.2535, 0.2558 m
 
 
 def test_a_cone_refuses_limited_adhesion(compose_cfg):
