@@ -36,7 +36,6 @@ from dsmv.results import SolveResult
 from dsmv.scene import Count, Number, Scene, Schema
 
 
-
 def _check_shape_factor(value):
     if value == "skempton" or (isinstance(value, (int, float)) and not isinstance(value, bool) and value > 0):
         return value
