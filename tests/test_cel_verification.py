@@ -248,3 +248,26 @@ def test_a_body_at_rest_without_weight_stays_put(compose_cfg):
     r = solve(compose_cfg, Cel2DSolver, ["solver=cel2d", "mesh=coarse", "solver.progress=off",
                                          "landing.velocity_m_s=0", "landing.gravity_m_s2=0"])
     assert r.status == "ok" and r.metrics["max_sinkage_m"] == 0.0
+
+
+def test_hourglass_diagnostic_separates_the_zigzag_from_smooth_motion():
+    """A linear velocity field (any rigid motion, any uniform strain rate) has no hourglass
+    mode; a pure checkerboard of nodal velocities is all hourglass. Values by hand: the mode
+    amplitudes are a quarter of the signed sums of the four nodal velocities."""
+    from dsmv.cel.kernels import hourglass_modes
+
+    n = 6
+    xs, ys = np.meshgrid(np.linspace(0.0, 1.0, n + 1), np.linspace(0.0, 1.0, n + 1), indexing="ij")
+    phi = np.ones((n, n))
+    h = 1.0 / n
+    # rigid rotation plus a uniform strain rate: a (1/s) and b (1/s)
+    vx, vy = -0.3 * ys + 0.2 * xs + 1.0, 0.3 * xs - 0.1 * ys
+    hourglass_sq, linear_sq = hourglass_modes(phi, vx, vy, 0.99)
+    assert hourglass_sq == pytest.approx(0.0, abs=1e-28)
+    # per cell: b_ξ = (h/2)·(0.2, 0.3), b_η = (h/2)·(−0.3, −0.1)
+    assert linear_sq == pytest.approx(n * n * (h / 2) ** 2 * (0.04 + 0.09 + 0.09 + 0.01), rel=1e-12)
+    zigzag = np.where((np.arange(n + 1)[:, None] + np.arange(n + 1)[None, :]) % 2 == 0, 1.0, -1.0)
+    hourglass_sq, linear_sq = hourglass_modes(phi, 0.5 * zigzag, 0 * zigzag, 0.99)
+    assert (hourglass_sq, linear_sq) == (pytest.approx(n * n * 0.25), pytest.approx(0.0, abs=1e-28))
+    phi[:, 3:] = 0.5  # partly filled cells do not count
+    assert hourglass_modes(phi, 0.5 * zigzag, 0 * zigzag, 0.99)[0] == pytest.approx(n * 3 * 0.25)

@@ -139,6 +139,32 @@ def nodal_forces(x, y, phi, q, vx, vy, rho, wave_speed, hourglass, bulk_lin, bul
 
 
 @njit(**JIT)
+def hourglass_modes(phi, vx, vy, full):
+    """How much of the nodal velocity field is the Q4 hourglass mode (a zig-zag diagnostic).
+
+    Each cell's four nodal velocities split into v̄ + b_ξ·ξ + b_η·η + a·Γ with ξ = (−1, 1, 1, −1),
+    η = (−1, −1, 1, 1) and Γ = (1, −1, 1, −1). Sums over cells with φ ≥ ``full`` of |a|² and of
+    |b_ξ|² + |b_η|² (m²/s²) are returned. A smooth field has |a|/|b| = O(h) and a rigid motion has
+    a = 0, so the square root of the ratio measures the zig-zag, independent of the frame.
+    """
+    nx, ny = phi.shape
+    hourglass_sq = 0.0
+    linear_sq = 0.0
+    for i in range(nx):
+        for j in range(ny):
+            if phi[i, j] < full:
+                continue
+            vx0, vx1, vx2, vx3 = vx[i, j], vx[i + 1, j], vx[i + 1, j + 1], vx[i, j + 1]
+            vy0, vy1, vy2, vy3 = vy[i, j], vy[i + 1, j], vy[i + 1, j + 1], vy[i, j + 1]
+            ax, ay = vx0 - vx1 + vx2 - vx3, vy0 - vy1 + vy2 - vy3
+            bxx, bxy = -vx0 + vx1 + vx2 - vx3, -vy0 + vy1 + vy2 - vy3
+            byx, byy = -vx0 - vx1 + vx2 + vx3, -vy0 - vy1 + vy2 + vy3
+            hourglass_sq += 0.0625 * (ax * ax + ay * ay)
+            linear_sq += 0.0625 * (bxx * bxx + bxy * bxy + byx * byx + byy * byy)
+    return hourglass_sq, linear_sq
+
+
+@njit(**JIT)
 def update_velocities(vx, vy, fx, fy, mass, gravity, dt, mass_floor):
     """Explicit velocity update v += Δt·(f/m − g·ŷ) at nodes holding soil; empty nodes stop.
 

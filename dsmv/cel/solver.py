@@ -434,6 +434,7 @@ class Cel2DSolver:
         show = cfg.progress == "on" or (cfg.progress == "auto" and sys.stderr.isatty() and not in_sweep())
         status, message = "ok", ""
         rest_time_s = None
+        modes_sq = np.zeros(2)  # Σ over samples of the hourglass and linear velocity modes (m²/s²)
         t_run = time.perf_counter()
         last_print = t_run
         speed_limit = 50.0 * (abs(v0) + landing.velocity_m_s + math.sqrt(max(grav, 0.0) * B) + 1.0)
@@ -449,6 +450,8 @@ class Cel2DSolver:
             history["sinkage_m"].append(sinkage)
             history["velocity_m_s"].append(-body[S.B_VEL])
             history["force_n"].append(force)
+            hourglass_sq, linear_sq = K.hourglass_modes(phi, vx, vy, 0.99)
+            modes_sq += np.array([hourglass_sq, linear_sq])
             if recorder is not None:
                 recorder.sample(body[S.B_TIME], sinkage, phi, q, vx, vy)
             if code == S.NOT_FINITE or not (np.isfinite(vy).all() and np.isfinite(q).all()):
@@ -534,9 +537,12 @@ class Cel2DSolver:
             "cells": float(nx * ny),
             "cell_updates_per_s": nx * ny * max(steps - 1, 1) / max(wall_s, 1e-9),
             "core_cell_size_m": self.h,
+            # the zig-zag in the velocity field: hourglass against linear modes, over the run
+            "hourglass_mode_ratio": math.sqrt(modes_sq[0] / modes_sq[1]) if modes_sq[1] > 0 else 0.0,
         }
         units = {"mass_error": "-", "phi_max": "-", "phi_min": "-", "compile_s": "s", "wall_s": "s", "steps": "-",
-                 "time_step_s": "s", "cells": "-", "cell_updates_per_s": "1/s", "core_cell_size_m": "m"}
+                 "time_step_s": "s", "cells": "-", "cell_updates_per_s": "1/s", "core_cell_size_m": "m",
+                 "hourglass_mode_ratio": "-"}
         metrics |= audit
         units |= {k: ("-" if k == "energy_error" else "J") for k in audit}
         if status in ("ok", "out_of_domain", "bearing_failure"):

@@ -19,7 +19,7 @@ from numba import njit
 
 # Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
 # kernels it inlined until this file changes. After changing a kernel, bump this revision
-# (or clear the Numba cache). Kernel revision: 10 (the momentum audit rides on the velocity update).
+# (or clear the Numba cache). Kernel revision: 11 (the hourglass-mode diagnostic).
 from dsmv.cel.kernels import (
     JIT,
     advect_cells,
