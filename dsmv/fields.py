@@ -30,6 +30,8 @@ Cell data (float32):
 ``shear_strain_rate_per_s``          1/s   γ̇ = ε̇1 − ε̇3, the rate the soil law sees
 ``plastic_shear_strain_rate_per_s``  1/s   γ̇ where the soil is at yield (YIELD_RATIO), else 0
 ``initial_depth_m``                  m     z0, the depth where the cell's soil started
+``hourglass_velocity_m_s``           m/s   amplitude of the Q4 hourglass (zig-zag) mode in the
+                                           cell's nodal velocities (a checkerboard shows here)
 ``body``                             -     1 in cells inside the rigid body
 ===================================  ====  ======================================================
 
@@ -87,6 +89,14 @@ def shear_strain_rate(x, y, vx, vy, axisym: bool) -> np.ndarray:
     hi = np.maximum(0.5 * (dxx + dyy) + ring, dzz)
     lo = np.minimum(0.5 * (dxx + dyy) - ring, dzz)
     return hi - lo
+
+
+def hourglass_velocity(vx, vy) -> np.ndarray:
+    """Amplitude |a| of the Q4 hourglass mode Γ = (1, −1, 1, −1) in each cell's nodal velocities
+    (m/s): a = (v0 − v1 + v2 − v3)/4, as in :func:`dsmv.cel.kernels.hourglass_modes`."""
+    ax = 0.25 * (vx[:-1, :-1] - vx[1:, :-1] + vx[1:, 1:] - vx[:-1, 1:])
+    ay = 0.25 * (vy[:-1, :-1] - vy[1:, :-1] + vy[1:, 1:] - vy[:-1, 1:])
+    return np.hypot(ax, ay)
 
 
 def mobilised_strength(q: np.ndarray, su: np.ndarray, tresca: bool) -> np.ndarray:
@@ -191,6 +201,7 @@ class FieldRecorder:
             "shear_strain_rate_per_s": rate,
             "plastic_shear_strain_rate_per_s": np.where(ratio >= YIELD_RATIO, rate, 0.0),
             "initial_depth_m": q[K.Z0],
+            "hourglass_velocity_m_s": np.where(soil, hourglass_velocity(snap.vx, snap.vy), 0.0),
             "body": self.solid.astype(float),
         }
         return out

@@ -18,7 +18,7 @@ from tests.test_end_to_end import job_dirs
 CELL_FIELDS = {
     "volume_fraction", "stress_xx_pa", "stress_yy_pa", "stress_xy_pa", "stress_zz_pa", "su_pa",
     "mobilised_strength", "plastic_shear_strain", "shear_strain_rate_per_s", "plastic_shear_strain_rate_per_s",
-    "initial_depth_m", "body",
+    "initial_depth_m", "hourglass_velocity_m_s", "body",
 }
 #: soil compressed by its load holds a little more than its cell at rest (φ > 1): the bulk
 #: strain of a few tens of kPa on K ≈ 40 MPa (E = 500·su0, ν = 0.49) is about 1e-3
