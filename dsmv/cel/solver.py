@@ -538,7 +538,9 @@ class Cel2DSolver:
             "cell_updates_per_s": nx * ny * max(steps - 1, 1) / max(wall_s, 1e-9),
             "core_cell_size_m": self.h,
             # the zig-zag in the velocity field: hourglass against linear modes, over the run
-            "hourglass_mode_ratio": math.sqrt(modes_sq[0] / modes_sq[1]) if modes_sq[1] > 0 else 0.0,
+            # (a run gone unstable may have summed infinities: NaN, which its report leaves out)
+            "hourglass_mode_ratio": (math.sqrt(modes_sq[0] / modes_sq[1]) if modes_sq[1] > 0 else 0.0)
+            if np.isfinite(modes_sq).all() else math.nan,
         }
         units = {"mass_error": "-", "phi_max": "-", "phi_min": "-", "compile_s": "s", "wall_s": "s", "steps": "-",
                  "time_step_s": "s", "cells": "-", "cell_updates_per_s": "1/s", "core_cell_size_m": "m",
