@@ -88,6 +88,7 @@ SWEEP_PLOTS = {
     "one_at_a_time": studies.one_at_a_time,
     "compare_analytic": studies.compare_analytic,
     "mesh_study": studies.mesh_study,
+    "bearing_curves": studies.bearing_curves,
 }
 
 

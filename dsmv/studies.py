@@ -12,6 +12,8 @@ logs both to the sweep's parent MLflow run. Nothing here runs a solver.
   (Einav–Randolph against Tresca in the CEL: softening and rate).
 - :func:`mesh_study` — Table 2 and Figure 6: resistance against depth for each core cell size,
   its relative error against the finest mesh, and wall times.
+- :func:`bearing_curves` — the verification pushes (``verify_prandtl``, ``verify_tbar``): q/su
+  against travel for each job, beside the exact factors and the embedded strip's bounds.
 """
 
 from __future__ import annotations
@@ -258,6 +260,65 @@ def mesh_study(sweep_dir: Path, path: Path) -> Path | None:
     time_ax.set_ylabel("wall time (s)")
     for ax in (curve_ax, error_ax, time_ax):
         ax.grid(alpha=0.3)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return Path(path)
+
+
+def bearing_curves(sweep_dir: Path, path: Path) -> Path | None:
+    """q/su against travel/B for each push of a sweep, with the truths it is checked against.
+
+    q is the soil's force over the body's width times its length, B·L (a T-bar: D·L), and su its
+    ``soil.su0_pa``. A strip is drawn with Prandtl's 2 + π and the upper bounds of the same strip
+    wished in place at depth s (:func:`~dsmv.analytic.bearing.embedded_strip_upper_bound`: the
+    embedment alone, no heave); a T-bar with its exact deep factor. Writes ``bearing_curves.csv``
+    (each job's roughness, cell size, push speed, q/su at its last sample ``nc_end``, its ``nc_*``
+    metrics and wall time) and the PNG. Jobs that are not pushes of a strip or a T-bar are left out.
+    """
+    from dsmv.analytic.bearing import PRANDTL_NC, TBAR_NC, embedded_strip_upper_bound
+
+    curves, rows = [], []
+    for job in sweep_jobs(sweep_dir):
+        history, config_file = job.history(), job.path / "config_resolved.yaml"
+        if history is None or not config_file.exists():
+            continue
+        config = OmegaConf.load(config_file)
+        body, soil = config.geometry, config.soil
+        if config.landing.kind != "push" or body.kind not in ("strip", "tbar"):
+            continue
+        scale = float(soil.su0_pa) * float(body.width_m) * float(body.contact_length_m)
+        label = f"{body.roughness}, h = {float(config.mesh.cell_size_m):g} m, {float(config.landing.velocity_m_s):g} m/s"
+        nc = history["force_n"] / scale
+        curves.append((body.kind, str(body.roughness), label, history["sinkage_m"] / float(body.width_m), nc))
+        rows.append({"job": job.name, "status": job.result["status"], "body": body.kind,
+                     "roughness": body.roughness, "cell_size_m": float(config.mesh.cell_size_m),
+                     "velocity_m_s": float(config.landing.velocity_m_s), "nc_end": float(nc[-1]),
+                     **{k: job.metric(k) for k in ("nc_at_0p02B", "nc_at_0p05B", "nc_at_0p1B", "nc_at_1B", "nc_deep",
+                                                  "nc_roughness", "wall_s") if k in job.result["metrics"]}})
+    if not curves:
+        return None
+    _write_csv(Path(path).with_suffix(".csv"), rows)
+
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(7.5, 4.8), constrained_layout=True)
+    for kind, roughness, label, travel, nc in curves:
+        ax.plot(travel, nc, label=label)
+    travel_max = max(c[3].max() for c in curves)
+    kinds = {c[0] for c in curves}
+    if "strip" in kinds:
+        ax.axhline(PRANDTL_NC, color="k", lw=1, label="Prandtl 2 + π (surface)")
+        s = np.linspace(0.0, travel_max, 50)
+        for rough, style in ((True, "--"), (False, ":")):
+            ax.plot(s, [embedded_strip_upper_bound(d, rough) for d in s], "k" + style, lw=1,
+                    label=f"upper bound, wished in place at s, {'rough' if rough else 'smooth'} walls")
+    if "tbar" in kinds:
+        for roughness in sorted({c[1] for c in curves} & set(TBAR_NC)):
+            ax.axhline(TBAR_NC[roughness], color="k", lw=1, ls="--" if roughness == "rough" else ":",
+                       label=f"exact, {roughness}: {TBAR_NC[roughness]}")
+    ax.set_xlabel("travel / width (-)" if kinds == {"strip"} else "travel / width or diameter (-)")
+    ax.set_ylabel("q / su (-)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return Path(path)

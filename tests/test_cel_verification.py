@@ -9,7 +9,7 @@ has reached: a check that the Eulerian remap adds no error of its own.
 import numpy as np
 import pytest
 
-from dsmv.analytic.bearing import PRANDTL_NC, embedded_strip_upper_bound
+from dsmv.analytic.bearing import PRANDTL_NC, TBAR_NC, embedded_strip_upper_bound
 from dsmv.cel.checks import Cel2DCheckSolver
 from dsmv.cel.solver import Cel2DSolver
 from dsmv.scene import build_scene
@@ -145,7 +145,7 @@ TBAR = ["solver=cel2d", "geometry=tbar", "landing=push", "landing.velocity_m_s=0
         "mesh.cell_size_m=0.05", "solver.progress=off"]
 
 
-@pytest.mark.parametrize("roughness, exact", [("rough", 11.94), ("smooth", 9.20)])
+@pytest.mark.parametrize("roughness, exact", TBAR_NC.items())
 def test_tbar_approaches_the_exact_deep_factor(compose_cfg, roughness, exact):
     """A cylinder 3 D deep in weightless Tresca soil: rough 11.94, smooth 9.20 (Randolph &
     Houlsby 1984; Martin & Randolph 2006). D/10 and a 0.4 D push keep it quick (experiment

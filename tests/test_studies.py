@@ -107,3 +107,29 @@ def test_mesh_study_reports_errors_against_the_finest_mesh(tmp_path):
     rows = _read_csv(sweep / "mesh_study.csv")
     errors = {float(r["cell_size_m"]): float(r["mean_relative_error"]) for r in rows}
     assert errors == pytest.approx({0.02: 0.0, 0.04: 0.05, 0.08: 0.2}, abs=1e-9)
+
+
+def test_bearing_curves_normalise_each_push_by_its_own_body(tmp_path):
+    """Synthetic pushes: q/su = F/(su0·B·L) with each job's own body (a T-bar's B is its
+    diameter); a landing in the same sweep is left out of the table."""
+    sweep = tmp_path / "sweep"
+    travel = np.linspace(0.0, 0.1, 50)
+    jobs = [  # (geometry, landing, width B or D (m), force (N)): q/su = 5.5 and 9.2 by hand
+        ("strip", "push", 1.0, 5.5 * 1e4 * 1.0 * 2.0),
+        ("tbar", "push", 0.5, 9.2 * 1e4 * 0.5 * 2.0),
+        ("strip", "drop", 1.0, 1.0),
+    ]
+    for job, (kind, landing, width, force) in enumerate(jobs):
+        job_dir = sweep / str(job)
+        (job_dir / ".hydra").mkdir(parents=True)
+        (job_dir / ".hydra" / "overrides.yaml").write_text("[]\n")
+        (job_dir / "result.json").write_text('{"status": "ok", "message": "", "metrics": {"wall_s": 1.0}}')
+        (job_dir / "config_resolved.yaml").write_text(
+            f"geometry: {{kind: {kind}, width_m: {width}, contact_length_m: 2.0, roughness: rough}}\n"
+            f"soil: {{su0_pa: 10000.0}}\nlanding: {{kind: {landing}, velocity_m_s: 0.1}}\nmesh: {{cell_size_m: 0.05}}\n")
+        np.savetxt(job_dir / "history.csv", np.column_stack([travel, travel, np.ones_like(travel), force + 0 * travel]),
+                   delimiter=",", header="time_s,sinkage_m,velocity_m_s,force_n", comments="")
+    assert studies.bearing_curves(sweep, sweep / "bearing_curves.png") == sweep / "bearing_curves.png"
+    assert (sweep / "bearing_curves.png").stat().st_size > 0
+    rows = _read_csv(sweep / "bearing_curves.csv")
+    assert [(r["body"], float(r["nc_end"])) for r in rows] == [("strip", pytest.approx(5.5)), ("tbar", pytest.approx(9.2))]

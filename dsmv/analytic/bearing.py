@@ -22,6 +22,9 @@ from __future__ import annotations
 import math
 
 PRANDTL_NC = 2.0 + math.pi  # Prandtl (1920): rigid strip on the surface of weightless Tresca soil
+#: a deeply embedded cylinder (T-bar) in weightless Tresca soil, full flow round it: Randolph &
+#: Houlsby (1984) for the rough one, Martin & Randolph (2006) for the smooth one (exact)
+TBAR_NC = {"rough": 11.94, "smooth": 9.20}
 
 
 def embedded_strip_upper_bound(depth_over_width: float, rough_walls: bool) -> float:
