@@ -98,6 +98,7 @@ class Row:
     cells: float = math.nan
     steps: float = math.nan
     cell_updates_per_s: float = math.nan
+    zigzag: float = math.nan       # hourglass_mode_ratio: the zig-zag share of the velocity field (-)
     status: str = ""
     extra: dict = field(default_factory=dict)
 
@@ -136,7 +137,8 @@ def measured(part: str, label: str, overrides: list[str], repeats: int, truth: f
     metrics, status, walls = solve(overrides, repeats, run_dir)
     value = metrics.get(metric, math.nan)
     row = Row(part, label, overrides, value=value, error=abs(value / truth - 1), wall_s=statistics.median(walls),
-              cells=metrics.get("cells", math.nan), steps=metrics.get("steps", math.nan), status=status)
+              cells=metrics.get("cells", math.nan), steps=metrics.get("steps", math.nan),
+              zigzag=metrics.get("hourglass_mode_ratio", math.nan), status=status)
     row.cell_updates_per_s = row.cells * max(row.steps - 1, 1) / row.wall_s
     print(f"  {part:<10} {label:<34} {metric} = {value:.5g}  error {row.error:7.2%}  wall {row.wall_s:7.2f} s  "
           f"[{status}]", flush=True)
@@ -270,10 +272,10 @@ def write_outputs(out: Path, rows: list[Row], economy_rows: list[dict], figures:
     with (out / "bench.csv").open("w", newline="") as fh:
         writer = csv.writer(fh)
         writer.writerow(["part", "label", "value", "error", "wall_s", "cells", "steps", "cell_updates_per_s",
-                         "status", "overrides"])
+                         "hourglass_mode_ratio", "status", "overrides"])
         for r in rows:
             writer.writerow([r.part, r.label, r.value, r.error, r.wall_s, r.cells, r.steps, r.cell_updates_per_s,
-                             r.status, " ".join(r.overrides)])
+                             r.zigzag, r.status, " ".join(r.overrides)])
     lines = [f"# dsmv-bench ({'quick' if plan.repeats == 1 else 'full'}, medians of {plan.repeats} repeat(s))", ""]
     for part, what in (("prandtl", f"Prandtl: q/su at s = 0.05·B against 2 + π = {PRANDTL_NC:.4f}"),
                        ("landing", f"Default landing: max sinkage against the {plan.reference_cell_m:g} m mesh "
@@ -282,11 +284,12 @@ def write_outputs(out: Path, rows: list[Row], economy_rows: list[dict], figures:
         part_rows = [r for r in rows if r.part == part]
         front = {id(r) for r in pareto_front([r for r in rows if r.part in ("landing", "knob")] if part != "prandtl"
                                              else part_rows)}
-        lines += [f"## {what}", "", "| setting | result | error | wall (s) | cells | steps | M cell-updates/s | Pareto |",
-                  "|---|---|---|---|---|---|---|---|"]
+        lines += [f"## {what}", "",
+                  "| setting | result | error | wall (s) | cells | steps | M cell-updates/s | zig-zag | Pareto |",
+                  "|---|---|---|---|---|---|---|---|---|"]
         for r in part_rows:
             lines.append(f"| {r.label} | {r.value:.5g} | {r.error:.2%} | {r.wall_s:.2f} | {r.cells:.0f} | {r.steps:.0f} "
-                         f"| {r.cell_updates_per_s / 1e6:.2f} | {'yes' if id(r) in front else ''} |")
+                         f"| {r.cell_updates_per_s / 1e6:.2f} | {r.zigzag:.3f} | {'yes' if id(r) in front else ''} |")
         lines.append("")
     sizes = [r for r in rows if r.part == "landing"]
     lines += ["## Throughput", "",
