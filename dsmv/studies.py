@@ -315,7 +315,8 @@ def bearing_curves(sweep_dir: Path, path: Path) -> Path | None:
         for roughness in sorted({c[1] for c in curves} & set(TBAR_NC)):
             ax.axhline(TBAR_NC[roughness], color="k", lw=1, ls="--" if roughness == "rough" else ":",
                        label=f"exact, {roughness}: {TBAR_NC[roughness]}")
-    ax.set_xlabel("travel / width (-)" if kinds == {"strip"} else "travel / width or diameter (-)")
+    ax.set_xlabel({frozenset({"strip"}): "travel / B (-)", frozenset({"tbar"}): "travel / D (-)"}.get(
+        frozenset(kinds), "travel / B or D (-)"))
     ax.set_ylabel("q / su (-)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
