@@ -33,12 +33,8 @@ def test_large_deformation_prandtl_converges_at_first_order(compose_cfg):
     assert PRANDTL < limit < PRANDTL * 1.08
 
 
-SMOOTH_TBAR_SHORTFALL = pytest.mark.xfail(
-    strict=True, reason="the interface layer's staircase adds form drag: 9.86 at D/20 (+7.2 %), see README")
-
-
 @pytest.mark.parametrize("roughness, exact",
-                         [("rough", TBAR_NC["rough"]), pytest.param("smooth", TBAR_NC["smooth"], marks=SMOOTH_TBAR_SHORTFALL)])
+                         list(TBAR_NC.items()))
 def test_tbar_at_d20_within_6_percent(compose_cfg, roughness, exact):
     r = run(compose_cfg, ["solver=cel2d", "geometry=tbar", "landing=push", "landing.velocity_m_s=0.1",
                           "landing.displacement_m=1.0", "landing.initial_depth_m=1.5", "landing.gravity_m_s2=0",

@@ -326,7 +326,7 @@ def test_diverging_outflow_cannot_create_soil():
     ux[1], ux[2] = -1.0, 1.0  # out through both faces of the middle cell, Courant 0.1
     before = float((phi * vol).sum())
     K.advect_cells(0, x, y, vol, phi, q, ux, np.zeros((4, 2)), 0.1, 2, False, np.zeros((K.NQ_BASE, 3)), False,
-                   np.zeros((4, 1)), 1e-9, 1.0, 1.0, np.zeros(2), np.zeros((3, 1), dtype=np.bool_))
+                   np.zeros((4, 1)), 1e-9, 1.0, 1.0, np.zeros(2), np.ones((4, 1)), np.ones((3, 1)))
     assert float((phi * vol).sum()) == pytest.approx(before, rel=1e-15)
     assert phi.min() >= 0.0
     assert phi[0, 0] == phi[2, 0]  # the symmetric split stays symmetric

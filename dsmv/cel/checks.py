@@ -19,6 +19,7 @@ from typing import Literal
 import numpy as np
 from pydantic import Field
 
+from dsmv.cel.grid import Openings
 from dsmv.cel.state import Elastic, geostatic_state, stepper_flags, stepper_parameters
 from dsmv import registry
 from dsmv.results import SolveResult
@@ -81,15 +82,16 @@ def advect_square(n_cells: int, courant: float, travel: float, order: int) -> di
     flux_y = np.zeros((n_cells + 1, n_cells))
     mass0 = float((phi * vol).sum())
     audit = np.zeros(2)
-    solid = np.zeros((n_cells, n_cells), dtype=np.bool_)
+    no_body = Openings.of_cells(np.zeros((n_cells, n_cells), dtype=bool))
     for step in range(n_steps):
         for sweep in range(2):
             axis = (step + sweep) % 2
             flux = flux_x if axis == 0 else flux_y
+            aperture = no_body.aperture_x if axis == 0 else no_body.aperture_y
             K.advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, False, ghost, False, flux, 1e-12, 1.0, 1.0, audit,
-                           solid)
+                           aperture, no_body.open_frac)
             K.advect_cells(axis, x, y, vol, phi_full, q_full, ux, uy, dt, order, False, ghost, False, flux, 1e-12,
-                           1.0, 1.0, audit, solid)
+                           1.0, 1.0, audit, aperture, no_body.open_frac)
     exact_phi = _exact_square_fraction(x, y, lo + travel, hi + travel)
     exact_bump = _smooth(xc, xc, 0.3 + travel, 0.3 + travel, 0.1)
     return {
@@ -167,13 +169,15 @@ class Cel2DCheckSolver:
         vy = np.zeros_like(vx)
         tresca = registry.load("soil_laws", "tresca", "soil.law")
         none = np.zeros(0, dtype=np.int64)
+        no_body = Openings.of_cells(np.zeros((nx, ny), dtype=bool))
+        openings = (no_body.aperture_x, no_body.aperture_y, no_body.open_frac)
         body = np.zeros(S.N_BODY)
         energy = np.zeros(S.N_ENERGY)
         args = (x, y, vol, phi, q, vx, vy, np.zeros_like(vx), np.zeros_like(vx), np.zeros_like(vx),
                 np.zeros_like(vx), np.zeros_like(vx), np.zeros((nx + 1, ny)), np.zeros((ny + 1, nx)),
                 none, none, none.astype(np.bool_), np.zeros(0), np.zeros(0), np.zeros(0),
                 np.ones((nx, ny)), np.zeros((nx, ny)),
-                np.zeros((nx, ny), dtype=np.bool_),
+                np.zeros((nx, ny), dtype=np.bool_), *openings, np.zeros((0, 4), dtype=np.int64),
                 np.zeros((K.NQ_BASE, nx)), np.zeros(nx),
                 par, ipar, body, energy, tresca.compiled(), np.zeros(8), tresca.compiled_evolve())
         n_steps = int(math.ceil(cfg.duration_s / dt))

@@ -96,3 +96,76 @@ def build_grid(
     top_of_core = void_height if core_height is None else min(core_height, void_height)
     above = graded_coordinates(0.0, h * np.ceil(top_of_core / h - 1e-9), void_height, h, ratio, h_max)[1:]
     return Grid(x=x, y=np.concatenate([below, above]), h=h)
+
+
+@dataclass(frozen=True)
+class Openings:
+    """How much of the grid the body leaves to the soil, for the remap.
+
+    ``open_frac`` (nx, ny): the fraction of each cell outside the body; ``aperture_x``
+    (nx+1, ny) and ``aperture_y`` (ny+1, nx): the open fraction of each face normal to x
+    (indexed [face, row]) and to y ([face, column]), the layout of the remap's face fluxes.
+    """
+
+    open_frac: np.ndarray
+    aperture_x: np.ndarray
+    aperture_y: np.ndarray
+
+    @classmethod
+    def of_cells(cls, solid: np.ndarray) -> "Openings":
+        """A body made of whole cells: closed faces around each ``solid`` cell, the rest open."""
+        nx, ny = solid.shape
+        padded = np.zeros((nx + 2, ny + 2), dtype=bool)
+        padded[1:-1, 1:-1] = solid
+        aperture_x = 1.0 - (padded[:-1, 1:-1] | padded[1:, 1:-1])  # the cells left and right of each face
+        aperture_y = 1.0 - (padded[1:-1, :-1] | padded[1:-1, 1:]).T  # below and above
+        return cls(1.0 - solid, aperture_x, aperture_y)
+
+    @classmethod
+    def of_circle(cls, grid: Grid, radius: float, centre_y: float, samples: int = 24, closed_below: float = 0.0) -> "Openings":
+        """A circle (centre (0, ``centre_y``), m) cutting the cells: its cut cells stay partly open.
+
+        Face apertures are exact (the chord each face line has inside the circle); cell
+        fractions come from ``samples``² sub-cell points, exact to about 1/samples² of a cut cell.
+        """
+
+        def outside_length(fixed, lo, hi, centre_other, centre_fixed):
+            # length of [lo, hi] on the line (coordinate ``fixed``) outside the circle
+            half_chord = np.sqrt(np.maximum(radius**2 - (fixed - centre_fixed) ** 2, 0.0))
+            inside = np.clip(np.minimum(hi, centre_other + half_chord) - np.maximum(lo, centre_other - half_chord), 0.0, None)
+            return 1.0 - inside / (hi - lo)
+
+        x, y = grid.x, grid.y
+        aperture_x = outside_length(x[:, None], y[None, :-1], y[None, 1:], centre_y, 0.0)
+        aperture_y = outside_length(y[:, None], x[None, :-1], x[None, 1:], 0.0, centre_y)
+        offsets = (np.arange(samples) + 0.5) / samples
+        px = x[:-1, None] + np.diff(x)[:, None] * offsets[None, :]  # (nx, samples)
+        py = y[:-1, None] + np.diff(y)[:, None] * offsets[None, :]  # (ny, samples)
+        # only cells near the circle need sampling
+        open_frac = np.ones((grid.nx, grid.ny))
+        near_i = np.nonzero(x[:-1] < radius)[0]
+        near_j = np.nonzero((y[1:] > centre_y - radius) & (y[:-1] < centre_y + radius))[0]
+        for i in near_i:
+            inside = (px[i][:, None, None] ** 2 + (py[near_j][None, :, :] - centre_y) ** 2) <= radius**2
+            open_frac[i, near_j] = 1.0 - inside.mean(axis=(0, 2))
+        # a cell whose four corners are inside lies inside (the circle is convex): closed exactly
+        corner_inside = x[:, None] ** 2 + (y[None, :] - centre_y) ** 2 <= radius**2 * (1 + 1e-12)
+        solid = corner_inside[:-1, :-1] & corner_inside[1:, :-1] & corner_inside[1:, 1:] & corner_inside[:-1, 1:]
+        # a cut cell keeps some room however thin its sliver, so its fill φ/open_frac is defined
+        open_frac = np.where(solid, 0.0, np.maximum(open_frac, 0.5 / samples**2))
+        if closed_below > 0.0:  # slivers join the body: their faces close
+            solid = open_frac < closed_below
+            open_frac[solid] = 0.0
+            nx, ny = solid.shape
+            padded = np.zeros((nx + 2, ny + 2), dtype=bool)
+            padded[1:-1, 1:-1] = solid
+            aperture_x = np.where(padded[:-1, 1:-1] | padded[1:, 1:-1], 0.0, aperture_x)
+            aperture_y = np.where((padded[1:-1, :-1] | padded[1:-1, 1:]).T, 0.0, aperture_y)
+        aperture_x = np.where(np.abs(aperture_x) < 1e-12, 0.0, aperture_x)
+        aperture_y = np.where(np.abs(aperture_y) < 1e-12, 0.0, aperture_y)
+        return cls(open_frac, aperture_x, aperture_y.copy())
+
+    @property
+    def solid(self) -> np.ndarray:
+        """Cells wholly inside the body."""
+        return self.open_frac <= 0.0

@@ -41,13 +41,20 @@ def cell_volumes(x, y, axisym):
 
 
 @njit(**JIT)
-def nodal_mass(phi, vol, rho, mass):
-    """Lumped nodal mass: a quarter of each neighbouring cell's soil mass (kg)."""
+def nodal_mass(phi, vol, rho, mass, open_frac, cut_mass_fill):
+    """Lumped nodal mass: a quarter of each neighbouring cell's soil mass (kg).
+
+    A cell the body cuts (``open_frac`` < 1) lends its nodes the mass of at least
+    ``cut_mass_fill`` of its volume: its nodes may lie inside the body, where little soil is,
+    yet carry the stiff open faces; the added inertia keeps the explicit step stable."""
     mass[:] = 0.0
     nx, ny = phi.shape
     for i in range(nx):
         for j in range(ny):
-            m = 0.25 * rho * phi[i, j] * vol[i, j]
+            fill = phi[i, j]
+            if open_frac[i, j] < 1.0 and open_frac[i, j] > 0.0 and fill < cut_mass_fill:
+                fill = cut_mass_fill
+            m = 0.25 * rho * fill * vol[i, j]
             if m > 0.0:
                 mass[i, j] += m
                 mass[i + 1, j] += m
@@ -57,7 +64,7 @@ def nodal_mass(phi, vol, rho, mass):
 
 @njit(**JIT)
 def nodal_forces(x, y, phi, q, vx, vy, rho, wave_speed, hourglass, bulk_lin, bulk_quad, axisym, fx, fy, work,
-                 skip_void=True):
+                 skip_void, aperture_x, aperture_y, open_frac, v_body, div_override):
     """Internal nodal forces (N per unit thickness or per radian) from the cell stresses.
 
     One-point quadrature at the cell centre; viscous hourglass control with coefficient
@@ -65,13 +72,16 @@ def nodal_forces(x, y, phi, q, vx, vy, rho, wave_speed, hourglass, bulk_lin, bul
     quadratic bulk viscosity in compression. ``work`` accumulates the power dissipated by
     hourglass [0] and bulk viscosity [1] (W), to be multiplied by Δt by the caller.
     Cells without soil give no force and are skipped; ``skip_void=False`` does their (null)
-    arithmetic anyway, only to measure what skipping saves.
+    arithmetic anyway, only to measure what skipping saves. In a cell the body cuts
+    (``open_frac`` < 1) the in-plane mean stress acts through the open parts of the faces only,
+    the work-conjugate of :func:`cut_divergence`: the closed parts are the body's surface.
     """
     fx[:] = 0.0
     fy[:] = 0.0
     nx, ny = phi.shape
     hg_power = 0.0
     bv_power = 0.0
+    arc_fy = 0.0
     for i in range(nx):
         dx = x[i + 1] - x[i]
         r = 0.5 * (x[i] + x[i + 1]) if axisym else 1.0
@@ -90,6 +100,10 @@ def nodal_forces(x, y, phi, q, vx, vy, rho, wave_speed, hourglass, bulk_lin, bul
             div = dvx_dx + dvy_dy
             if axisym:
                 div += 0.25 * (vx0 + vx1 + vx2 + vx3) / r
+            open_ij = open_frac[i, j]
+            if open_ij < 1.0:
+                div = cut_divergence(i, j, dx, dy, vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3, v_body, aperture_x,
+                                     aperture_y, open_ij)
             # bulk viscosity: a pressure of the soil itself (Pa), in compression only; like σ it
             # acts on the cell's soil fraction f
             qb = 0.0
@@ -112,6 +126,24 @@ def nodal_forces(x, y, phi, q, vx, vy, rho, wave_speed, hourglass, bulk_lin, bul
             fy[i + 1, j + 1] += -ax * sxy - ay * syy
             fx[i, j + 1] += ax * sxx - ay * sxy
             fy[i, j + 1] += ax * sxy - ay * syy
+            if open_ij < 1.0:
+                # the mean stress m on the open parts only: −(φ/2)·m·Σ (a_f/open − 1)·A_f·n_f per node
+                open_eff = open_ij if not math.isnan(div_override[i, j]) else max(open_ij, CUT_OPEN_FLOOR)
+                k = -0.25 * f * (sxx + syy)
+                c_left = (aperture_x[i, j] / open_eff - 1.0) * dy
+                c_right = (aperture_x[i + 1, j] / open_eff - 1.0) * dy
+                c_bottom = (aperture_y[j, i] / open_eff - 1.0) * dx
+                c_top = (aperture_y[j + 1, i] / open_eff - 1.0) * dx
+                fx[i, j] -= k * c_left
+                fy[i, j] -= k * c_bottom
+                fx[i + 1, j] += k * c_right
+                fy[i + 1, j] -= k * c_bottom
+                fx[i + 1, j + 1] += k * c_right
+                fy[i + 1, j + 1] += k * c_top
+                fx[i, j + 1] -= k * c_left
+                fy[i, j + 1] += k * c_top
+                # the body's share: the mean stress on the arc, (φ/open)·m·Σ a_f·A_f·n_fy (N, up +)
+                arc_fy += f / open_eff * 0.5 * (sxx + syy) * dx * (aperture_y[j + 1, i] - aperture_y[j, i])
             if axisym:  # hoop stress: −A·φ·σθθ·N_a, N_a = 1/4 at the centre
                 hoop = 0.25 * area * f * (q[SZZ, i, j] - qb)
                 fx[i, j] -= hoop
@@ -136,6 +168,7 @@ def nodal_forces(x, y, phi, q, vx, vy, rho, wave_speed, hourglass, bulk_lin, bul
                 hg_power += hx * gx + hy * gy
     work[0] += hg_power
     work[1] += bv_power
+    work[2] += arc_fy
 
 
 @njit(**JIT)
@@ -233,9 +266,24 @@ def _evolve_state(q, i, j, evolve, xi_before, gamma_dot, dt, p):
                                       p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7])
 
 
+# A sliver of a cut cell is weighed as if this much of it were open: the open faces' stiffness
+# grows as aperture/open, unbounded for a sliver, and with it the explicit step's limit.
+CUT_OPEN_FLOOR = 0.5
+
+
+@njit(**JIT)
+def cut_divergence(i, j, dx, dy, vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3, v_body, aperture_x, aperture_y, open_ij):
+    """Volumetric strain rate (1/s) of the soil in a cell the body cuts: the net outflow through
+    the open parts of its faces, relative to the body, over the cell's open area (plane strain)."""
+    flux = dy * (aperture_x[i + 1, j] * 0.5 * (vx1 + vx2) - aperture_x[i, j] * 0.5 * (vx0 + vx3))
+    flux += dx * (aperture_y[j + 1, i] * (0.5 * (vy2 + vy3) - v_body) - aperture_y[j, i] * (0.5 * (vy0 + vy1) - v_body))
+    return flux / (max(open_ij, CUT_OPEN_FLOOR) * dx * dy)
+
+
 @njit(**JIT)
 def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym, phi_min, exact_tresca,
-                  law, law_params, law_active, evolve, strength_factor, su_cell, out):
+                  law, law_params, law_active, evolve, strength_factor, su_cell, out, aperture_x, aperture_y,
+                  open_frac, v_body, div_override):
     """Stress update for undrained soil of strength su: Jaumann rotation, elastic trial, return.
 
     su = (su0 + ks·z0)·f·law(ξ, γ̇, params) with z0 the depth where the soil started, f the
@@ -250,6 +298,13 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
     A law's state variables, the rows of ``q`` beyond NQ_BASE, reach ``law`` as s0, s1 and
     are updated by its compiled ``evolve`` after the return. ``su_cell`` receives each cell's
     current strength su (Pa; 0 without soil), which limited-adhesion contact reads.
+
+    In a cell the body cuts (``open_frac`` < 1, plane strain) the volumetric strain is the one
+    the remap makes: the net flux through the open parts of its faces (``aperture_x`` [face,
+    row], ``aperture_y`` [face, column]) relative to the body (vertical velocity ``v_body``,
+    m/s), over its open volume; the deviatoric strain is the cell's own. The pressure then
+    sees what the remap does to the soil, and :func:`nodal_forces` applies it through the same
+    open faces.
     """
     nx, ny = phi.shape
     has_state = q.shape[0] > NQ_BASE
@@ -262,7 +317,8 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
         r = 0.5 * (x[i] + x[i + 1]) if axisym else 1.0
         for j in range(ny):
             f = phi[i, j]
-            if f <= phi_min:
+            open_ij = open_frac[i, j]
+            if f <= phi_min * open_ij:
                 # a wisp of soil in a nearly empty cell carries no stress: its strain rate,
                 # taken from void nodes, means nothing
                 q[SXX, i, j] = 0.0
@@ -280,6 +336,15 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
             dvy_dx = (vy1 + vy2 - vy0 - vy3) / (2.0 * dx)
             dxy = 0.5 * dt * (dvx_dy + dvy_dx)
             dzz = dt * 0.25 * (vx0 + vx1 + vx2 + vx3) / r if axisym else 0.0
+            if not math.isnan(div_override[i, j]):
+                half = 0.5 * (dt * div_override[i, j] - dxx - dyy)
+                dxx += half
+                dyy += half
+            elif open_ij < 1.0:
+                half = 0.5 * (dt * cut_divergence(i, j, dx, dy, vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3, v_body,
+                                                  aperture_x, aperture_y, open_ij) - dxx - dyy)
+                dxx += half
+                dyy += half
             w = 0.5 * dt * (dvx_dy - dvy_dx)  # spin increment
             sxx, syy, sxy, szz = q[SXX, i, j], q[SYY, i, j], q[SXY, i, j], q[SZZ, i, j]
             # Jaumann rotation
@@ -423,7 +488,10 @@ def _van_leer(d_minus, d_plus):
 
 @njit(**JIT)
 def _donor_acceptor(phi_d, phi_a, volume_flux, donor_volume, acceptor_first):
-    """Hirt–Nichols soil volume carried by a face volume flux |δV| from donor to acceptor."""
+    """Hirt–Nichols soil volume carried by a face volume flux |δV| from donor to acceptor.
+
+    ``phi_d``, ``phi_a``: the fills of the two cells' open parts; ``donor_volume``: the donor's
+    open volume (m³ per unit thickness or per radian)."""
     pd = min(phi_d, 1.0)
     pad = min(phi_a, 1.0) if acceptor_first else pd
     dv = abs(volume_flux)
@@ -435,7 +503,7 @@ def _donor_acceptor(phi_d, phi_a, volume_flux, donor_volume, acceptor_first):
 
 @njit(**JIT)
 def advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, bottom_inflow, flux, phi_min,
-                 shear_mod, bulk_mod, audit, solid):
+                 shear_mod, bulk_mod, audit, aperture, open_frac):
     """One directional sweep of the cell state: volume fraction and transported quantities.
 
     ``ux``, ``uy`` are nodal velocities relative to the grid (m/s), or, with ``dt`` = 1, the
@@ -445,7 +513,10 @@ def advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, bott
     a van Leer limited slope when ``order`` = 2. Domain edges are closed, except the base
     (axis 1, face 0) when ``bottom_inflow``: soil enters there in the state ``ghost[k, i]``.
     ``flux[face, line]`` receives the signed soil volume through each face (for the momentum
-    sweep). Cells marked ``solid`` (inside the body) exchange nothing. Returns the soil volume
+    sweep). The body takes part of the grid: ``aperture[face, line]`` is the open fraction of each
+    face (0 next to a cell inside the body), ``open_frac`` that of each cell (a cell the body's
+    surface cuts holds at most that much soil); the Hirt–Nichols rule works on the fill of the
+    open part, φ / open_frac. Returns the soil volume
     that entered through the base (m³). ``audit[0]``
     accumulates the change of stored elastic energy the sweep makes (J), inflow included.
     """
@@ -469,9 +540,9 @@ def advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, bott
                 i, j = line, face
                 un = 0.5 * (uy[i, j] + uy[i + 1, j])
                 area = (x[i + 1] - x[i]) * (0.5 * (x[i] + x[i + 1]) if axisym else 1.0)
-            if un == 0.0:
+            dvol = un * area * dt * aperture[face, line]
+            if dvol == 0.0:
                 continue
-            dvol = un * area * dt
             donor = face - 1 if un > 0.0 else face
             acceptor = face if un > 0.0 else face - 1
             if donor < 0 or donor >= n_cells:
@@ -490,19 +561,18 @@ def advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, axisym, ghost, bott
                 continue
             ai = acceptor if axis == 0 else i
             aj = j if axis == 0 else acceptor
-            if solid[ai, aj] or solid[di, dj]:
-                continue
-            phi_a = phi[ai, aj]
-            if phi_d >= 1.0 and phi_a >= 1.0:
-                moved = abs(dvol) * phi_d  # full to full: no interface here
+            open_d, open_a = open_frac[di, dj], open_frac[ai, aj]
+            fill_d, fill_a = phi_d / open_d, phi[ai, aj] / open_a
+            if fill_d >= 1.0 and fill_a >= 1.0:
+                moved = abs(dvol) * fill_d  # full to full: no interface here
             else:
                 # interface normal along the flow: the downwind value keeps the interface sharp
                 g_along_x = phi[min(di + 1, nx - 1), dj] - phi[max(di - 1, 0), dj]
                 g_along_y = phi[di, min(dj + 1, ny - 1)] - phi[di, max(dj - 1, 0)]
                 g_n = g_along_x if axis == 0 else g_along_y
                 g_t = g_along_y if axis == 0 else g_along_x
-                acceptor_first = abs(g_n) >= abs(g_t) and phi_d < 1.0
-                moved = _donor_acceptor(phi_d, phi_a, dvol, vol[di, dj], acceptor_first)
+                acceptor_first = abs(g_n) >= abs(g_t) and fill_d < 1.0
+                moved = _donor_acceptor(fill_d, fill_a, dvol, open_d * vol[di, dj], acceptor_first)
             signed = moved if un > 0.0 else -moved
             flux[face, line] = signed
             courant = moved / (phi_d * vol[di, dj])

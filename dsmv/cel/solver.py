@@ -91,6 +91,30 @@ def in_sweep() -> bool:
     return HydraConfig.initialized() and HydraConfig.get().mode == RunMode.MULTIRUN
 
 
+def sliver_pairs(openings) -> np.ndarray:
+    """Each sliver of a cut body (a cell open to less than ``CUT_OPEN_FLOOR``) paired with its most
+    open neighbour across an open face: rows (i, j, i_neighbour, j_neighbour).
+
+    A sliver alone cannot hold its soil: its pressure sees its volume change over the floored open
+    fraction, 6 % of it for a cell open to 3 %, so the remap drained it and then its neighbours (a
+    void behind a smooth T-bar). A pair changes volume as one, and shares one fill and one mean
+    stress after each remap (:func:`dsmv.cel.stepper.run_steps`)."""
+    from dsmv.cel.kernels import CUT_OPEN_FLOOR
+
+    of, ax, ay = openings.open_frac, openings.aperture_x, openings.aperture_y
+    pairs = []
+    for i, j in zip(*np.nonzero((of > 0.0) & (of < CUT_OPEN_FLOOR))):
+        best, neighbour = -1.0, None
+        for di, dj, aperture in ((-1, 0, ax[i, j]), (1, 0, ax[i + 1, j]), (0, -1, ay[j, i]), (0, 1, ay[j + 1, i])):
+            a, b = i + di, j + dj
+            if 0 <= a < of.shape[0] and 0 <= b < of.shape[1] and aperture > 0.0 and of[a, b] >= CUT_OPEN_FLOOR:
+                if of[a, b] * aperture > best:
+                    best, neighbour = of[a, b] * aperture, (a, b)
+        if neighbour is not None:
+            pairs.append((i, j, *neighbour))
+    return np.array(pairs, dtype=np.int64).reshape(-1, 4)
+
+
 def track_side_view_cells(grid, track) -> np.ndarray:
     """Cells of a track seen from the side (``geometry.view=longitudinal``), half model.
 
@@ -164,7 +188,8 @@ class Cel2DSolver:
         # along the circle's normal let soil slide along the staircase instead, which the remap
         # cannot carry past the steps: the soil piled up in front, a void opened behind, and a
         # smooth T-bar read 6.6 for 9.20.)
-        self.interface_layer = self.circular and body.adhesion_factor < 1.0
+        self.cut_cells = self.circular and body.adhesion_factor == 0.0 and not self.axisym
+        self.interface_layer = self.circular and body.adhesion_factor < 1.0 and not self.cut_cells
         #: a track seen from the side: plates, grousers and sprockets in the plane, per metre of B
         self.longitudinal = getattr(body, "view", "cross_section") == "longitudinal"
 
@@ -228,7 +253,11 @@ class Cel2DSolver:
         for di in (0, 1):
             for dj in (0, 1):
                 touching[di : di + grid.nx, dj : dj + grid.ny] += solid
-        tie_i, tie_j = np.nonzero(touching)
+        if self.cut_cells:  # every node inside the circle moves with it
+            R = 0.5 * B
+            tie_i, tie_j = np.nonzero(grid.x[:, None] ** 2 + (grid.y[None, :] - R) ** 2 <= R * R * (1 + 1e-12))
+        else:
+            tie_i, tie_j = np.nonzero(touching)
         # a node is inside when all its cells are solid (on the axis: both of its two cells)
         cells_around = np.full_like(touching, 4)
         cells_around[0, :] = cells_around[-1, :] = 2
@@ -238,7 +267,12 @@ class Cel2DSolver:
         nx_, ny_ = np.zeros(len(tie_i)), np.zeros(len(tie_i))
         cap = np.zeros(len(tie_i))
         alpha = self.scene.geometry.adhesion_factor
-        if alpha < 1.0 and not self.circular:  # a flat face: normal ties, and α·su along the face
+        if self.cut_cells:  # the nodes in the cut cells slide along the circle (tied along its normal)
+            xs, ys = grid.x[tie_i], grid.y[tie_j] - 0.5 * B
+            r = np.maximum(np.hypot(xs, ys), 1e-300)
+            nx_, ny_ = xs / r, ys / r
+            tie_full = inside.copy()
+        elif alpha < 1.0 and not self.circular:  # a flat face: normal ties, and α·su along the face
             xs, ys = grid.x[tie_i], grid.y[tie_j]
             on_base = (tie_j == j_base) & (xs < 0.5 * B - 1e-12)
             on_side = (tie_j > j_base) & np.isclose(xs, 0.5 * B) & ~inside
@@ -257,11 +291,23 @@ class Cel2DSolver:
                 cap[on_side] = (alpha * 0.5 * (below + above) * radius)[on_side]
         return solid, tie_i.astype(np.int64), tie_j.astype(np.int64), tie_full, nx_, ny_, cap
 
-    def strength_factors(self, solid, tie_i, tie_j) -> np.ndarray:
+    def body_openings(self, grid, solid):
+        """What the body leaves open to the soil (:class:`~dsmv.cel.grid.Openings`): whole cells,
+        or for a smooth cylinder the cells its circle cuts, partly."""
+        from dsmv.cel.grid import Openings
+
+        if self.cut_cells:
+            R = 0.5 * self.scene.geometry.width_m
+            return Openings.of_circle(grid, R, R)
+        return Openings.of_cells(solid)
+
+    def strength_factors(self, solid, tie_i, tie_j, open_frac) -> np.ndarray:
         """Each cell's share of the soil's strength (nx, ny): α in a curved body's interface layer
         (the soil cells with a node tied to the body), 1 elsewhere."""
         factor = np.ones(solid.shape)
-        if self.interface_layer:
+        if self.cut_cells:
+            factor[(open_frac < 1.0) & (open_frac > 0.0)] = 0.0
+        elif self.interface_layer:
             tied = np.zeros((solid.shape[0] + 1, solid.shape[1] + 1), dtype=bool)
             tied[tie_i, tie_j] = True
             layer = (tied[:-1, :-1] | tied[1:, :-1] | tied[1:, 1:] | tied[:-1, 1:]) & ~solid
@@ -344,8 +390,9 @@ class Cel2DSolver:
 
         d0 = self.mudline
         solid, tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap = self.body_cells_and_ties(grid, j_base)
-        phi, q = geostatic_state(grid, rho, grav, elastic.k0, d0, solid)
-        strength_factor = self.strength_factors(solid, tie_i, tie_j)
+        openings = self.body_openings(grid, solid)
+        phi, q = geostatic_state(grid, rho, grav, elastic.k0, d0, openings.open_frac)
+        strength_factor = self.strength_factors(solid, tie_i, tie_j, openings.open_frac)
         # the soil law's state variables ride with the material, as ξ and z0 do
         initial_state = self.law.initial_state()
         q = np.concatenate([q, np.broadcast_to(initial_state[:, None, None], (len(initial_state), nx, ny))])
@@ -377,7 +424,7 @@ class Cel2DSolver:
         vx = np.zeros((nx + 1, ny + 1))
         vy = np.zeros((nx + 1, ny + 1))
         mass = np.zeros_like(vx)
-        K.nodal_mass(phi, vol, rho, mass)
+        K.nodal_mass(phi, vol, rho, mass, openings.open_frac, 1.0)
         body = np.zeros(S.N_BODY)
         v0 = -landing.velocity_m_s
         if drop:  # touchdown: the body and the soil nodes it meets share momentum
@@ -402,11 +449,14 @@ class Cel2DSolver:
         )
         mass0 = float(rho * (phi * vol).sum())
 
+        merge = sliver_pairs(openings)
+
         def advance(n):
             return S.run_steps(
                 n, x, y, vol, phi, q, vx, vy, mass, work["fx"], work["fy"], work["ux"], work["uy"],
                 work["flux_x"], work["flux_y"], tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap, strength_factor,
-                work["su_cell"], solid, ghost, ghost_depth0,
+                work["su_cell"], solid, openings.aperture_x, openings.aperture_y, openings.open_frac, merge,
+                ghost, ghost_depth0,
                 par, ipar, body, energy, law_fn, law_params, law_evolve,
             )
 

@@ -32,10 +32,11 @@ class Elastic:
         return cls(shear, bulk, math.sqrt((bulk + 4 * shear / 3) / rho), nu / (1 - nu))
 
 
-def geostatic_state(grid: Grid, density: float, gravity: float, k0: float, mudline: float, solid=None):
-    """Soil below the mudline (y = ``mudline``) and outside ``solid`` cells, at rest under its weight.
+def geostatic_state(grid: Grid, density: float, gravity: float, k0: float, mudline: float, open_frac=None):
+    """Soil below the mudline (y = ``mudline``) and outside the body, at rest under its weight.
 
-    A cell the mudline cuts holds just the soil below it.
+    A cell the mudline cuts holds just the soil below it; a cell the body cuts, just the soil
+    in its ``open_frac`` (nx, ny; default all open).
 
     Returns φ (nx, ny) and the transported state q (NQ_BASE, nx, ny): σyy = −ρ'·g·depth,
     σxx = σzz = K0·σyy, z0 = depth (m), ξ = 0.
@@ -45,8 +46,8 @@ def geostatic_state(grid: Grid, density: float, gravity: float, k0: float, mudli
     # the depth of the soil's own centroid in each row
     depth = np.where(fill >= 1.0, mudline - grid.yc, 0.5 * fill * grid.dy)
     phi = np.tile(fill, (grid.nx, 1))
-    if solid is not None:
-        phi[solid] = 0.0
+    if open_frac is not None:
+        phi = phi * open_frac
     q = np.zeros((K.NQ_BASE, grid.nx, grid.ny))
     q[K.SYY] = -density * gravity * depth[None, :] * phi
     q[K.SXX] = k0 * q[K.SYY]

@@ -19,7 +19,7 @@ from numba import njit
 
 # Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
 # kernels it inlined until this file changes. After changing a kernel, bump this revision
-# (or clear the Numba cache). Kernel revision: 11 (the hourglass-mode diagnostic).
+# (or clear the Numba cache). Kernel revision: 12 (cut cells with merged slivers: apertures in the remap, forces and strain).
 from dsmv.cel.kernels import (
     JIT,
     advect_cells,
@@ -29,6 +29,7 @@ from dsmv.cel.kernels import (
     node_strength,
     update_stress,
     update_velocities,
+    cut_divergence,
 )
 
 # float parameters
@@ -53,13 +54,16 @@ N_BODY = 11
 N_ENERGY = 9
 # exit codes
 RUNNING, AT_REST, NOT_FINITE = 0, 1, 2
+#: a cell the body cuts lends its nodes at least the mass of this fill of the whole cell: its open
+#: faces are as stiff as a full cell's, and the explicit step stays stable (see nodal_mass)
+CUT_MASS_FILL = 0.5
 
 
 @njit(**JIT)
 def run_steps(
     n_steps, x, y, vol, phi, q, vx, vy, mass, fx, fy, ux, uy, flux_x, flux_y,
-    tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap, strength_factor, su_cell, solid, ghost, ghost_depth0,
-    par, ipar, body, energy,
+    tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap, strength_factor, su_cell, solid, aperture_x, aperture_y, open_frac,
+    merge, ghost, ghost_depth0, par, ipar, body, energy,
     law, law_params, evolve,
 ):
     """Advance up to ``n_steps`` steps; return (steps done, exit code).
@@ -87,22 +91,27 @@ def run_steps(
     inflow = ipar[I_INFLOW] == 1
     remap = ipar[I_REMAP] != 0
     nxn, nyn = vx.shape
-    work = np.zeros(2)
+    work = np.zeros(3)
     stress_out = np.zeros(1)
     audit = np.zeros(2)
     n_tied = len(tie_i)
+    # a merged sliver and its neighbour are marked here (their common strain rate is set before each stress update)
+    div_override = np.full(phi.shape, np.nan)
+    for k in range(merge.shape[0]):
+        div_override[merge[k, 0], merge[k, 1]] = 0.0
+        div_override[merge[k, 2], merge[k, 3]] = 0.0
     # nodal masses change only where soil moves through the grid: here and after each remap
-    nodal_mass(phi, vol, rho, mass)
+    nodal_mass(phi, vol, rho, mass, open_frac, CUT_MASS_FILL)
     for step in range(n_steps):
         # ---- Lagrangian phase
         work[:] = 0.0
         nodal_forces(x, y, phi, q, vx, vy, rho, par[P_C], par[P_HG], par[P_BL], par[P_BQ], axisym, fx, fy, work,
-                     ipar[I_SKIP_VOID] == 1)
+                     ipar[I_SKIP_VOID] == 1, aperture_x, aperture_y, open_frac, body[B_VEL], div_override)
         energy[E_HOURGLASS] += work[0] * dt
         energy[E_BULK] += work[1] * dt
         # rigid body with the soil nodes tied to it (vertical motion): a fully tied node moves
         # with the body, a normally tied one (smooth contact) only along its normal n
-        soil_on_nodes = body[B_FRICTION]  # the adhesive pull of the last step
+        soil_on_nodes = body[B_FRICTION] + work[2]  # the adhesive pull of the last step, the cut cells' arcs
         tied_mass = 0.0
         for k in range(n_tied):
             i, j = tie_i[k], tie_j[k]
@@ -168,9 +177,24 @@ def run_steps(
         body[B_FRICTION] = friction
         energy[E_SOIL_GRAV] += -grav * dt * 0.5 * (momentum_before + momentum_after)
         stress_out[0] = 0.0
+        for k in range(merge.shape[0]):  # a sliver and its neighbour change volume as one
+            si, sj, ni, nj = merge[k, 0], merge[k, 1], merge[k, 2], merge[k, 3]
+            flux = 0.0
+            for c in range(2):
+                ci = si if c == 0 else ni
+                cj = sj if c == 0 else nj
+                dx = x[ci + 1] - x[ci]
+                dy = y[cj + 1] - y[cj]
+                oc = open_frac[ci, cj]
+                flux += cut_divergence(ci, cj, dx, dy, vx[ci, cj], vx[ci + 1, cj], vx[ci + 1, cj + 1], vx[ci, cj + 1],
+                                       vy[ci, cj], vy[ci + 1, cj], vy[ci + 1, cj + 1], vy[ci, cj + 1], body[B_VEL],
+                                       aperture_x, aperture_y, oc) * max(oc, 0.5) * dx * dy
+            d = flux / ((open_frac[si, sj] + open_frac[ni, nj]) * (x[si + 1] - x[si]) * (y[sj + 1] - y[sj]))
+            div_override[si, sj] = d
+            div_override[ni, nj] = d
         update_stress(x, y, phi, q, vx, vy, dt, par[P_G], par[P_K], par[P_SU0], par[P_KS], axisym,
                       par[P_PHI_STRESS], ipar[I_TRESCA] == 1, law, law_params, ipar[I_LAW] == 1, evolve,
-                      strength_factor, su_cell, stress_out)
+                      strength_factor, su_cell, stress_out, aperture_x, aperture_y, open_frac, body[B_VEL], div_override)
         energy[E_PLASTIC] += stress_out[0]
         body[B_OFFSET] += body[B_VEL] * dt
         body[B_TIME] += dt
@@ -210,17 +234,33 @@ def run_steps(
             axis = first if sweep == 0 else 1 - first
             if axis == 0:
                 body[B_INFLOW] += advect_cells(0, x, y, vol, phi, q, ux, uy, 1.0, order, axisym, ghost, False,
-                                               flux_x, par[P_PHIMIN], par[P_G], par[P_K], audit, solid)
+                                               flux_x, par[P_PHIMIN], par[P_G], par[P_K], audit, aperture_x, open_frac)
                 advect_momentum(0, flux_x, rho, mass, vx, vy, order, par[P_MFLOOR], audit)
             else:
                 body[B_INFLOW] += advect_cells(1, x, y, vol, phi, q, ux, uy, 1.0, order, axisym, ghost, inflow,
-                                               flux_y, par[P_PHIMIN], par[P_G], par[P_K], audit, solid)
+                                               flux_y, par[P_PHIMIN], par[P_G], par[P_K], audit, aperture_y, open_frac)
                 advect_momentum(1, flux_y, rho, mass, vx, vy, order, par[P_MFLOOR], audit)
         energy[E_REMAP_ELASTIC] += audit[0]
         energy[E_REMAP_KINETIC] += audit[1]
+        for k in range(merge.shape[0]):  # a merged pair shares one fill and one mean stress
+            si, sj, ni, nj = merge[k, 0], merge[k, 1], merge[k, 2], merge[k, 3]
+            os_, on = open_frac[si, sj], open_frac[ni, nj]
+            ps, pn = phi[si, sj], phi[ni, nj]
+            tot = ps + pn
+            if tot <= 0.0:
+                continue
+            fill = tot / (os_ + on)
+            phi[si, sj] = fill * os_
+            phi[ni, nj] = fill * on
+            ms = (q[0, si, sj] + q[1, si, sj] + q[3, si, sj]) / 3.0
+            mn = (q[0, ni, nj] + q[1, ni, nj] + q[3, ni, nj]) / 3.0
+            mean = (ps * ms + pn * mn) / tot
+            for r in (0, 1, 3):
+                q[r, si, sj] += mean - ms
+                q[r, ni, nj] += mean - mn
         ux[:, :] = 0.0
         uy[:, :] = 0.0
-        nodal_mass(phi, vol, rho, mass)
+        nodal_mass(phi, vol, rho, mass, open_frac, CUT_MASS_FILL)
         body[B_REMAP_OFFSET] = body[B_OFFSET]
         body[B_REMAPS] += 1.0
     return n_steps, RUNNING
