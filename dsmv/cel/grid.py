@@ -122,7 +122,7 @@ class Openings:
         return cls(1.0 - solid, aperture_x, aperture_y)
 
     @classmethod
-    def of_circle(cls, grid: Grid, radius: float, centre_y: float, samples: int = 24, closed_below: float = 0.0) -> "Openings":
+    def of_circle(cls, grid: Grid, radius: float, centre_y: float, samples: int = 24) -> "Openings":
         """A circle (centre (0, ``centre_y``), m) cutting the cells: its cut cells stay partly open.
 
         Face apertures are exact (the chord each face line has inside the circle); cell
@@ -153,19 +153,6 @@ class Openings:
         solid = corner_inside[:-1, :-1] & corner_inside[1:, :-1] & corner_inside[1:, 1:] & corner_inside[:-1, 1:]
         # a cut cell keeps some room however thin its sliver, so its fill φ/open_frac is defined
         open_frac = np.where(solid, 0.0, np.maximum(open_frac, 0.5 / samples**2))
-        if closed_below > 0.0:  # slivers join the body: their faces close
-            solid = open_frac < closed_below
-            open_frac[solid] = 0.0
-            nx, ny = solid.shape
-            padded = np.zeros((nx + 2, ny + 2), dtype=bool)
-            padded[1:-1, 1:-1] = solid
-            aperture_x = np.where(padded[:-1, 1:-1] | padded[1:, 1:-1], 0.0, aperture_x)
-            aperture_y = np.where((padded[1:-1, :-1] | padded[1:-1, 1:]).T, 0.0, aperture_y)
         aperture_x = np.where(np.abs(aperture_x) < 1e-12, 0.0, aperture_x)
         aperture_y = np.where(np.abs(aperture_y) < 1e-12, 0.0, aperture_y)
         return cls(open_frac, aperture_x, aperture_y.copy())
-
-    @property
-    def solid(self) -> np.ndarray:
-        """Cells wholly inside the body."""
-        return self.open_frac <= 0.0

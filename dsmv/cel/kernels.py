@@ -70,7 +70,8 @@ def nodal_forces(x, y, phi, q, vx, vy, rho, wave_speed, hourglass, bulk_lin, bul
     One-point quadrature at the cell centre; viscous hourglass control with coefficient
     ``hourglass`` (Flanagan–Belytschko form, force ∝ ρ·c·√A·hourglass velocity); linear and
     quadratic bulk viscosity in compression. ``work`` accumulates the power dissipated by
-    hourglass [0] and bulk viscosity [1] (W), to be multiplied by Δt by the caller.
+    hourglass [0] and bulk viscosity [1] (W), to be multiplied by Δt by the caller, and [2] the
+    vertical force the cut cells' mean stress puts on the body's arc (N, up +).
     Cells without soil give no force and are skipped; ``skip_void=False`` does their (null)
     arithmetic anyway, only to measure what skipping saves. In a cell the body cuts
     (``open_frac`` < 1) the in-plane mean stress acts through the open parts of the faces only,
@@ -272,12 +273,32 @@ CUT_OPEN_FLOOR = 0.5
 
 
 @njit(**JIT)
-def cut_divergence(i, j, dx, dy, vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3, v_body, aperture_x, aperture_y, open_ij):
-    """Volumetric strain rate (1/s) of the soil in a cell the body cuts: the net outflow through
-    the open parts of its faces, relative to the body, over the cell's open area (plane strain)."""
+def cut_flux(i, j, dx, dy, vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3, v_body, aperture_x, aperture_y):
+    """Net outflow of cell (i, j) through the open parts of its faces, relative to the body
+    (m²/s per unit thickness, plane strain); nodal velocities in the kernels' node order."""
     flux = dy * (aperture_x[i + 1, j] * 0.5 * (vx1 + vx2) - aperture_x[i, j] * 0.5 * (vx0 + vx3))
-    flux += dx * (aperture_y[j + 1, i] * (0.5 * (vy2 + vy3) - v_body) - aperture_y[j, i] * (0.5 * (vy0 + vy1) - v_body))
-    return flux / (max(open_ij, CUT_OPEN_FLOOR) * dx * dy)
+    return flux + dx * (aperture_y[j + 1, i] * (0.5 * (vy2 + vy3) - v_body)
+                        - aperture_y[j, i] * (0.5 * (vy0 + vy1) - v_body))
+
+
+@njit(**JIT)
+def cut_divergence(i, j, dx, dy, vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3, v_body, aperture_x, aperture_y, open_ij):
+    """Volumetric strain rate (1/s) of the soil in a cell the body cuts: :func:`cut_flux` over the
+    cell's open area (floored at ``CUT_OPEN_FLOOR``)."""
+    return (cut_flux(i, j, dx, dy, vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3, v_body, aperture_x, aperture_y)
+            / (max(open_ij, CUT_OPEN_FLOOR) * dx * dy))
+
+
+@njit(**JIT)
+def merged_divergence(si, sj, ni, nj, x, y, vx, vy, v_body, aperture_x, aperture_y, open_frac):
+    """Volumetric strain rate (1/s) of a merged pair, a sliver (si, sj) and its neighbour (ni, nj):
+    their joint net outflow (the shared face cancels) over their joint open area."""
+    flux = 0.0
+    for i, j in ((si, sj), (ni, nj)):
+        flux += cut_flux(i, j, x[i + 1] - x[i], y[j + 1] - y[j], vx[i, j], vx[i + 1, j], vx[i + 1, j + 1],
+                         vx[i, j + 1], vy[i, j], vy[i + 1, j], vy[i + 1, j + 1], vy[i, j + 1], v_body,
+                         aperture_x, aperture_y)
+    return flux / ((open_frac[si, sj] + open_frac[ni, nj]) * (x[si + 1] - x[si]) * (y[sj + 1] - y[sj]))
 
 
 @njit(**JIT)

@@ -424,7 +424,7 @@ class Cel2DSolver:
         vx = np.zeros((nx + 1, ny + 1))
         vy = np.zeros((nx + 1, ny + 1))
         mass = np.zeros_like(vx)
-        K.nodal_mass(phi, vol, rho, mass, openings.open_frac, 1.0)
+        K.nodal_mass(phi, vol, rho, mass, openings.open_frac, S.CUT_MASS_FILL)
         body = np.zeros(S.N_BODY)
         v0 = -landing.velocity_m_s
         if drop:  # touchdown: the body and the soil nodes it meets share momentum

@@ -19,7 +19,7 @@ from numba import njit
 
 # Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
 # kernels it inlined until this file changes. After changing a kernel, bump this revision
-# (or clear the Numba cache). Kernel revision: 12 (cut cells with merged slivers: apertures in the remap, forces and strain).
+# (or clear the Numba cache). Kernel revision: 13 (cut_flux: one home for a cut cell's open-face flux).
 from dsmv.cel.kernels import (
     JIT,
     advect_cells,
@@ -28,8 +28,8 @@ from dsmv.cel.kernels import (
     nodal_mass,
     node_strength,
     update_stress,
+    merged_divergence,
     update_velocities,
-    cut_divergence,
 )
 
 # float parameters
@@ -67,6 +67,11 @@ def run_steps(
     law, law_params, evolve,
 ):
     """Advance up to ``n_steps`` steps; return (steps done, exit code).
+
+    The body's share of the grid: ``solid`` cells lie inside it; ``aperture_x``, ``aperture_y`` and
+    ``open_frac`` are the open fractions of faces and cells (:class:`dsmv.cel.grid.Openings`);
+    ``merge`` rows (i, j, i', j') pair a sliver of a cut cell with its neighbour
+    (:func:`dsmv.cel.solver.sliver_pairs`): one volumetric strain, one fill, one mean stress.
 
     ``law`` is the soil law's compiled strength factor (dsmv.soil_law), ``law_params`` its
     packed parameters; it is called only when ``ipar[I_LAW]`` is set. ``evolve`` updates the
@@ -179,17 +184,7 @@ def run_steps(
         stress_out[0] = 0.0
         for k in range(merge.shape[0]):  # a sliver and its neighbour change volume as one
             si, sj, ni, nj = merge[k, 0], merge[k, 1], merge[k, 2], merge[k, 3]
-            flux = 0.0
-            for c in range(2):
-                ci = si if c == 0 else ni
-                cj = sj if c == 0 else nj
-                dx = x[ci + 1] - x[ci]
-                dy = y[cj + 1] - y[cj]
-                oc = open_frac[ci, cj]
-                flux += cut_divergence(ci, cj, dx, dy, vx[ci, cj], vx[ci + 1, cj], vx[ci + 1, cj + 1], vx[ci, cj + 1],
-                                       vy[ci, cj], vy[ci + 1, cj], vy[ci + 1, cj + 1], vy[ci, cj + 1], body[B_VEL],
-                                       aperture_x, aperture_y, oc) * max(oc, 0.5) * dx * dy
-            d = flux / ((open_frac[si, sj] + open_frac[ni, nj]) * (x[si + 1] - x[si]) * (y[sj + 1] - y[sj]))
+            d = merged_divergence(si, sj, ni, nj, x, y, vx, vy, body[B_VEL], aperture_x, aperture_y, open_frac)
             div_override[si, sj] = d
             div_override[ni, nj] = d
         update_stress(x, y, phi, q, vx, vy, dt, par[P_G], par[P_K], par[P_SU0], par[P_KS], axisym,
