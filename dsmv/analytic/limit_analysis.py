@@ -9,12 +9,13 @@ every edge, so a fan of discontinuities can open at the footing's corner.
   every interior edge at both its ends;
 - Tresca at every corner as the exact cone √((σxx − σzz)² + (2·τxz)²) ≤ 2·su: a linear field
   that meets it at the corners meets it everywhere in the triangle (the set is convex);
-- free surface: no traction; footing base and walls: no tension, and no shear if smooth (a rough
-  face carries any shear Tresca allows, and a wall's shear counts in the load); symmetry axis:
-  no shear;
-- beyond the mesh the field continues as constant states, (σxx, σzz) = (a, 0) right of it and
-  (a, b) below it, with |a| ≤ 2·su and |a − b| ≤ 2·su: admissible in the whole half-space, so the
-  bound holds for the half-space, not only for the truncated mesh.
+- free surface: no traction; footing base and walls: no tension unless bonded, and no shear if
+  smooth (a rough face carries any shear Tresca allows, and a wall's shear counts in the load);
+  symmetry axis: no shear;
+- beyond the mesh the field continues as constant states: (σxx, σzz, τxz) = (a, 0, 0) for every
+  x > L at any depth, and (a, b, 0) below the mesh for 0 < x < L, with |a| ≤ 2·su and
+  |a − b| ≤ 2·su. Every interface, the surface and the axis then check out, so the bound holds
+  for the half-space, not only for the truncated mesh.
 
 **Upper bound** (kinematically admissible velocity; Makrodimopoulos & Martin 2007, *Int. J.
 Numer. Anal. Meth. Geomech.* 31(6)): the velocity is quadratic and continuous over 6-node
@@ -24,11 +25,20 @@ triangles, so the strain rate is linear in each.
   triangle is at most the area times its mean over the corners: charging that mean over-counts
   the dissipation, and the bound stays an upper one;
 - the footing moves down at unit speed; the soil under a rough base sticks to it, under a smooth
-  base it slides freely; a rough wall drags the soil with it, a smooth wall lets it slide or part;
-  symmetry axis: no horizontal velocity; far boundaries: at rest.
+  base it slides freely; a rough wall drags the soil with it, a smooth wall lets it slide and,
+  unless bonded, part; symmetry axis: no horizontal velocity; far boundaries: at rest.
+
+`bonded` ties the soil to the faces along their normal (no tension cut-off), as dsmv's CEL
+contact does; without it the soil may part from them, as real contact allows.
 
 Any admissible field bounds the collapse load, optimal or not: a bound is reported whenever the
-solver's field meets its constraints to within FEASIBILITY_TOL (relative), whatever its status.
+solver's field meets its constraints to within FEASIBILITY_TOL, whatever its status. The bounds
+are rigorous to that tolerance (a field off equilibrium or incompressibility by 1e-6 is not
+strictly admissible), which moves q/su by far less than the digits reported.
+
+The rough lower bound forbids tension on the faces, the rough upper bound bonds the soil to them:
+the bracket holds for bonded rough faces (a no-tension stress field is admissible there too),
+not for rough faces that can open a gap.
 
 Units: lengths in B (the strip's width), stresses in su; the factor is independent of both.
 ``python -m dsmv.analytic.limit_analysis --help`` prints a bracket from the command line.
@@ -43,8 +53,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-#: the largest constraint violation of a field still reported as a bound, relative to the field's
-#: own scale (su for stresses; the footing's speed for velocities)
+#: the largest constraint violation (absolute, in su or in the footing's speed, rows as built)
+#: of a field still reported as a bound
 FEASIBILITY_TOL = 1e-6
 #: how far Prandtl's mechanism reaches from the footing's corner: its passive wedge spans B beside
 #: the strip, its fan B/√2 below the base; the mesh keeps its zone cells out to here (B)
@@ -229,9 +239,11 @@ class _ConeProgram:
         return x, violation, solve_s
 
 
-def strip_lower_bound(depth_over_width: float = 0.0, rough: bool = True, **mesh_options) -> Bound:
+def strip_lower_bound(depth_over_width: float = 0.0, rough: bool = True, bonded: bool = False,
+                      **mesh_options) -> Bound:
     """Lower bound on q/su of a strip, base at depth_over_width·B below the surface; `rough`: base
-    and walls take shear (up to su), else neither does. mesh_options go to :func:`strip_mesh`."""
+    and walls take shear (up to su), else neither does; `bonded`: they take tension too.
+    mesh_options go to :func:`strip_mesh`."""
     mesh = strip_mesh(_checked_depth(depth_over_width), **mesh_options)
     n_tri = len(mesh.triangles)
     sxx, szz, txz = 0, 1, 2
@@ -277,8 +289,9 @@ def strip_lower_bound(depth_over_width: float = 0.0, rough: bool = True, **mesh_
                 program.add("eq", [(var(t, c, szz), 1.0)])
             if kind in ("axis", "far", "surface") or (kind in ("base", "wall") and not rough):
                 program.add("eq", [(var(t, c, shear), 1.0)])
-            if kind in ("base", "wall"):  # no tension; the soil holds the footing up
-                program.add("le", [(var(t, c, normal_stress), 1.0)])
+            if kind in ("base", "wall"):  # the soil holds the footing up
+                if not bonded:  # no tension
+                    program.add("le", [(var(t, c, normal_stress), 1.0)])
                 program.objective[var(t, c, normal_stress if kind == "base" else txz)] += \
                     0.5 * length / HALF_WIDTH * (1.0 if kind == "base" else -1.0)
             if kind == "far":
@@ -300,9 +313,11 @@ def strip_lower_bound(depth_over_width: float = 0.0, rough: bool = True, **mesh_
     return Bound("lower", float(-program.objective @ stress), n_tri, program.n_var, solve_s, violation)
 
 
-def strip_upper_bound(depth_over_width: float = 0.0, rough: bool = True, **mesh_options) -> Bound:
+def strip_upper_bound(depth_over_width: float = 0.0, rough: bool = True, bonded: bool = False,
+                      **mesh_options) -> Bound:
     """Upper bound on q/su of a strip, base at depth_over_width·B below the surface; `rough`: the
-    soil sticks to base and walls, else it slides along them. mesh_options go to :func:`strip_mesh`."""
+    soil sticks to base and walls, else it slides along them; `bonded`: it cannot part from a wall.
+    mesh_options go to :func:`strip_mesh`."""
     mesh = strip_mesh(_checked_depth(depth_over_width), **mesh_options)
     n_tri = len(mesh.triangles)
     edges = mesh.edges()
@@ -359,8 +374,14 @@ def strip_upper_bound(depth_over_width: float = 0.0, rough: bool = True, **mesh_
                 if rough:
                     program.add("eq", [(ux(node), 1.0)])
                     program.add("eq", [(uz(node), 1.0)], rhs=-1.0)
-                else:  # the soil slides along it, or parts from it, but cannot enter it
+                elif bonded:  # the soil slides along it
+                    program.add("eq", [(ux(node), 1.0)])
+                elif node != midside[(p, q)]:  # the soil may slide along it, or part, but not enter
                     program.add("le", [(ux(node), -1.0)])
+        if kind == "wall" and not rough and not bonded:
+            # ux ≥ 0 at the nodes would let the quadratic dip between them; ux ≥ 0 at the ends and
+            # its Bernstein control value 2·u_mid − (u_p + u_q)/2 ≥ 0 keep it ≥ 0 all along
+            program.add("le", [(ux(midside[(p, q)]), -2.0), (ux(p), 0.5), (ux(q), 0.5)])
     x, violation, solve_s = program.solve()
     return Bound("upper", float(program.objective @ x), n_tri, program.n_var, solve_s, violation)
 
@@ -376,13 +397,14 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(prog="python -m dsmv.analytic.limit_analysis", description=main.__doc__)
     parser.add_argument("--depth", type=float, default=0.0, help="the base's depth below the surface, in B (default 0)")
     parser.add_argument("--roughness", choices=("rough", "smooth"), default="rough")
+    parser.add_argument("--bonded", action="store_true", help="the soil cannot part from base and walls (as in dsmv's CEL)")
     parser.add_argument("--corner-size", type=float, default=0.01, help="cells at the base corner, in B")
     parser.add_argument("--growth", type=float, default=1.2, help="size ratio of neighbouring cells")
     parser.add_argument("--zone-size", type=float, default=0.05, help="largest cells over the mechanism, in B")
     args = parser.parse_args(argv)
     mesh_options = dict(corner_size=args.corner_size, growth=args.growth, zone_size=args.zone_size)
     for bound in (strip_lower_bound, strip_upper_bound):
-        result = bound(args.depth, args.roughness == "rough", **mesh_options)
+        result = bound(args.depth, args.roughness == "rough", args.bonded, **mesh_options)
         print(f"{result.kind:5s} bound  q/su = {result.bearing_factor:.4f}   ({result.n_triangles} triangles, "
               f"{result.solve_s:.1f} s, constraints met to {result.max_violation:.1e})", flush=True)
 
