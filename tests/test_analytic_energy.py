@@ -12,6 +12,12 @@ from dsmv.scene import build_scene
 G = 9.81
 
 
+@pytest.fixture
+def compose_cfg(compose_cfg):
+    """The scene as the energy method sees it (the default solver is cel2d)."""
+    return lambda overrides=(): compose_cfg(["solver=analytic_energy", *overrides])
+
+
 def hand_sinkage(m, v, n, B, L, su0, ks, nc=2 + math.pi):
     """Textbook quadratic formula for ½Mv² + Wz = Nc·sc·A·(su0·z + ½ks·z²), sc = 1 + 0.2B/L."""
     A, sc = B * L, 1 + 0.2 * B / L

@@ -21,11 +21,11 @@ def job_dirs(root: Path) -> list[Path]:
 def test_single_run_writes_the_contract_and_one_finished_mlflow_run(run_cli, tmp_path):
     proc = run_cli("dsmv")
     assert proc.returncode == 0, proc.stderr
-    assert "dsmv: ok — max sinkage 0.2100 m" in proc.stdout
+    assert "dsmv: ok — max sinkage 0.1220 m" in proc.stdout  # the default solver, cel2d (README)
     (job,) = job_dirs(tmp_path)
     result = json.loads((job / "result.json").read_text())
     assert set(result) == RESULT_KEYS
-    assert result["status"] == "ok" and result["soil_law"] == "tresca" and result["solver"] == "analytic_energy"
+    assert result["status"] == "ok" and result["soil_law"] == "tresca" and result["solver"] == "cel2d"
     assert result["units"]["max_sinkage_m"] == "m"
     header = (job / "history.csv").read_text().splitlines()[0]
     assert header == ",".join(HISTORY_COLUMNS)

@@ -76,7 +76,7 @@ def test_a_landing_with_fields_writes_a_paraview_series_and_contours(run_cli, tm
     assert len(logged_frames) == len(frames)
 
 
-@pytest.mark.parametrize("overrides", [["solver=cel2d", "solver.progress=off"], ["output.fields=true"]],
+@pytest.mark.parametrize("overrides", [["solver=cel2d", "solver.progress=off"], ["solver=analytic_energy", "output.fields=true"]],
                          ids=["cel2d_default", "analytic"])
 def test_no_fields_by_default_nor_from_a_solver_without_them(compose_cfg, tmp_path, overrides):
     from dsmv.runner import write_outputs
