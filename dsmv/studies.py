@@ -269,13 +269,14 @@ def bearing_curves(sweep_dir: Path, path: Path) -> Path | None:
     """q/su against travel/B for each push of a sweep, with the truths it is checked against.
 
     q is the soil's force over the body's width times its length, B·L (a T-bar: D·L), and su its
-    ``soil.su0_pa``. A strip is drawn with Prandtl's 2 + π and the upper bounds of the same strip
+    ``soil.su0_pa``. A strip is drawn with Prandtl's 2 + π, the upper bounds of the same strip
     wished in place at depth s (:func:`~dsmv.analytic.bearing.embedded_strip_upper_bound`: the
-    embedment alone, no heave); a T-bar with its exact deep factor. Writes ``bearing_curves.csv``
+    embedment alone, no heave) and, at s = 0.05 B, the bracket the limit analysis puts on the true
+    factor; a T-bar with its exact deep factor. Writes ``bearing_curves.csv``
     (each job's roughness, cell size, push speed, q/su at its last sample ``nc_end``, its ``nc_*``
     metrics and wall time) and the PNG. Jobs that are not pushes of a strip or a T-bar are left out.
     """
-    from dsmv.analytic.bearing import PRANDTL_NC, TBAR_NC, embedded_strip_upper_bound
+    from dsmv.analytic.bearing import PRANDTL_NC, STRIP_LOWER_BOUND_AT_0P05B, TBAR_NC, embedded_strip_upper_bound
 
     curves, rows = [], []
     for job in sweep_jobs(sweep_dir):
@@ -311,6 +312,11 @@ def bearing_curves(sweep_dir: Path, path: Path) -> Path | None:
         for rough, style in ((True, "--"), (False, ":")):
             ax.plot(s, [embedded_strip_upper_bound(d, rough) for d in s], "k" + style, lw=1,
                     label=f"upper bound, wished in place at s, {'rough' if rough else 'smooth'} walls")
+        for offset, (roughness, lower) in enumerate(STRIP_LOWER_BOUND_AT_0P05B.items()):
+            upper = embedded_strip_upper_bound(0.05, roughness == "rough")
+            ax.errorbar(0.05 + 0.02 * (offset - 0.5) * travel_max, 0.5 * (lower + upper), yerr=0.5 * (upper - lower),
+                        fmt="none", ecolor=("k", "0.5")[offset], elinewidth=2, capsize=3,
+                        label=f"{roughness}, soil tied to the walls: the true factor at 0.05 B ({lower}–{upper:.3f})")
     if "tbar" in kinds:
         for roughness in sorted({c[1] for c in curves} & set(TBAR_NC)):
             ax.axhline(TBAR_NC[roughness], color="k", lw=1, ls="--" if roughness == "rough" else ":",

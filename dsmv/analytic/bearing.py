@@ -25,6 +25,13 @@ PRANDTL_NC = 2.0 + math.pi  # Prandtl (1920): rigid strip on the surface of weig
 #: a deeply embedded cylinder (T-bar) in weightless Tresca soil, full flow round it: Randolph &
 #: Houlsby (1984) for the rough one, Martin & Randolph (2006) for the smooth one (exact)
 TBAR_NC = {"rough": 11.94, "smooth": 9.20}
+#: rigorous lower bounds on q/su of a strip wished in place 0.05 B deep, its soil tied to the walls
+#: along their normal as dsmv's CEL contact ties it: dsmv.analytic.limit_analysis on its finest
+#: mesh, ``python -m dsmv.analytic.limit_analysis --depth 0.05 --roughness rough`` (the rough bound
+#: forbids tension, so it holds for the tied wall too) and ``--roughness smooth --bonded``, each
+#: with ``--corner-size 0.005 --growth 1.15 --zone-size 0.025`` (2–3 min; `pytest -m slow
+#: tests/test_limit_analysis.py` recomputes them)
+STRIP_LOWER_BOUND_AT_0P05B = {"rough": 5.357, "smooth": 5.296}
 
 
 def embedded_strip_upper_bound(depth_over_width: float, rough_walls: bool) -> float:
