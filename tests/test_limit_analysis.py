@@ -1,8 +1,10 @@
 """Finite-element limit analysis: the bounds bracket Prandtl's exact 2 + π, and embedment raises
 the strip's collapse load above it (dsmv.analytic.limit_analysis)."""
 
+import numpy as np
 import pytest
 
+from dsmv.analytic import limit_analysis
 from dsmv.analytic.bearing import PRANDTL_NC, STRIP_LOWER_BOUND_AT_0P05B, embedded_strip_upper_bound
 from dsmv.analytic.limit_analysis import main, strip_lower_bound, strip_mesh, strip_upper_bound
 
@@ -36,6 +38,16 @@ def test_mesh_covers_the_domain_without_the_footing():
     twice_area = (x[:, 1] - x[:, 0]) * (z[:, 2] - z[:, 0]) - (x[:, 2] - x[:, 0]) * (z[:, 1] - z[:, 0])
     assert (twice_area > 0).all()  # counter-clockwise, none degenerate
     assert 0.5 * twice_area.sum() == pytest.approx(extent * extent - 0.5 * depth, rel=1e-12)
+
+
+@pytest.mark.parametrize("depth", [0.0, 0.2])
+def test_lower_bound_equalities_are_independent(depth):
+    """An interior solver needs independent equalities: one traction condition per cell centre is
+    implied by the other seven and must be dropped (limit_analysis._lower_bound_program); the rest,
+    with the boundary and far-field rows, keep full row rank."""
+    mesh = strip_mesh(depth, 2.0, corner_size=0.25, growth=1.6, zone_size=0.5, coarse_size=1.0)
+    equalities, _ = limit_analysis._lower_bound_program(mesh, rough=True, bonded=False).matrix("eq")
+    assert np.linalg.matrix_rank(equalities.toarray()) == equalities.shape[0]
 
 
 def test_negative_depth_is_refused_with_what_is_allowed():

@@ -184,7 +184,8 @@ class _ConeProgram:
         """n cones (t, u, w): each argument a list of (cols (n,), values (n,)); t adds t_constant."""
         self._cones.append((t_terms, u_terms, w_terms, t_constant))
 
-    def _matrix(self, kind):
+    def matrix(self, kind: str):
+        """The rows of one kind ("eq" or "le") as a sparse matrix, and their right-hand sides."""
         rows, cols, vals, rhss = self._blocks[kind]
         if not rows:
             return sp.csr_matrix((0, self.n_var)), np.zeros(0)
@@ -196,8 +197,8 @@ class _ConeProgram:
         """Returns (x, max relative violation, solve time s)."""
         import clarabel  # the cone solver is needed only here
 
-        a_eq, b_eq = self._matrix("eq")
-        a_le, b_le = self._matrix("le")
+        a_eq, b_eq = self.matrix("eq")
+        a_le, b_le = self.matrix("le")
         cone_rows, cone_cols, cone_vals, cone_rhs = [], [], [], []
         n_cone_rows = 0
         for t_terms, u_terms, w_terms, t_constant in self._cones:
@@ -245,6 +246,14 @@ def strip_lower_bound(depth_over_width: float = 0.0, rough: bool = True, bonded:
     and walls take shear (up to su), else neither does; `bonded`: they take tension too.
     mesh_options go to :func:`strip_mesh`."""
     mesh = strip_mesh(_checked_depth(depth_over_width), **mesh_options)
+    program = _lower_bound_program(mesh, rough, bonded)
+    # base: minimise Σ σzz (compression is negative); wall: maximise the soil's upward shear τ
+    stress, violation, solve_s = program.solve()
+    return Bound("lower", float(-program.objective @ stress), len(mesh.triangles), program.n_var, solve_s, violation)
+
+
+def _lower_bound_program(mesh: Mesh, rough: bool, bonded: bool) -> _ConeProgram:
+    """The lower bound's cone programme on `mesh` (see the module's docstring)."""
     n_tri = len(mesh.triangles)
     sxx, szz, txz = 0, 1, 2
 
@@ -308,9 +317,7 @@ def strip_lower_bound(depth_over_width: float = 0.0, rough: bool = True, bonded:
     for terms in ([(var_a, 1.0)], [(var_a, -1.0)], [(var_a, 1.0), (var_b, -1.0)], [(var_a, -1.0), (var_b, 1.0)]):
         program.add("le", terms, rhs=2.0)
 
-    # base: minimise Σ σzz (compression is negative); wall: maximise the soil's upward shear τ
-    stress, violation, solve_s = program.solve()
-    return Bound("lower", float(-program.objective @ stress), n_tri, program.n_var, solve_s, violation)
+    return program
 
 
 def strip_upper_bound(depth_over_width: float = 0.0, rough: bool = True, bonded: bool = False,
