@@ -68,6 +68,9 @@ class Cel2DConfig(Schema):
     )
     stress_cutoff: Number = Field(0.01, ge=0, lt=1, description="cells with less soil carry no stress (-)")
     remap: bool = Field(True, description="false: small-strain analysis on the undeformed grid (verification)")
+    contact_separation: bool = Field(False, description=(
+        "true: a smooth face lets go of the soil that would pull away from it (no tension); "
+        "false: the soil stays tied to it along its normal"))
     # at most 0.25: next to the axis of an axisymmetric model a cell's volume Courant number is
     # about twice the travel over h
     remap_courant: Number = Field(0.05, ge=0, le=0.25, description=(
@@ -219,7 +222,7 @@ class Cel2DSolver:
         A node of a body cell is tied fully (moves with the body) when the contact is rough, the
         node is inside, or the body is curved (its contact law lives in the interface layer, see
         :meth:`strength_factors`); on a smooth flat face only its normal velocity is tied, n
-        being the face normal. With limited adhesion (roughness α in (0, 1), flat faces) the normally
+        being the face normal, pointing into the soil. With limited adhesion (roughness α in (0, 1), flat faces) the normally
         tied nodes also carry ``tie_cap`` = α × their share of the face (m per unit thickness,
         m²/rad axisymmetric): the stepper lets the face pull them along by up to tie_cap·su.
         Returns (solid, tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap).
@@ -276,7 +279,7 @@ class Cel2DSolver:
             xs, ys = grid.x[tie_i], grid.y[tie_j]
             on_base = (tie_j == j_base) & (xs < 0.5 * B - 1e-12)
             on_side = (tie_j > j_base) & np.isclose(xs, 0.5 * B) & ~inside
-            ny_[on_base] = 1.0
+            ny_[on_base] = -1.0  # normals point into the soil (a tie that may let go needs the side)
             nx_[on_side] = 1.0
             tie_full = ~(on_base | on_side)
             if alpha > 0.0:  # each node's share of the base (x) or of the wall (y)
@@ -416,7 +419,7 @@ class Cel2DSolver:
         ipar = stepper_flags(
             axisym=self.axisym, advection_order=cfg.advection_order, drop=drop, bottom_inflow=True,
             remap=cfg.remap, law_active=self.law.active or not cfg.economies.skip_inactive_law,
-            skip_void=cfg.economies.skip_void,
+            skip_void=cfg.economies.skip_void, separate=cfg.contact_separation,
             exact_tresca=cfg.yield_surface == "tresca" or (cfg.yield_surface == "auto" and self.axisym),
         )
         law_fn, law_params, law_evolve = self.law.compiled(), self.law.packed(), self.law.compiled_evolve()

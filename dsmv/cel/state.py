@@ -76,10 +76,12 @@ def stepper_parameters(*, dt, density, elastic: Elastic, h, gravity, su0, ks, ho
     return par
 
 
-def stepper_flags(*, axisym, advection_order, drop, bottom_inflow, remap, exact_tresca, law_active, skip_void=True):
+def stepper_flags(*, axisym, advection_order, drop, bottom_inflow, remap, exact_tresca, law_active, skip_void=True,
+                  separate=False):
     """The integer switches of :func:`dsmv.cel.stepper.run_steps`, packed in its order."""
     flags = np.zeros(S.N_IPAR, dtype=np.int64)
     flags[S.I_AXISYM], flags[S.I_ORDER], flags[S.I_DROP] = int(axisym), advection_order, int(drop)
     flags[S.I_INFLOW], flags[S.I_REMAP] = int(bottom_inflow), int(remap)
     flags[S.I_TRESCA], flags[S.I_LAW], flags[S.I_SKIP_VOID] = int(exact_tresca), int(law_active), int(skip_void)
+    flags[S.I_SEPARATE] = int(separate)
     return flags

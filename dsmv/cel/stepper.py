@@ -19,7 +19,7 @@ from numba import njit
 
 # Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
 # kernels it inlined until this file changes. After changing a kernel, bump this revision
-# (or clear the Numba cache). Kernel revision: 13 (cut_flux: one home for a cut cell's open-face flux).
+# (or clear the Numba cache). Kernel revision: 14 (contact separation: a normal tie may let go).
 from dsmv.cel.kernels import (
     JIT,
     advect_cells,
@@ -38,8 +38,9 @@ from dsmv.cel.kernels import (
  P_PUSH_V, P_K0, P_PHI_STRESS, P_REMAP_DISP) = range(19)
 N_PAR = 19
 # integer parameters
-I_AXISYM, I_ORDER, I_DROP, I_INFLOW, I_REMAP, I_TRESCA, I_LAW, I_SKIP_VOID = range(8)
-N_IPAR = 8
+# I_SEPARATE: a normally tied node lets go when the soil would pull away from the face (no tension)
+I_AXISYM, I_ORDER, I_DROP, I_INFLOW, I_REMAP, I_TRESCA, I_LAW, I_SKIP_VOID, I_SEPARATE = range(9)
+N_IPAR = 9
 # body state (mutable floats)
 # B_FRICTION: the adhesive ties' pull on the body in the last step (N, up +), applied in the next;
 # B_REMAP_OFFSET: the body's offset at the last remap (m); B_REMAPS: remaps done
@@ -100,6 +101,8 @@ def run_steps(
     stress_out = np.zeros(1)
     audit = np.zeros(2)
     n_tied = len(tie_i)
+    separate = ipar[I_SEPARATE] == 1
+    holding = np.ones(n_tied, dtype=np.bool_)  # every tie holds unless the soil may part from the faces
     # a merged sliver and its neighbour are marked here (their common strain rate is set before each stress update)
     div_override = np.full(phi.shape, np.nan)
     for k in range(merge.shape[0]):
@@ -118,8 +121,20 @@ def run_steps(
         # with the body, a normally tied one (smooth contact) only along its normal n
         soil_on_nodes = body[B_FRICTION] + work[2]  # the adhesive pull of the last step, the cut cells' arcs
         tied_mass = 0.0
+        if separate:  # which normal ties hold this step: those the soil would otherwise cross
+            v_body_next = body[B_VEL] if drop else -par[P_PUSH_V]
+            for k in range(n_tied):
+                i, j = tie_i[k], tie_j[k]
+                m = mass[i, j]
+                if tie_full[k] or m <= par[P_MFLOOR]:
+                    holding[k] = True
+                    continue
+                vn_free = (vx[i, j] + dt * fx[i, j] / m) * tie_nx[k] + (vy[i, j] + dt * (fy[i, j] / m - grav)) * tie_ny[k]
+                holding[k] = vn_free <= v_body_next * tie_ny[k]
         for k in range(n_tied):
             i, j = tie_i[k], tie_j[k]
+            if not holding[k]:
+                continue
             if tie_full[k]:
                 soil_on_nodes += fy[i, j] - mass[i, j] * grav
                 tied_mass += mass[i, j]
@@ -153,6 +168,8 @@ def run_steps(
             vy[i, 0] = 0.0
         for k in range(n_tied):
             i, j = tie_i[k], tie_j[k]
+            if not holding[k]:
+                continue
             vy_free = vy[i, j]
             if tie_full[k]:
                 vx[i, j] = 0.0
@@ -164,7 +181,7 @@ def run_steps(
             momentum_after += mass[i, j] * (vy[i, j] - vy_free)
         friction = 0.0
         for k in range(n_tied):
-            if tie_full[k] or tie_cap[k] <= 0.0:
+            if tie_full[k] or tie_cap[k] <= 0.0 or not holding[k]:
                 continue
             i, j = tie_i[k], tie_j[k]
             m = mass[i, j]
