@@ -174,6 +174,13 @@ class Cel2DSolver:
                                                                    "(a smooth staircase cone needs cut cells)")
         if body.kind == "cone" and cfg.mode == "plane_strain":
             raise ConfigError("solver.mode", cfg.mode, "a cone is axisymmetric: 'auto' or 'axisymmetric'")
+        normal_ties = (flat and body.adhesion_factor < 1.0) or (
+            body.kind == "tbar" and body.adhesion_factor == 0.0 and cfg.mode != "axisymmetric")
+        if cfg.contact_separation and not normal_ties:
+            raise ConfigError("solver.contact_separation", True,
+                              "separation acts on faces tied along their normal: a smooth or limited-adhesion "
+                              "flat face (strip, track cross-section) or a smooth T-bar in plane strain; "
+                              "this body's contact is tied fully")
 
     def __init__(self, scene: Scene):
         self.check_scene(scene)
