@@ -50,9 +50,13 @@ def test_lower_bound_equalities_are_independent(depth):
     assert np.linalg.matrix_rank(equalities.toarray()) == equalities.shape[0]
 
 
-def test_negative_depth_is_refused_with_what_is_allowed():
+def test_negative_depth_is_refused_with_what_is_allowed(capsys):
     with pytest.raises(ValueError, match="must be ≥ 0"):
         strip_lower_bound(-0.1)
+    with pytest.raises(SystemExit) as exit_info:  # the command line: a usage error, not a traceback
+        main(["--depth", "-1"])
+    assert exit_info.value.code == 2
+    assert "--depth -1.0: allowed are a depth ≥ 0" in capsys.readouterr().err
 
 
 def test_command_line_prints_a_bracket(capsys):

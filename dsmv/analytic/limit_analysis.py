@@ -409,6 +409,13 @@ def main(argv=None) -> None:
     parser.add_argument("--growth", type=float, default=1.2, help="size ratio of neighbouring cells")
     parser.add_argument("--zone-size", type=float, default=0.05, help="largest cells over the mechanism, in B")
     args = parser.parse_args(argv)
+    for name, value, allowed in (("--depth", args.depth, args.depth >= 0.0),
+                                 ("--corner-size", args.corner_size, args.corner_size > 0.0),
+                                 ("--growth", args.growth, args.growth >= 1.0),
+                                 ("--zone-size", args.zone_size, args.zone_size >= args.corner_size)):
+        if not allowed:
+            parser.error(f"{name} {value}: allowed are a depth ≥ 0, a corner size > 0, a growth ≥ 1 "
+                         "and a zone size ≥ the corner size (lengths in B)")
     mesh_options = dict(corner_size=args.corner_size, growth=args.growth, zone_size=args.zone_size)
     for bound in (strip_lower_bound, strip_upper_bound):
         result = bound(args.depth, args.roughness == "rough", args.bonded, **mesh_options)
