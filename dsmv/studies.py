@@ -271,8 +271,8 @@ def bearing_curves(sweep_dir: Path, path: Path) -> Path | None:
     q is the soil's force over the body's width times its length, B·L (a T-bar: D·L), and su its
     ``soil.su0_pa``. A strip is drawn with Prandtl's 2 + π, the upper bounds of the same strip
     wished in place at depth s (:func:`~dsmv.analytic.bearing.embedded_strip_upper_bound`: the
-    embedment alone, no heave) and, at s = 0.05 B, the bracket the limit analysis puts on the true
-    factor; a T-bar with its exact deep factor. Writes ``bearing_curves.csv``
+    embedment alone, no heave) and, at s = 0.05 B, the limit analysis's bracket on the same strip
+    wished in place with the soil tied to its walls; a T-bar with its exact deep factor. Writes ``bearing_curves.csv``
     (each job's roughness, cell size, push speed, q/su at its last sample ``nc_end``, its ``nc_*``
     metrics and wall time) and the PNG. Jobs that are not pushes of a strip or a T-bar are left out.
     """
@@ -316,7 +316,7 @@ def bearing_curves(sweep_dir: Path, path: Path) -> Path | None:
             upper = embedded_strip_upper_bound(0.05, roughness == "rough")
             ax.errorbar(0.05 + 0.02 * (offset - 0.5) * travel_max, 0.5 * (lower + upper), yerr=0.5 * (upper - lower),
                         fmt="none", ecolor=("k", "0.5")[offset], elinewidth=2, capsize=3,
-                        label=f"{roughness}, soil tied to the walls: the true factor at 0.05 B ({lower}–{upper:.3f})")
+                        label=f"{roughness}, wished in place 0.05 B deep, soil tied to the walls: {lower}–{upper:.3f}")
     if "tbar" in kinds:
         for roughness in sorted({c[1] for c in curves} & set(TBAR_NC)):
             ax.axhline(TBAR_NC[roughness], color="k", lw=1, ls="--" if roughness == "rough" else ":",

@@ -300,8 +300,8 @@ def test_hourglass_control_damps_the_zigzag_the_diagnostic_measures(compose_cfg)
 
 def test_contact_separation_lets_the_soil_part_from_a_smooth_wall(compose_cfg):
     """A strip pushed 0.06 B into weightless soil, smooth, B/40. Limit analysis (README, "How much
-    0.05 B of embedment adds") puts its true factor at 0.05 B in [5.296, 5.332] with the soil tied
-    to the walls and in [5.221, 5.268] when the soil may part from them. With
+    0.05 B of embedment adds") puts the factor of this strip wished in place 0.05 B deep in
+    [5.296, 5.332] with the soil tied to the walls and in [5.221, 5.268] when it may part from them. With
     solver.contact_separation the ties let go where the soil pulls away: the factor must drop (by
     0.048 at this mesh), with the energy audit still closed and the mass kept."""
     push = STRIP + ["geometry.roughness=smooth", "mesh.cell_size_m=0.025", "landing.displacement_m=0.06"]

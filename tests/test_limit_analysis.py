@@ -31,13 +31,16 @@ def test_embedment_raises_the_rough_strips_lower_bound_above_prandtl():
     assert PRANDTL_NC < lower.bearing_factor <= embedded_strip_upper_bound(0.05, rough_walls=True)
 
 
-def test_mesh_covers_the_domain_without_the_footing():
+@pytest.mark.parametrize("gap", [0.0, 0.05])
+def test_mesh_covers_the_domain_without_the_footing(gap):
     depth, extent = 0.05, 3.0
-    mesh = strip_mesh(depth, extent, **COARSE)
+    mesh = strip_mesh(depth, extent, gap=gap, **COARSE)
     x, z = mesh.points[mesh.triangles][..., 0], mesh.points[mesh.triangles][..., 1]
     twice_area = (x[:, 1] - x[:, 0]) * (z[:, 2] - z[:, 0]) - (x[:, 2] - x[:, 0]) * (z[:, 1] - z[:, 0])
     assert (twice_area > 0).all()  # counter-clockwise, none degenerate
-    assert 0.5 * twice_area.sum() == pytest.approx(extent * extent - 0.5 * depth, rel=1e-12)
+    assert 0.5 * twice_area.sum() == pytest.approx(extent * extent - (0.5 + gap) * depth, rel=1e-12)
+    kinds = {mesh.boundary_kind(p, q) for (p, q), owners in mesh.edges().items() if len(owners) == 1}
+    assert kinds == ({"axis", "far", "surface", "base"} | ({"wall"} if gap == 0.0 else set()))
 
 
 @pytest.mark.parametrize("depth", [0.0, 0.2])
@@ -61,7 +64,8 @@ def test_negative_depth_is_refused_with_what_is_allowed(capsys):
 
 def test_command_line_prints_a_bracket(capsys):
     main(["--depth", "0", "--roughness", "smooth", "--corner-size", "0.1", "--growth", "1.6", "--zone-size", "0.2"])
-    lines = capsys.readouterr().out.splitlines()
+    header, *lines = capsys.readouterr().out.splitlines()
+    assert header.startswith("q/su of a strip whose base lies 0 B deep, smooth")
     assert lines[0].startswith("lower bound  q/su = ") and lines[1].startswith("upper bound  q/su = ")
     lower, upper = (float(line.split("= ")[1].split()[0]) for line in lines)
     assert lower <= PRANDTL_NC <= upper
@@ -77,7 +81,7 @@ def test_a_bonded_wall_costs_the_mechanism_more_than_one_the_soil_may_leave():
 
 @pytest.mark.slow
 @pytest.mark.parametrize("roughness,bonded", [("rough", False), ("smooth", True)])
-def test_strip_at_0p05B_carries_more_than_the_acceptance_lines(roughness, bonded):
+def test_strip_wished_in_place_0p05B_deep_carries_more_than_the_acceptance_lines(roughness, bonded):
     """The README's headline (2–3 min each): the strip wished in place 0.05 B deep, its soil tied to
     the walls as in the CEL (the rough bound forbids tension, so it covers the tied wall too), has
     rigorous lower bounds of 5.357 (rough) and 5.296 (smooth): above #3's 2.5 % line (5.271), and

@@ -83,6 +83,7 @@ class Mesh:
     n_grid_points: int  #: the grid's points come first, the cell centres after them
     depth: float  #: the base's depth d (B)
     extent: float  #: the domain's half-width and depth L (B)
+    gap: float = 0.0  #: width of a soil-free slot beside the wall, down to the base (B)
 
     def gradients(self):
         """Twice the area (m,) and the linear shape functions' gradients ∂N/∂x, ∂N/∂z (m, 3)."""
@@ -103,14 +104,16 @@ class Mesh:
         return owners
 
     def boundary_kind(self, p: int, q: int) -> str:
-        """Which boundary the edge p–q lies on: axis, far, surface, base or wall."""
+        """Which boundary the edge p–q lies on: axis, far, surface (free, also a slot's), base or wall."""
         (xp, zp), (xq, zq) = self.points[p], self.points[q]
         x_mid, z_mid = 0.5 * (xp + xq), 0.5 * (zp + zq)
         tol = 1e-9
         if abs(xq - xp) < tol:  # vertical
             if x_mid < tol:
                 return "axis"
-            return "far" if x_mid > self.extent - tol else "wall"
+            if x_mid > self.extent - tol:
+                return "far"
+            return "wall" if abs(x_mid - HALF_WIDTH) < tol else "surface"
         if z_mid < -self.extent + tol:
             return "far"
         return "surface" if x_mid > HALF_WIDTH else "base"
@@ -133,11 +136,12 @@ def _graded(start: float, stop: float, fine_size: float, growth: float, zone_siz
 
 
 def strip_mesh(depth: float, extent: float = 3.0, corner_size: float = 0.01, growth: float = 1.2,
-               zone_size: float = 0.05, coarse_size: float = 0.5) -> Mesh:
+               zone_size: float = 0.05, coarse_size: float = 0.5, gap: float = 0.0) -> Mesh:
     """A rectilinear grid graded towards the base corner (1/2, -d), its cells no larger than
     zone_size over Prandtl's mechanism (out to MECHANISM_REACH from the corner), each cell split
-    into four triangles at its centre. Sizes in B."""
-    xs = np.unique(np.concatenate([
+    into four triangles at its centre; `gap` leaves a soil-free slot of that width beside the
+    wall, down to the base. Sizes in B."""
+    xs = np.unique(np.concatenate([[HALF_WIDTH + gap],
         _graded(HALF_WIDTH, 0.0, corner_size, growth, zone_size, HALF_WIDTH, coarse_size),
         _graded(HALF_WIDTH, extent, corner_size, growth, zone_size, MECHANISM_REACH, coarse_size),
     ]))
@@ -148,14 +152,14 @@ def strip_mesh(depth: float, extent: float = 3.0, corner_size: float = 0.01, gro
     nx, nz = len(xs), len(zs)
     grid_index = np.arange(nx * nz).reshape(nz, nx)
     x_mid, z_mid = np.meshgrid(0.5 * (xs[:-1] + xs[1:]), 0.5 * (zs[:-1] + zs[1:]))
-    keep = ~((x_mid < HALF_WIDTH) & (z_mid > -depth))  # not inside the footing
+    keep = ~((x_mid < HALF_WIDTH + gap) & (z_mid > -depth))  # not inside the footing or its slot
     j, i = np.nonzero(keep)
     centres = nx * nz + np.arange(len(i))
     corners = np.stack([grid_index[j, i], grid_index[j, i + 1], grid_index[j + 1, i + 1], grid_index[j + 1, i]], axis=1)
     triangles = np.concatenate([np.stack([corners[:, k], corners[:, (k + 1) % 4], centres], axis=1) for k in range(4)])
     points = np.vstack([np.column_stack([np.tile(xs, nz), np.repeat(zs, nx)]),
                         np.column_stack([x_mid[keep], z_mid[keep]])])
-    return Mesh(points, triangles.astype(np.int64), nx * nz, float(depth), float(extent))
+    return Mesh(points, triangles.astype(np.int64), nx * nz, float(depth), float(extent), float(gap))
 
 
 class _ConeProgram:
@@ -291,11 +295,11 @@ def _lower_bound_program(mesh: Mesh, rough: bool, bonded: bool) -> _ConeProgram:
             continue
         (t, cp, cq), = owners
         kind = mesh.boundary_kind(p, q)
-        vertical = kind in ("axis", "wall") or (kind == "far" and abs(xq - xp) < 1e-9)
+        vertical = abs(xq - xp) < 1e-9
         normal_stress, shear = (sxx, txz) if vertical else (szz, txz)
         for c, (x_end, z_end) in ((cp, (xp, zp)), (cq, (xq, zq))):
             if kind == "surface":
-                program.add("eq", [(var(t, c, szz), 1.0)])
+                program.add("eq", [(var(t, c, normal_stress), 1.0)])
             if kind in ("axis", "far", "surface") or (kind in ("base", "wall") and not rough):
                 program.add("eq", [(var(t, c, shear), 1.0)])
             if kind in ("base", "wall"):  # the soil holds the footing up
@@ -401,22 +405,31 @@ def _checked_depth(depth_over_width: float) -> float:
 
 def main(argv=None) -> None:
     """Print the bracket on q/su for one strip."""
-    parser = argparse.ArgumentParser(prog="python -m dsmv.analytic.limit_analysis", description=main.__doc__)
-    parser.add_argument("--depth", type=float, default=0.0, help="the base's depth below the surface, in B (default 0)")
-    parser.add_argument("--roughness", choices=("rough", "smooth"), default="rough")
+    parser = argparse.ArgumentParser(prog="python -m dsmv.analytic.limit_analysis", description=main.__doc__,
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser.add_argument("--depth", type=float, default=0.0, help="the base's depth below the surface, in B")
+    parser.add_argument("--roughness", choices=("rough", "smooth"), default="rough",
+                        help="rough: base and walls take shear up to su; smooth: none")
     parser.add_argument("--bonded", action="store_true", help="the soil cannot part from base and walls (as in dsmv's CEL)")
     parser.add_argument("--corner-size", type=float, default=0.01, help="cells at the base corner, in B")
     parser.add_argument("--growth", type=float, default=1.2, help="size ratio of neighbouring cells")
     parser.add_argument("--zone-size", type=float, default=0.05, help="largest cells over the mechanism, in B")
+    parser.add_argument("--gap", type=float, default=0.0,
+                        help="width of a soil-free slot beside the wall, down to the base, in B")
     args = parser.parse_args(argv)
     for name, value, allowed in (("--depth", args.depth, args.depth >= 0.0),
                                  ("--corner-size", args.corner_size, args.corner_size > 0.0),
                                  ("--growth", args.growth, args.growth >= 1.0),
-                                 ("--zone-size", args.zone_size, args.zone_size >= args.corner_size)):
+                                 ("--zone-size", args.zone_size, args.zone_size >= args.corner_size),
+                                 ("--gap", args.gap, args.gap >= 0.0)):
         if not allowed:
-            parser.error(f"{name} {value}: allowed are a depth ≥ 0, a corner size > 0, a growth ≥ 1 "
-                         "and a zone size ≥ the corner size (lengths in B)")
-    mesh_options = dict(corner_size=args.corner_size, growth=args.growth, zone_size=args.zone_size)
+            parser.error(f"{name} {value}: allowed are a depth ≥ 0, a corner size > 0, a growth ≥ 1, "
+                         "a zone size ≥ the corner size and a gap ≥ 0 (lengths in B)")
+    mesh_options = dict(corner_size=args.corner_size, growth=args.growth, zone_size=args.zone_size, gap=args.gap)
+    print(f"q/su of a strip whose base lies {args.depth:g} B deep, {args.roughness}"
+          + (", soil bonded to base and walls" if args.bonded else "")
+          + (f", a soil-free slot {args.gap:g} B wide beside the wall" if args.gap > 0 else "")
+          + f"; Prandtl's 2 + π = {2.0 + np.pi:.4f}", flush=True)
     for bound in (strip_lower_bound, strip_upper_bound):
         result = bound(args.depth, args.roughness == "rough", args.bonded, **mesh_options)
         print(f"{result.kind:5s} bound  q/su = {result.bearing_factor:.4f}   ({result.n_triangles} triangles, "

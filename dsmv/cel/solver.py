@@ -180,7 +180,8 @@ class Cel2DSolver:
             raise ConfigError("solver.contact_separation", True,
                               "separation acts on faces tied along their normal: a smooth or limited-adhesion "
                               "flat face (strip, track cross-section) or a smooth T-bar in plane strain; "
-                              "this body's contact is tied fully")
+                              "this body's contact is tied fully (for a strip or a track, set geometry.roughness=smooth "
+                              "or an adhesion factor below 1)")
 
     def __init__(self, scene: Scene):
         self.check_scene(scene)
