@@ -53,6 +53,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from dsmv.analytic.bearing import PRANDTL_NC
+
 #: the largest constraint violation (absolute, in su or in the footing's speed, rows as built)
 #: of a field still reported as a bound
 FEASIBILITY_TOL = 1e-6
@@ -71,19 +73,18 @@ class Bound:
     n_triangles: int
     n_variables: int
     solve_s: float  #: wall time of the cone programme (s)
-    max_violation: float  #: largest relative constraint violation of the solver's field
+    max_violation: float  #: largest constraint violation of the solver's field (FEASIBILITY_TOL's units)
 
 
 @dataclass(frozen=True)
 class Mesh:
-    """Triangles of the half-domain x ∈ [0, L], z ∈ [-L, 0] without the footing (x < 1/2, z > -d)."""
+    """Triangles of the half-domain x ∈ [0, L], z ∈ [-L, 0] without the footing (x < 1/2, z > -d)
+    and the slot beside it, if any."""
 
     points: np.ndarray  #: (n, 2) x, z (B)
     triangles: np.ndarray  #: (m, 3) point indices, counter-clockwise
     n_grid_points: int  #: the grid's points come first, the cell centres after them
-    depth: float  #: the base's depth d (B)
     extent: float  #: the domain's half-width and depth L (B)
-    gap: float = 0.0  #: width of a soil-free slot beside the wall, down to the base (B)
 
     def gradients(self):
         """Twice the area (m,) and the linear shape functions' gradients ∂N/∂x, ∂N/∂z (m, 3)."""
@@ -159,7 +160,7 @@ def strip_mesh(depth: float, extent: float = 3.0, corner_size: float = 0.01, gro
     triangles = np.concatenate([np.stack([corners[:, k], corners[:, (k + 1) % 4], centres], axis=1) for k in range(4)])
     points = np.vstack([np.column_stack([np.tile(xs, nz), np.repeat(zs, nx)]),
                         np.column_stack([x_mid[keep], z_mid[keep]])])
-    return Mesh(points, triangles.astype(np.int64), nx * nz, float(depth), float(extent), float(gap))
+    return Mesh(points, triangles.astype(np.int64), nx * nz, float(extent))
 
 
 class _ConeProgram:
@@ -171,7 +172,7 @@ class _ConeProgram:
         self.objective = np.zeros(n_var)
         self._blocks = {"eq": ([], [], [], []), "le": ([], [], [], [])}
         self._rows = {"eq": 0, "le": 0}
-        self._cones: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
+        self._cones: list[tuple[list, list, list, float]] = []  # (t, u, w terms, t's constant)
 
     def add(self, kind: str, terms, rhs=0.0):
         """Rows Σ value·x[col] (= or ≤) rhs, vectorised: each term is (cols, values) with one entry per row."""
@@ -198,7 +199,7 @@ class _ConeProgram:
         return matrix, np.concatenate(rhss)
 
     def solve(self):
-        """Returns (x, max relative violation, solve time s)."""
+        """Returns (x, its largest constraint violation, solve time s)."""
         import clarabel  # the cone solver is needed only here
 
         a_eq, b_eq = self.matrix("eq")
@@ -429,7 +430,7 @@ def main(argv=None) -> None:
     print(f"q/su of a strip whose base lies {args.depth:g} B deep, {args.roughness}"
           + (", soil bonded to base and walls" if args.bonded else "")
           + (f", a soil-free slot {args.gap:g} B wide beside the wall" if args.gap > 0 else "")
-          + f"; Prandtl's 2 + π = {2.0 + np.pi:.4f}", flush=True)
+          + f"; Prandtl's 2 + π = {PRANDTL_NC:.4f}", flush=True)
     for bound in (strip_lower_bound, strip_upper_bound):
         result = bound(args.depth, args.roughness == "rough", args.bonded, **mesh_options)
         print(f"{result.kind:5s} bound  q/su = {result.bearing_factor:.4f}   ({result.n_triangles} triangles, "

@@ -86,7 +86,9 @@ def run_steps(
     the next step. The contact's dissipation ``energy[E_FRICTION]`` is the pull times the slip it
     leaves, m·|Δw|·|w'| per step (w' the slip speed after the pull): zero when the node sticks,
     as a full tie dissipates nothing (the kinetic energy a tie removes is the internal forces'
-    work, already counted).
+    work, already counted). With ``ipar[I_SEPARATE]`` a normal tie lets go, for the step, of a
+    node whose free velocity would carry it away from the face (no tension): it then moves with
+    the soil, and pushes nothing onto the body.
     """
     dt = par[P_DT]
     rho = par[P_RHO]
