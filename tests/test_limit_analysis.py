@@ -43,6 +43,34 @@ def test_mesh_covers_the_domain_without_the_footing(gap):
     assert kinds == ({"axis", "far", "surface", "base"} | ({"wall"} if gap == 0.0 else set()))
 
 
+def test_notched_mesh_covers_the_domain_without_the_footing_and_the_wedge():
+    """A wedge-shaped gap beside the wall, closed at the base corner and `notch` wide at the surface:
+    the soil's area loses the wedge's notch·depth/2, no triangle folds, and no face is a wall."""
+    depth, extent, notch = 0.05, 3.0, 0.02
+    mesh = strip_mesh(depth, extent, notch=notch, **COARSE)
+    x, z = mesh.points[mesh.triangles][..., 0], mesh.points[mesh.triangles][..., 1]
+    twice_area = (x[:, 1] - x[:, 0]) * (z[:, 2] - z[:, 0]) - (x[:, 2] - x[:, 0]) * (z[:, 1] - z[:, 0])
+    assert (twice_area > 0).all()
+    assert 0.5 * twice_area.sum() == pytest.approx(extent * extent - 0.5 * depth - 0.5 * notch * depth, rel=1e-12)
+    kinds = {mesh.boundary_kind(p, q) for (p, q), owners in mesh.edges().items() if len(owners) == 1}
+    assert kinds == {"axis", "far", "surface", "base"}
+    with pytest.raises(ValueError, match="needs a depth > 0"):
+        strip_mesh(0.0, extent, notch=notch)
+
+
+def test_a_wedge_gap_beside_the_wall_brings_the_bounds_down_towards_the_surface_strips():
+    """A rough strip 0.05 B deep with a wedge-shaped gap (0.02 B wide at the surface) beside the
+    wall, as a pushed strip's corner leaves behind: its bounds bracket a factor below the strip
+    with soil against the wall and above the strip on the surface (the slope's free-surface
+    condition σ·n = 0 at work). Coarse mesh, rigorous bounds of each geometry."""
+    notched = [bound(0.05, True, notch=0.02, **COARSE) for bound in (strip_lower_bound, strip_upper_bound)]
+    against_wall = strip_lower_bound(0.05, True, **COARSE)
+    assert notched[0].bearing_factor <= notched[1].bearing_factor
+    assert notched[0].bearing_factor < against_wall.bearing_factor
+    assert notched[1].bearing_factor > strip_lower_bound(0.0, True, **COARSE).bearing_factor
+    assert max(b.max_violation for b in notched) < 1e-6
+
+
 @pytest.mark.parametrize("depth", [0.0, 0.2])
 def test_lower_bound_equalities_are_independent(depth):
     """An interior solver needs independent equalities: one traction condition per cell centre is

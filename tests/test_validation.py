@@ -40,7 +40,7 @@ BAD_VALUES = [
     ("solver=cel2d geometry.view=sideways", "geometry.view", "longitudinal"),
     ("geometry=fall_cone_30deg geometry.roughness=smooth", "geometry.roughness", "cut cells"),
     ("geometry=fall_cone_30deg solver.mode=plane_strain", "solver.mode", "axisymmetric"),
-    ("solver.contact_separation=true", "solver.contact_separation", "tied fully"),
+    ("geometry=fall_cone_30deg solver.contact_separation=true", "solver.contact_separation", "tied fully"),
 ]
 
 

@@ -40,6 +40,10 @@ The rough lower bound forbids tension on the faces, the rough upper bound bonds 
 the bracket holds for bonded rough faces (a no-tension stress field is admissible there too),
 not for rough faces that can open a gap.
 
+A pushed strip whose soil cannot pull on its walls leaves a wedge-shaped gap beside them (README,
+"The pushed strip opens a wedge-shaped gap"): `notch` (see :func:`strip_mesh`) bounds that
+geometry, its sloping face a free surface, σ·n = 0.
+
 Units: lengths in B (the strip's width), stresses in su; the factor is independent of both.
 ``python -m dsmv.analytic.limit_analysis --help`` prints a bracket from the command line.
 """
@@ -62,6 +66,8 @@ FEASIBILITY_TOL = 1e-6
 #: the strip, its fan B/√2 below the base; the mesh keeps its zone cells out to here (B)
 MECHANISM_REACH = 1.2
 HALF_WIDTH = 0.5  # the strip's half-width (B): the mesh covers x ≥ 0, the symmetry axis at x = 0
+#: how far from the wall a notch's shear of the grid fades out (B)
+NOTCH_BLEND = 0.1
 
 
 @dataclass(frozen=True)
@@ -137,11 +143,15 @@ def _graded(start: float, stop: float, fine_size: float, growth: float, zone_siz
 
 
 def strip_mesh(depth: float, extent: float = 3.0, corner_size: float = 0.01, growth: float = 1.2,
-               zone_size: float = 0.05, coarse_size: float = 0.5, gap: float = 0.0) -> Mesh:
+               zone_size: float = 0.05, coarse_size: float = 0.5, gap: float = 0.0, notch: float = 0.0) -> Mesh:
     """A rectilinear grid graded towards the base corner (1/2, -d), its cells no larger than
     zone_size over Prandtl's mechanism (out to MECHANISM_REACH from the corner), each cell split
     into four triangles at its centre; `gap` leaves a soil-free slot of that width beside the
-    wall, down to the base. Sizes in B."""
+    wall, down to the base. `notch` opens a wedge-shaped gap instead, from nothing at the base
+    corner to that width at the surface: the grid beside the wall is sheared away from it, the
+    shift fading out over NOTCH_BLEND. Sizes in B."""
+    if notch > 0.0 and (depth <= 0.0 or gap > 0.0 or notch >= 0.5 * NOTCH_BLEND):
+        raise ValueError(f"a notch (here {notch}) needs a depth > 0, no slot, and a width below {0.5 * NOTCH_BLEND} B")
     xs = np.unique(np.concatenate([[HALF_WIDTH + gap],
         _graded(HALF_WIDTH, 0.0, corner_size, growth, zone_size, HALF_WIDTH, coarse_size),
         _graded(HALF_WIDTH, extent, corner_size, growth, zone_size, MECHANISM_REACH, coarse_size),
@@ -160,6 +170,11 @@ def strip_mesh(depth: float, extent: float = 3.0, corner_size: float = 0.01, gro
     triangles = np.concatenate([np.stack([corners[:, k], corners[:, (k + 1) % 4], centres], axis=1) for k in range(4)])
     points = np.vstack([np.column_stack([np.tile(xs, nz), np.repeat(zs, nx)]),
                         np.column_stack([x_mid[keep], z_mid[keep]])])
+    if notch > 0.0:  # shear the soil beside the wall away from it: x += w(z)·fade(x)
+        x, z = points[:, 0], points[:, 1]
+        beside = (x >= HALF_WIDTH - 1e-12) & (z > -depth)
+        fade = np.clip(1.0 - (x - HALF_WIDTH) / NOTCH_BLEND, 0.0, 1.0)
+        points[beside, 0] += (notch * (z + depth) / depth * fade)[beside]
     return Mesh(points, triangles.astype(np.int64), nx * nz, float(extent))
 
 
@@ -299,9 +314,11 @@ def _lower_bound_program(mesh: Mesh, rough: bool, bonded: bool) -> _ConeProgram:
         vertical = abs(xq - xp) < 1e-9
         normal_stress, shear = (sxx, txz) if vertical else (szz, txz)
         for c, (x_end, z_end) in ((cp, (xp, zp)), (cq, (xq, zq))):
-            if kind == "surface":
-                program.add("eq", [(var(t, c, normal_stress), 1.0)])
-            if kind in ("axis", "far", "surface") or (kind in ("base", "wall") and not rough):
+            if kind == "surface":  # no traction, σ·n = 0, on any slope (a notch's face)
+                program.add("eq", [(var(t, c, sxx), nx), (var(t, c, txz), nz)])
+                program.add("eq", [(var(t, c, txz), nx), (var(t, c, szz), nz)])
+                continue
+            if kind in ("axis", "far") or (kind in ("base", "wall") and not rough):
                 program.add("eq", [(var(t, c, shear), 1.0)])
             if kind in ("base", "wall"):  # the soil holds the footing up
                 if not bonded:  # no tension
@@ -417,19 +434,26 @@ def main(argv=None) -> None:
     parser.add_argument("--zone-size", type=float, default=0.05, help="largest cells over the mechanism, in B")
     parser.add_argument("--gap", type=float, default=0.0,
                         help="width of a soil-free slot beside the wall, down to the base, in B")
+    parser.add_argument("--notch", type=float, default=0.0,
+                        help="width at the surface of a wedge-shaped gap beside the wall, closed at the base corner, in B")
     args = parser.parse_args(argv)
     for name, value, allowed in (("--depth", args.depth, args.depth >= 0.0),
                                  ("--corner-size", args.corner_size, args.corner_size > 0.0),
                                  ("--growth", args.growth, args.growth >= 1.0),
                                  ("--zone-size", args.zone_size, args.zone_size >= args.corner_size),
-                                 ("--gap", args.gap, args.gap >= 0.0)):
+                                 ("--gap", args.gap, args.gap >= 0.0),
+                                 ("--notch", args.notch, 0.0 <= args.notch < 0.5 * NOTCH_BLEND
+                                  and (args.notch == 0.0 or (args.depth > 0.0 and args.gap == 0.0)))):
         if not allowed:
             parser.error(f"{name} {value}: allowed are a depth ≥ 0, a corner size > 0, a growth ≥ 1, "
-                         "a zone size ≥ the corner size and a gap ≥ 0 (lengths in B)")
-    mesh_options = dict(corner_size=args.corner_size, growth=args.growth, zone_size=args.zone_size, gap=args.gap)
+                         f"a zone size ≥ the corner size, a gap ≥ 0, and a notch in [0, {0.5 * NOTCH_BLEND:g}) "
+                         "that needs a depth > 0 and no gap (lengths in B)")
+    mesh_options = dict(corner_size=args.corner_size, growth=args.growth, zone_size=args.zone_size, gap=args.gap,
+                        notch=args.notch)
     print(f"q/su of a strip whose base lies {args.depth:g} B deep, {args.roughness}"
           + (", soil bonded to base and walls" if args.bonded else "")
           + (f", a soil-free slot {args.gap:g} B wide beside the wall" if args.gap > 0 else "")
+          + (f", a wedge-shaped gap {args.notch:g} B wide at the surface beside the wall" if args.notch > 0 else "")
           + f"; Prandtl's 2 + π = {PRANDTL_NC:.4f}", flush=True)
     for bound in (strip_lower_bound, strip_upper_bound):
         result = bound(args.depth, args.roughness == "rough", args.bonded, **mesh_options)

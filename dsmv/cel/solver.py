@@ -69,8 +69,8 @@ class Cel2DConfig(Schema):
     stress_cutoff: Number = Field(0.01, ge=0, lt=1, description="cells with less soil carry no stress (-)")
     remap: bool = Field(True, description="false: small-strain analysis on the undeformed grid (verification)")
     contact_separation: bool = Field(False, description=(
-        "true: a smooth face lets go of the soil that would pull away from it (no tension); "
-        "false: the soil stays tied to it along its normal"))
+        "true: a face lets go of the soil that would pull away from it (no tension); "
+        "false: the soil stays tied to it"))
     # at most 0.25: next to the axis of an axisymmetric model a cell's volume Courant number is
     # about twice the travel over h
     remap_courant: Number = Field(0.05, ge=0, le=0.25, description=(
@@ -174,14 +174,11 @@ class Cel2DSolver:
                                                                    "(a smooth staircase cone needs cut cells)")
         if body.kind == "cone" and cfg.mode == "plane_strain":
             raise ConfigError("solver.mode", cfg.mode, "a cone is axisymmetric: 'auto' or 'axisymmetric'")
-        normal_ties = (flat and body.adhesion_factor < 1.0) or (
-            body.kind == "tbar" and body.adhesion_factor == 0.0 and cfg.mode != "axisymmetric")
-        if cfg.contact_separation and not normal_ties:
+        separable = flat or (body.kind == "tbar" and body.adhesion_factor == 0.0 and cfg.mode != "axisymmetric")
+        if cfg.contact_separation and not separable:
             raise ConfigError("solver.contact_separation", True,
-                              "separation acts on faces tied along their normal: a smooth or limited-adhesion "
-                              "flat face (strip, track cross-section) or a smooth T-bar in plane strain; "
-                              "this body's contact is tied fully (for a strip or a track, set geometry.roughness=smooth "
-                              "or an adhesion factor below 1)")
+                              "separation acts on a flat-faced body (strip, track cross-section) of any roughness "
+                              "or a smooth T-bar in plane strain; this body's staircase faces stay tied fully")
 
     def __init__(self, scene: Scene):
         self.check_scene(scene)
@@ -203,6 +200,8 @@ class Cel2DSolver:
         self.interface_layer = self.circular and body.adhesion_factor < 1.0 and not self.cut_cells
         #: a track seen from the side: plates, grousers and sprockets in the plane, per metre of B
         self.longitudinal = getattr(body, "view", "cross_section") == "longitudinal"
+        # a strip or a track's cross-section: a flat base and vertical walls
+        self.flat_faced = body.kind in ("strip", "track") and not self.longitudinal
 
     def hansbo_depth_m(self) -> float:
         """The cone's scale (m): Hansbo's penetration d = √(K·m·g/su) with K = 0.8 (30° cone), or,
@@ -283,14 +282,16 @@ class Cel2DSolver:
             r = np.maximum(np.hypot(xs, ys), 1e-300)
             nx_, ny_ = xs / r, ys / r
             tie_full = inside.copy()
-        elif alpha < 1.0 and not self.circular:  # a flat face: normal ties, and α·su along the face
+        elif self.flat_faced:
             xs, ys = grid.x[tie_i], grid.y[tie_j]
             on_base = (tie_j == j_base) & (xs < 0.5 * B - 1e-12)
             on_side = (tie_j > j_base) & np.isclose(xs, 0.5 * B) & ~inside
-            ny_[on_base] = -1.0  # normals point into the soil (a tie that may let go needs the side)
+            # normals point into the soil: a tie that may let go (contact_separation) needs the side
+            ny_[on_base] = -1.0
             nx_[on_side] = 1.0
-            tie_full = ~(on_base | on_side)
-            if alpha > 0.0:  # each node's share of the base (x) or of the wall (y)
+            if alpha < 1.0:  # normal ties, and α·su along the face
+                tie_full = ~(on_base | on_side)
+            if 0.0 < alpha < 1.0:  # each node's share of the base (x) or of the wall (y)
                 xg, yg = grid.x, grid.y
                 left = np.where(tie_i > 0, xs - xg[np.maximum(tie_i - 1, 0)], 0.0)
                 right = np.minimum(xg[np.minimum(tie_i + 1, grid.nx)], 0.5 * B) - xs

@@ -19,7 +19,7 @@ from numba import njit
 
 # Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
 # kernels it inlined until this file changes. After changing a kernel, bump this revision
-# (or clear the Numba cache). Kernel revision: 14 (contact separation: a normal tie may let go).
+# (or clear the Numba cache). Kernel revision: 15 (contact separation: any tie with a face normal may let go).
 from dsmv.cel.kernels import (
     JIT,
     advect_cells,
@@ -86,9 +86,10 @@ def run_steps(
     the next step. The contact's dissipation ``energy[E_FRICTION]`` is the pull times the slip it
     leaves, m·|Δw|·|w'| per step (w' the slip speed after the pull): zero when the node sticks,
     as a full tie dissipates nothing (the kinetic energy a tie removes is the internal forces'
-    work, already counted). With ``ipar[I_SEPARATE]`` a normal tie lets go, for the step, of a
-    node whose free velocity would carry it away from the face (no tension): it then moves with
-    the soil, and pushes nothing onto the body.
+    work, already counted). With ``ipar[I_SEPARATE]`` a tie on a face (one with a normal; rough
+    or smooth) lets go, for the step, of a node whose free velocity would carry it away from the
+    face (no tension): it then moves with the soil, and pushes nothing onto the body. Corners
+    and staircase nodes (no normal) hold.
     """
     dt = par[P_DT]
     rho = par[P_RHO]
@@ -123,12 +124,12 @@ def run_steps(
         # with the body, a normally tied one (smooth contact) only along its normal n
         soil_on_nodes = body[B_FRICTION] + work[2]  # the adhesive pull of the last step, the cut cells' arcs
         tied_mass = 0.0
-        if separate:  # which normal ties hold this step: those the soil would otherwise cross
+        if separate:  # which face ties hold this step: those the soil would otherwise cross
             v_body_next = body[B_VEL] if drop else -par[P_PUSH_V]
             for k in range(n_tied):
                 i, j = tie_i[k], tie_j[k]
                 m = mass[i, j]
-                if tie_full[k] or m <= par[P_MFLOOR]:
+                if (tie_nx[k] == 0.0 and tie_ny[k] == 0.0) or m <= par[P_MFLOOR]:  # no face: a corner, a staircase
                     holding[k] = True
                     continue
                 vn_free = (vx[i, j] + dt * fx[i, j] / m) * tie_nx[k] + (vy[i, j] + dt * (fy[i, j] / m - grav)) * tie_ny[k]
