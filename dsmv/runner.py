@@ -115,18 +115,32 @@ def write_outputs(scene: Scene, result: SolveResult, run_dir: Path) -> list[Path
     return files
 
 
-def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, multirun: bool) -> None:
-    """A short human summary: status, max sinkage with units, where outputs and MLflow are."""
+def _answer(scene: Scene, result: SolveResult) -> str:
+    """What the run found, in one phrase: a landing's max sinkage; a push's depth and its bearing
+    factors q/su at the sampled depths (the nc_* metrics; T-bar: the deep factor)."""
     sinkage = result.metrics.get("max_sinkage_m")
-    # only an 'ok' sinkage is an answer; otherwise say what happened
-    what = f"max sinkage {sinkage:.4f} m" if sinkage is not None and result.status == "ok" else result.message
+    if result.status != "ok" or sinkage is None:  # only an 'ok' run has an answer: say what happened
+        return result.message
+    if scene.landing.kind != "push":
+        return f"max sinkage {sinkage:.4f} m"
+    factors = [f"{result.metrics[name]:.3f} at {label}" for name, label in
+               (("nc_at_0p02B", "0.02 B"), ("nc_at_0p05B", "0.05 B"), ("nc_at_0p1B", "0.1 B"),
+                ("nc_at_1B", "1 B"), ("nc_deep", "depth (nc_deep)")) if name in result.metrics]
+    return f"pushed to {sinkage:.4f} m" + (f"; q/su {', '.join(factors)}" if factors else "")
+
+
+def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, multirun: bool) -> None:
+    """A short human summary: status, what the run found (with units), where outputs and MLflow are."""
+    what = _answer(scene, result)
     if multirun:
         print(f"[{run_dir.name}] {result.status}: {what}")
         return
     print(f"\ndsmv: {result.status} — {what}")
     print(f"  scene   : {scene.soil.name} soil ({scene.soil.law}), {scene.geometry.name}, "
-          f"{scene.landing.kind} {scene.landing.mass_kg:g} kg at {scene.landing.velocity_m_s:g} m/s, "
-          f"solver {scene.solver.name}")
+          + (f"push to {scene.landing.displacement_m:g} m at {scene.landing.velocity_m_s:g} m/s, "
+             if scene.landing.kind == "push" else
+             f"{scene.landing.kind} {scene.landing.mass_kg:g} kg at {scene.landing.velocity_m_s:g} m/s, ")
+          + f"solver {scene.solver.name}")
     print(f"  message : {result.message}")
     print(f"  outputs : {run_dir}")
     if tracker is not None:

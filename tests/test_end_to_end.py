@@ -181,3 +181,23 @@ def test_a_wrong_job_in_a_sweep_is_recorded_and_the_others_run(run_cli, tmp_path
     (parent,) = [r for r in runs if r.data.tags.get("dsmv.role") == "sweep"]
     assert parent.info.status == "FINISHED"
     assert parent.data.metrics["jobs_ok"] == 2 and parent.data.metrics["jobs_failed"] == 1
+
+
+def test_a_push_summary_reports_its_depth_and_bearing_factors(compose_cfg, capsys, tmp_path):
+    """A push has no landing mass and no 'max sinkage' to report: the summary says how far it went
+    and q/su at the sampled depths; a landing keeps its max sinkage; a failed run says what happened."""
+    from dsmv.results import SolveResult
+    from dsmv.runner import print_summary
+    from dsmv.scene import build_scene
+
+    push = build_scene(compose_cfg(["experiment=verify_prandtl", "landing.displacement_m=0.06"]))
+    metrics = {"max_sinkage_m": 0.06, "nc_at_0p02B": 4.894, "nc_at_0p05B": 5.532}
+    print_summary(push, SolveResult("ok", "pushed to 0.06 m", metrics), tmp_path, None, multirun=False)
+    out = capsys.readouterr().out
+    assert "dsmv: ok — pushed to 0.0600 m; q/su 4.894 at 0.02 B, 5.532 at 0.05 B" in out
+    assert "push to 0.06 m at 0.1 m/s" in out and " kg" not in out
+    landing = build_scene(compose_cfg([]))
+    print_summary(landing, SolveResult("ok", "came to rest", {"max_sinkage_m": 0.122}), tmp_path, None, multirun=True)
+    assert capsys.readouterr().out.strip().endswith("ok: max sinkage 0.1220 m")
+    print_summary(push, SolveResult("unstable", "NaN in the velocities", {}), tmp_path, None, multirun=True)
+    assert capsys.readouterr().out.strip().endswith("unstable: NaN in the velocities")
