@@ -32,6 +32,14 @@ TBAR_NC = {"rough": 11.94, "smooth": 9.20}
 #: with ``--corner-size 0.005 --growth 1.15 --zone-size 0.025`` (2–3 min; `pytest -m slow
 #: tests/test_limit_analysis.py` recomputes them)
 STRIP_LOWER_BOUND_AT_0P05B = {"rough": 5.357, "smooth": 5.296}
+#: rigorous lower bounds on q/su of the strip pushed to 0.05 B whose soil may part from its walls:
+#: the notch Prandtl's kinematics leave beside the wall (slope 3, s/3 = 0.0167 B wide at the old
+#: mudline) and a flat surface beyond it; the heave only adds soil and cannot lower them.
+#: ``python -m dsmv.analytic.limit_analysis --depth 0.05 --roughness R --notch 0.0167`` on the
+#: finest mesh above (about 3 min; `pytest -m slow tests/test_limit_analysis.py` recomputes them)
+NOTCHED_STRIP_LOWER_BOUND_AT_0P05B = {"rough": 5.236, "smooth": 5.235}
+#: the notch's width at the old mudline for a strip pushed 0.05 B (B): s/3
+NOTCH_AT_0P05B = 0.05 / 3.0
 
 
 def embedded_strip_upper_bound(depth_over_width: float, rough_walls: bool) -> float:

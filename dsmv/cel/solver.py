@@ -326,6 +326,17 @@ class Cel2DSolver:
             factor[layer] = self.scene.geometry.adhesion_factor
         return factor
 
+    def gap_cells(self, solid, tie_i, tie_j, tie_nx, tie_ny) -> np.ndarray:
+        """The soil cells beside a face the soil may leave (nx, ny), with solver.contact_separation:
+        they carry stress only while full (:func:`dsmv.cel.kernels.update_stress`). A pushed strip
+        leaves a wedge-shaped gap beside its wall, a third of a cell wide at 0.05 B and B/20 (README);
+        spread across a partly full cell, the sliver of soil beside it would bridge it."""
+        face = np.zeros((solid.shape[0] + 1, solid.shape[1] + 1), dtype=bool)
+        if self.scene.solver.contact_separation:
+            on_face = (tie_nx != 0.0) | (tie_ny != 0.0)
+            face[tie_i[on_face], tie_j[on_face]] = True
+        return (face[:-1, :-1] | face[1:, :-1] | face[1:, 1:] | face[:-1, 1:]) & ~solid
+
     # ------------------------------------------------------------------ setup
 
     def expected_travel_m(self) -> float:
@@ -405,6 +416,7 @@ class Cel2DSolver:
         openings = self.body_openings(grid, solid)
         phi, q = geostatic_state(grid, rho, grav, elastic.k0, d0, openings.open_frac)
         strength_factor = self.strength_factors(solid, tie_i, tie_j, openings.open_frac)
+        gap_cells = self.gap_cells(solid, tie_i, tie_j, tie_nx, tie_ny)
         # the soil law's state variables ride with the material, as ξ and z0 do
         initial_state = self.law.initial_state()
         q = np.concatenate([q, np.broadcast_to(initial_state[:, None, None], (len(initial_state), nx, ny))])
@@ -467,7 +479,7 @@ class Cel2DSolver:
             return S.run_steps(
                 n, x, y, vol, phi, q, vx, vy, mass, work["fx"], work["fy"], work["ux"], work["uy"],
                 work["flux_x"], work["flux_y"], tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap, strength_factor,
-                work["su_cell"], solid, openings.aperture_x, openings.aperture_y, openings.open_frac, merge,
+                work["su_cell"], solid, openings.aperture_x, openings.aperture_y, openings.open_frac, merge, gap_cells,
                 ghost, ghost_depth0,
                 par, ipar, body, energy, law_fn, law_params, law_evolve,
             )

@@ -19,7 +19,7 @@ from numba import njit
 
 # Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
 # kernels it inlined until this file changes. After changing a kernel, bump this revision
-# (or clear the Numba cache). Kernel revision: 15 (contact separation: any tie with a face normal may let go).
+# (or clear the Numba cache). Kernel revision: 16 (a cell beside a face the soil may leave carries stress only while full).
 from dsmv.cel.kernels import (
     JIT,
     advect_cells,
@@ -64,7 +64,7 @@ CUT_MASS_FILL = 0.5
 def run_steps(
     n_steps, x, y, vol, phi, q, vx, vy, mass, fx, fy, ux, uy, flux_x, flux_y,
     tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap, strength_factor, su_cell, solid, aperture_x, aperture_y, open_frac,
-    merge, ghost, ghost_depth0, par, ipar, body, energy,
+    merge, gap_cells, ghost, ghost_depth0, par, ipar, body, energy,
     law, law_params, evolve,
 ):
     """Advance up to ``n_steps`` steps; return (steps done, exit code).
@@ -73,6 +73,8 @@ def run_steps(
     ``open_frac`` are the open fractions of faces and cells (:class:`dsmv.cel.grid.Openings`);
     ``merge`` rows (i, j, i', j') pair a sliver of a cut cell with its neighbour
     (:func:`dsmv.cel.solver.sliver_pairs`): one volumetric strain, one fill, one mean stress.
+    ``gap_cells`` (nx, ny) marks the cells beside a face the soil may leave, which carry stress
+    only while full (:func:`dsmv.cel.kernels.update_stress`).
 
     ``law`` is the soil law's compiled strength factor (dsmv.soil_law), ``law_params`` its
     packed parameters; it is called only when ``ipar[I_LAW]`` is set. ``evolve`` updates the
@@ -209,7 +211,8 @@ def run_steps(
             div_override[ni, nj] = d
         update_stress(x, y, phi, q, vx, vy, dt, par[P_G], par[P_K], par[P_SU0], par[P_KS], axisym,
                       par[P_PHI_STRESS], ipar[I_TRESCA] == 1, law, law_params, ipar[I_LAW] == 1, evolve,
-                      strength_factor, su_cell, stress_out, aperture_x, aperture_y, open_frac, body[B_VEL], div_override)
+                      strength_factor, su_cell, stress_out, aperture_x, aperture_y, open_frac, body[B_VEL], div_override,
+                      gap_cells)
         energy[E_PLASTIC] += stress_out[0]
         body[B_OFFSET] += body[B_VEL] * dt
         body[B_TIME] += dt
