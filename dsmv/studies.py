@@ -271,14 +271,18 @@ def bearing_curves(sweep_dir: Path, path: Path) -> Path | None:
     q is the soil's force over the body's width times its length, B·L (a T-bar: D·L), and su its
     ``soil.su0_pa``. A strip is drawn with Prandtl's 2 + π, the upper bounds of the same strip
     wished in place at depth s (:func:`~dsmv.analytic.bearing.embedded_strip_upper_bound`: the
-    embedment alone, no heave) and, at s = 0.05 B, the limit analysis's bracket on the same strip
-    wished in place with the soil tied to its walls; a T-bar with its exact deep factor. Writes ``bearing_curves.csv``
-    (each job's roughness, cell size, push speed, q/su at its last sample ``nc_end``, its ``nc_*``
-    metrics and wall time) and the PNG. Jobs that are not pushes of a strip or a T-bar are left out.
+    embedment alone, no heave) and, at s = 0.05 B, the limit analysis's bounds: for pushes whose
+    soil may part from the walls (``solver.contact_separation``), the lower bound of the strip with
+    the notch it opens beside them; for pushes tied to the walls, the bracket on the strip wished in
+    place with the soil tied to them. A T-bar is drawn with its exact deep factor. Writes
+    ``bearing_curves.csv`` (each job's roughness, contact separation, cell size, push speed, q/su at
+    its last sample ``nc_end``, its ``nc_*`` metrics and wall time) and the PNG. Jobs that are not
+    pushes of a strip or a T-bar are left out.
     """
-    from dsmv.analytic.bearing import PRANDTL_NC, STRIP_LOWER_BOUND_AT_0P05B, TBAR_NC, embedded_strip_upper_bound
+    from dsmv.analytic.bearing import (NOTCHED_STRIP_LOWER_BOUND_AT_0P05B, PRANDTL_NC, STRIP_LOWER_BOUND_AT_0P05B,
+                                       TBAR_NC, embedded_strip_upper_bound)
 
-    curves, rows = [], []
+    curves, rows, separations = [], [], set()
     for job in sweep_jobs(sweep_dir):
         history, config_file = job.history(), job.path / "config_resolved.yaml"
         if history is None or not config_file.exists():
@@ -287,12 +291,16 @@ def bearing_curves(sweep_dir: Path, path: Path) -> Path | None:
         body, soil = config.geometry, config.soil
         if config.landing.kind != "push" or body.kind not in ("strip", "tbar"):
             continue
+        separation = bool(OmegaConf.select(config, "solver.contact_separation", default=False))
+        if body.kind == "strip":
+            separations.add(separation)
         scale = float(soil.su0_pa) * float(body.width_m) * float(body.contact_length_m)
         label = f"{body.roughness}, h = {float(config.mesh.cell_size_m):g} m, {float(config.landing.velocity_m_s):g} m/s"
         nc = history["force_n"] / scale
         curves.append((body.kind, str(body.roughness), label, history["sinkage_m"] / float(body.width_m), nc))
         rows.append({"job": job.name, "status": job.result["status"], "body": body.kind,
-                     "roughness": body.roughness, "cell_size_m": float(config.mesh.cell_size_m),
+                     "roughness": body.roughness, "contact_separation": separation,
+                     "cell_size_m": float(config.mesh.cell_size_m),
                      "velocity_m_s": float(config.landing.velocity_m_s), "nc_end": float(nc[-1]),
                      **{k: job.metric(k) for k in ("nc_at_0p02B", "nc_at_0p05B", "nc_at_0p1B", "nc_at_1B", "nc_deep",
                                                   "nc_roughness", "wall_s") if k in job.result["metrics"]}})
@@ -313,10 +321,16 @@ def bearing_curves(sweep_dir: Path, path: Path) -> Path | None:
             ax.plot(s, [embedded_strip_upper_bound(d, rough) for d in s], "k" + style, lw=1,
                     label=f"upper bound, wished in place at s, {'rough' if rough else 'smooth'} walls")
         for offset, (roughness, lower) in enumerate(STRIP_LOWER_BOUND_AT_0P05B.items()):
+            if False not in separations:
+                break
             upper = embedded_strip_upper_bound(0.05, roughness == "rough")
             ax.errorbar(0.05 + 0.02 * (offset - 0.5) * travel_max, 0.5 * (lower + upper), yerr=0.5 * (upper - lower),
                         fmt="none", ecolor=("k", "0.5")[offset], elinewidth=2, capsize=3,
                         label=f"{roughness}, wished in place 0.05 B deep, soil tied to the walls: {lower}–{upper:.3f}")
+        if True in separations:
+            for offset, (roughness, lower) in enumerate(NOTCHED_STRIP_LOWER_BOUND_AT_0P05B.items()):
+                ax.plot([0.05 + 0.02 * (offset - 0.5) * travel_max], [lower], "^", color=("k", "0.5")[offset],
+                        label=f"{roughness}, pushed 0.05 B, soil free to part from the walls: ≥ {lower}")
     if "tbar" in kinds:
         for roughness in sorted({c[1] for c in curves} & set(TBAR_NC)):
             ax.axhline(TBAR_NC[roughness], color="k", lw=1, ls="--" if roughness == "rough" else ":",

@@ -114,22 +114,26 @@ def test_bearing_curves_normalise_each_push_by_its_own_body(tmp_path):
     diameter); a landing in the same sweep is left out of the table."""
     sweep = tmp_path / "sweep"
     travel = np.linspace(0.0, 0.1, 50)
-    jobs = [  # (geometry, landing, width B or D (m), force (N)): q/su = 5.5 and 9.2 by hand
-        ("strip", "push", 1.0, 5.5 * 1e4 * 1.0 * 2.0),
-        ("tbar", "push", 0.5, 9.2 * 1e4 * 0.5 * 2.0),
-        ("strip", "drop", 1.0, 1.0),
+    jobs = [  # (geometry, landing, width B or D (m), force (N), separation): q/su = 5.5, 5.3 and 9.2 by hand
+        ("strip", "push", 1.0, 5.5 * 1e4 * 1.0 * 2.0, "false"),
+        ("strip", "push", 1.0, 5.3 * 1e4 * 1.0 * 2.0, "true"),
+        ("tbar", "push", 0.5, 9.2 * 1e4 * 0.5 * 2.0, "false"),
+        ("strip", "drop", 1.0, 1.0, "false"),
     ]
-    for job, (kind, landing, width, force) in enumerate(jobs):
+    for job, (kind, landing, width, force, separation) in enumerate(jobs):
         job_dir = sweep / str(job)
         (job_dir / ".hydra").mkdir(parents=True)
         (job_dir / ".hydra" / "overrides.yaml").write_text("[]\n")
         (job_dir / "result.json").write_text('{"status": "ok", "message": "", "metrics": {"wall_s": 1.0}}')
         (job_dir / "config_resolved.yaml").write_text(
             f"geometry: {{kind: {kind}, width_m: {width}, contact_length_m: 2.0, roughness: rough}}\n"
-            f"soil: {{su0_pa: 10000.0}}\nlanding: {{kind: {landing}, velocity_m_s: 0.1}}\nmesh: {{cell_size_m: 0.05}}\n")
+            f"soil: {{su0_pa: 10000.0}}\nlanding: {{kind: {landing}, velocity_m_s: 0.1}}\nmesh: {{cell_size_m: 0.05}}\n"
+            + (f"solver: {{contact_separation: {separation}}}\n" if job else ""))  # the first job predates the key
         np.savetxt(job_dir / "history.csv", np.column_stack([travel, travel, np.ones_like(travel), force + 0 * travel]),
                    delimiter=",", header="time_s,sinkage_m,velocity_m_s,force_n", comments="")
     assert studies.bearing_curves(sweep, sweep / "bearing_curves.png") == sweep / "bearing_curves.png"
     assert (sweep / "bearing_curves.png").stat().st_size > 0
     rows = _read_csv(sweep / "bearing_curves.csv")
-    assert [(r["body"], float(r["nc_end"])) for r in rows] == [("strip", pytest.approx(5.5)), ("tbar", pytest.approx(9.2))]
+    assert [(r["body"], float(r["nc_end"])) for r in rows] == [
+        ("strip", pytest.approx(5.5)), ("strip", pytest.approx(5.3)), ("tbar", pytest.approx(9.2))]
+    assert [r["contact_separation"] for r in rows] == ["False", "True", "False"]
