@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 from dsmv.analytic import limit_analysis
-from dsmv.analytic.bearing import (NOTCH_AT_0P05B, NOTCHED_STRIP_LOWER_BOUND_AT_0P05B, PRANDTL_NC,
-                                   STRIP_LOWER_BOUND_AT_0P05B, embedded_strip_upper_bound)
+from dsmv.analytic.bearing import (NOTCH_AT_0P05B, NOTCHED_STRIP_LOWER_BOUND_AT_0P05B,
+                                   NOTCHED_STRIP_UPPER_BOUND_AT_0P05B, PRANDTL_NC, STRIP_LOWER_BOUND_AT_0P05B,
+                                   embedded_strip_upper_bound)
 from dsmv.analytic.limit_analysis import main, strip_lower_bound, strip_mesh, strip_upper_bound
 
 # a coarse mesh: a few seconds per bound
@@ -55,6 +56,15 @@ def test_notched_mesh_covers_the_domain_without_the_footing_and_the_wedge():
     assert 0.5 * twice_area.sum() == pytest.approx(extent * extent - 0.5 * depth - 0.5 * notch * depth, rel=1e-12)
     kinds = {mesh.boundary_kind(p, q) for (p, q), owners in mesh.edges().items() if len(owners) == 1}
     assert kinds == {"axis", "far", "surface", "base"}
+    # each cell centre on both diagonals of its sheared cell: the lower bound drops one traction
+    # condition per centre, which the others imply only when its triangles meet along two lines
+    first = mesh.triangles[: len(mesh.triangles) // 4]  # (corner k, corner k+1, centre) for k = 0
+    second = mesh.triangles[len(mesh.triangles) // 2: 3 * len(mesh.triangles) // 4]  # k = 2
+    bl, br, centre = (mesh.points[first[:, k]] for k in range(3))
+    tr, tl = mesh.points[second[:, 0]], mesh.points[second[:, 1]]
+    for a, b in ((bl, tr), (br, tl)):
+        along = (b - a)[:, 0] * (centre - a)[:, 1] - (b - a)[:, 1] * (centre - a)[:, 0]
+        assert np.abs(along).max() < 1e-14
     with pytest.raises(ValueError, match="needs a depth > 0"):
         strip_mesh(0.0, extent, notch=notch)
 
@@ -124,11 +134,14 @@ def test_strip_wished_in_place_0p05B_deep_carries_more_than_the_acceptance_lines
 
 @pytest.mark.slow
 @pytest.mark.parametrize("roughness", ["rough", "smooth"])
-def test_pushed_strip_with_its_notch_is_bounded_below_the_tied_one(roughness):
-    """The quoted lower bounds for the strip pushed 0.05 B whose soil may part from its walls (about
-    3 min each): the notch beside the wall brings them to 5.236 (rough) and 5.235 (smooth), +1.8 %
-    above 2 + π, below the strip with soil against its walls."""
-    lower = strip_lower_bound(0.05, roughness == "rough", False, notch=NOTCH_AT_0P05B,
-                              corner_size=0.005, growth=1.15, zone_size=0.025)
+def test_pushed_strip_with_its_notch_is_bracketed_below_the_tied_one(roughness):
+    """The quoted bounds for the strip pushed 0.05 B whose soil may part from its walls (about 5 min
+    each roughness): the notch beside the wall brings the lower bounds to 5.207 (rough) and 5.206
+    (smooth), +1.3 % above 2 + π, below the strip with soil against its walls; the upper bounds of
+    the notched strip with a flat surface beyond are 5.270 and 5.264."""
+    mesh = dict(notch=NOTCH_AT_0P05B, corner_size=0.005, growth=1.15, zone_size=0.025)
+    lower = strip_lower_bound(0.05, roughness == "rough", False, **mesh)
+    upper = strip_upper_bound(0.05, roughness == "rough", False, **mesh)
     assert lower.bearing_factor == pytest.approx(NOTCHED_STRIP_LOWER_BOUND_AT_0P05B[roughness], abs=0.001)
-    assert PRANDTL_NC < lower.bearing_factor < STRIP_LOWER_BOUND_AT_0P05B["rough"]
+    assert upper.bearing_factor == pytest.approx(NOTCHED_STRIP_UPPER_BOUND_AT_0P05B[roughness], abs=0.001)
+    assert PRANDTL_NC < lower.bearing_factor < upper.bearing_factor < STRIP_LOWER_BOUND_AT_0P05B["rough"]

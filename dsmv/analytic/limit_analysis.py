@@ -80,6 +80,8 @@ class Bound:
     n_variables: int
     solve_s: float  #: wall time of the cone programme (s)
     max_violation: float  #: largest constraint violation of the solver's field (FEASIBILITY_TOL's units)
+    #: how the cone solver ended: "Solved" is optimal; otherwise the field still bounds, less tightly
+    solver_status: str = "Solved"
 
 
 @dataclass(frozen=True)
@@ -142,6 +144,15 @@ def _graded(start: float, stop: float, fine_size: float, growth: float, zone_siz
     return start + direction * np.asarray(offsets)
 
 
+def _diagonal_crossings(quads: np.ndarray) -> np.ndarray:
+    """Where the diagonals 0–2 and 1–3 of each quadrilateral (m, 4, 2) cross (m, 2)."""
+    p0, p1, p2, p3 = (quads[:, k] for k in range(4))
+    d02, d13, r = p2 - p0, p3 - p1, p1 - p0
+    cross = d02[:, 0] * d13[:, 1] - d02[:, 1] * d13[:, 0]
+    t = (r[:, 0] * d13[:, 1] - r[:, 1] * d13[:, 0]) / cross
+    return p0 + t[:, None] * d02
+
+
 def strip_mesh(depth: float, extent: float = 3.0, corner_size: float = 0.01, growth: float = 1.2,
                zone_size: float = 0.05, coarse_size: float = 0.5, gap: float = 0.0, notch: float = 0.0) -> Mesh:
     """A rectilinear grid graded towards the base corner (1/2, -d), its cells no larger than
@@ -175,6 +186,10 @@ def strip_mesh(depth: float, extent: float = 3.0, corner_size: float = 0.01, gro
         beside = (x >= HALF_WIDTH - 1e-12) & (z > -depth)
         fade = np.clip(1.0 - (x - HALF_WIDTH) / NOTCH_BLEND, 0.0, 1.0)
         points[beside, 0] += (notch * (z + depth) / depth * fade)[beside]
+        # each centre back onto its sheared cell's diagonals: the lower bound drops one traction
+        # condition per centre, implied by the others only where the four triangles meet along
+        # two straight lines
+        points[nx * nz:] = _diagonal_crossings(points[corners])
     return Mesh(points, triangles.astype(np.int64), nx * nz, float(extent))
 
 
@@ -214,7 +229,7 @@ class _ConeProgram:
         return matrix, np.concatenate(rhss)
 
     def solve(self):
-        """Returns (x, its largest constraint violation, solve time s)."""
+        """Returns (x, its largest constraint violation, solve time s, the solver's status)."""
         import clarabel  # the cone solver is needed only here
 
         a_eq, b_eq = self.matrix("eq")
@@ -257,7 +272,7 @@ class _ConeProgram:
             raise RuntimeError(f"the cone programme ended {solution.status} with a field that breaks its constraints "
                                f"by {violation:.2e} (allowed {FEASIBILITY_TOL:.0e}); try another mesh "
                                "(corner_size, growth)")
-        return x, violation, solve_s
+        return x, violation, solve_s, str(solution.status)
 
 
 def strip_lower_bound(depth_over_width: float = 0.0, rough: bool = True, bonded: bool = False,
@@ -268,8 +283,9 @@ def strip_lower_bound(depth_over_width: float = 0.0, rough: bool = True, bonded:
     mesh = strip_mesh(_checked_depth(depth_over_width), **mesh_options)
     program = _lower_bound_program(mesh, rough, bonded)
     # base: minimise Σ σzz (compression is negative); wall: maximise the soil's upward shear τ
-    stress, violation, solve_s = program.solve()
-    return Bound("lower", float(-program.objective @ stress), len(mesh.triangles), program.n_var, solve_s, violation)
+    stress, violation, solve_s, status = program.solve()
+    return Bound("lower", float(-program.objective @ stress), len(mesh.triangles), program.n_var, solve_s, violation,
+                 status)
 
 
 def _lower_bound_program(mesh: Mesh, rough: bool, bonded: bool) -> _ConeProgram:
@@ -411,8 +427,8 @@ def strip_upper_bound(depth_over_width: float = 0.0, rough: bool = True, bonded:
             # ux ≥ 0 at the nodes would let the quadratic dip between them; ux ≥ 0 at the ends and
             # its Bernstein control value 2·u_mid − (u_p + u_q)/2 ≥ 0 keep it ≥ 0 all along
             program.add("le", [(ux(midside[(p, q)]), -2.0), (ux(p), 0.5), (ux(q), 0.5)])
-    x, violation, solve_s = program.solve()
-    return Bound("upper", float(program.objective @ x), n_tri, program.n_var, solve_s, violation)
+    x, violation, solve_s, status = program.solve()
+    return Bound("upper", float(program.objective @ x), n_tri, program.n_var, solve_s, violation, status)
 
 
 def _checked_depth(depth_over_width: float) -> float:
@@ -458,7 +474,8 @@ def main(argv=None) -> None:
     for bound in (strip_lower_bound, strip_upper_bound):
         result = bound(args.depth, args.roughness == "rough", args.bonded, **mesh_options)
         print(f"{result.kind:5s} bound  q/su = {result.bearing_factor:.4f}   ({result.n_triangles} triangles, "
-              f"{result.solve_s:.1f} s, constraints met to {result.max_violation:.1e})", flush=True)
+              f"{result.solve_s:.1f} s, constraints met to {result.max_violation:.1e}, solver {result.solver_status})",
+              flush=True)
 
 
 if __name__ == "__main__":
