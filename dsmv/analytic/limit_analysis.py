@@ -87,7 +87,7 @@ class Bound:
 @dataclass(frozen=True)
 class Mesh:
     """Triangles of the half-domain x ∈ [0, L], z ∈ [-L, 0] without the footing (x < 1/2, z > -d)
-    and the slot beside it, if any."""
+    and the slot or the notch beside it, if any."""
 
     points: np.ndarray  #: (n, 2) x, z (B)
     triangles: np.ndarray  #: (m, 3) point indices, counter-clockwise

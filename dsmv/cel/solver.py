@@ -158,9 +158,11 @@ class Cel2DSolver:
         if body.kind not in ("strip", "track", "tbar", "cone"):
             raise ConfigError("geometry.kind", body.kind, "cel2d runs strip, track, tbar and cone bodies")
         if not cfg.economies.symmetry and (body.kind == "cone" or cfg.mode == "axisymmetric"
-                                           or body.roughness != "rough" or scene.output.fields):
+                                           or body.roughness != "rough" or scene.output.fields
+                                           or cfg.contact_separation):
             raise ConfigError("solver.economies.symmetry", False, "the whole section runs plane strain bodies with "
-                              "rough contact and no field output; it exists to measure what the half model saves")
+                              "rough contact, no contact separation and no field output; it exists to measure what "
+                              "the half model saves")
         if getattr(body, "view", "cross_section") == "longitudinal" and body.roughness != "rough":
             raise ConfigError("geometry.roughness", body.roughness,
                               "the longitudinal view (plates and grousers) models a rough track only")
@@ -229,7 +231,9 @@ class Cel2DSolver:
         A node of a body cell is tied fully (moves with the body) when the contact is rough, the
         node is inside, or the body is curved (its contact law lives in the interface layer, see
         :meth:`strength_factors`); on a smooth flat face only its normal velocity is tied, n
-        being the face normal, pointing into the soil. With limited adhesion (roughness α in (0, 1), flat faces) the normally
+        being the face normal, pointing into the soil. The nodes on a flat face's base and wall
+        carry that normal whatever the roughness (a corner and inside nodes carry none): with
+        solver.contact_separation, a tie with a normal lets go where the soil pulls away. With limited adhesion (roughness α in (0, 1), flat faces) the normally
         tied nodes also carry ``tie_cap`` = α × their share of the face (m per unit thickness,
         m²/rad axisymmetric): the stepper lets the face pull them along by up to tie_cap·su.
         Returns (solid, tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap).
@@ -282,6 +286,7 @@ class Cel2DSolver:
             r = np.maximum(np.hypot(xs, ys), 1e-300)
             nx_, ny_ = xs / r, ys / r
             tie_full = inside.copy()
+            nx_[inside], ny_[inside] = 0.0, 0.0  # inside the body: no face, always tied
         elif self.flat_faced:
             xs, ys = grid.x[tie_i], grid.y[tie_j]
             on_base = (tie_j == j_base) & (xs < 0.5 * B - 1e-12)
@@ -330,9 +335,13 @@ class Cel2DSolver:
         """The soil cells beside a face the soil may leave (nx, ny), with solver.contact_separation:
         they carry stress only while full (:func:`dsmv.cel.kernels.update_stress`). A pushed strip
         leaves a wedge-shaped gap beside its wall, a third of a cell wide at 0.05 B and B/20 (README);
-        spread across a partly full cell, the sliver of soil beside it would bridge it."""
+        spread across a partly full cell, the sliver of soil beside it would bridge it. The rule
+        cannot tell a gap from a free surface or a smeared fill: a wall cell under 95 % full, at
+        the corner early in a push too, carries nothing (an O(h) effect), and its node's
+        limited-adhesion grip (0 < α < 1) goes with its strength. Flat faces only: a T-bar's cut
+        cells keep their stress."""
         face = np.zeros((solid.shape[0] + 1, solid.shape[1] + 1), dtype=bool)
-        if self.scene.solver.contact_separation:
+        if self.scene.solver.contact_separation and self.flat_faced:
             on_face = (tie_nx != 0.0) | (tie_ny != 0.0)
             face[tie_i[on_face], tie_j[on_face]] = True
         return (face[:-1, :-1] | face[1:, :-1] | face[1:, 1:] | face[:-1, 1:]) & ~solid
