@@ -319,5 +319,7 @@ def test_contact_separation_lets_the_soil_part_from_the_wall(compose_cfg, roughn
     lower, upper = NOTCHED_STRIP_LOWER_BOUND_AT_0P05B[roughness], NOTCHED_STRIP_UPPER_BOUND_AT_0P05B[roughness]
     assert parted.metrics["nc_at_0p05B"] < tied.metrics["nc_at_0p05B"] - 0.08
     assert lower < parted.metrics["nc_at_0p05B"] < 1.015 * upper
+    # the gap cells' released elastic energy is a term of its own: nil without separation
+    assert tied.metrics["energy_gap_release_j"] == 0.0 < parted.metrics["energy_gap_release_j"]
     assert parted.metrics["energy_error"] < 0.01
     assert parted.metrics["mass_error"] < 1e-10

@@ -84,7 +84,7 @@ def simple_shear(law, soil, gamma_dot, gamma_total, n_steps=4000):
     G = soil.youngs_modulus_pa / (2 * (1 + soil.poisson_ratio))
     Kb = soil.youngs_modulus_pa / (3 * (1 - 2 * soil.poisson_ratio))
     dt = gamma_total / gamma_dot / n_steps
-    out = np.zeros(1)
+    out = np.zeros(2)
     gammas, taus = [], []
     for step in range(n_steps):
         K.update_stress(x, y, phi, q, vx, vy, dt, G, Kb, soil.su0_pa, 0.0, False, 0.01, True,

@@ -335,7 +335,7 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
 
     A ``gap_cells`` cell (beside a face the soil may leave) carries stress only while full: partly
     full, it holds the sliver of soil beside the gap the soil has opened at the face, which spread
-    across the cell would bridge the gap. Its elastic energy, released, counts as dissipated.
+    across the cell would bridge the gap. ``out[1]`` accumulates the elastic energy so released (J).
     """
     nx, ny = phi.shape
     has_state = q.shape[0] > NQ_BASE
@@ -354,7 +354,7 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
                 # a wisp of soil in a nearly empty cell carries no stress: its strain rate,
                 # taken from void nodes, means nothing; nor does the sliver beside a gap
                 if sliver:
-                    plastic += f * (x[i + 1] - x[i]) * (y[j + 1] - y[j]) * r * elastic_energy_density(
+                    out[1] += f * (x[i + 1] - x[i]) * (y[j + 1] - y[j]) * r * elastic_energy_density(
                         q[SXX, i, j], q[SYY, i, j], q[SXY, i, j], q[SZZ, i, j], shear_mod, bulk_mod)
                 q[SXX, i, j] = 0.0
                 q[SYY, i, j] = 0.0

@@ -663,7 +663,8 @@ class Cel2DSolver:
 
         In: the body's kinetic energy at touchdown, the work of gravity on body and soil, the work
         of the push. Out: kinetic (soil, body) and elastic energy now, plastic, hourglass and
-        bulk-viscosity dissipation, slip at a limited-adhesion contact, the touchdown impact, and
+        bulk-viscosity dissipation, slip at a limited-adhesion contact, the elastic energy a gap cell
+        lets go (:meth:`gap_cells`), the touchdown impact, and
         what the remap changed (a remap that smooths stress or velocity loses energy; soil
         entering at the base brings its elastic energy). ``energy_error`` = |in − out| /
         (energy delivered to the soil).
@@ -688,6 +689,7 @@ class Cel2DSolver:
             "energy_touchdown_loss_j": touchdown_loss,
             "energy_remap_loss_j": -(energy[S.E_REMAP_ELASTIC] + energy[S.E_REMAP_KINETIC]),
             "energy_contact_slip_j": energy[S.E_FRICTION],
+            "energy_gap_release_j": energy[S.E_GAP_RELEASE],
         }
         inputs = sum(v for k, v in terms.items() if k.startswith("energy_in_"))
         outputs = sum(v for k, v in terms.items() if not k.startswith("energy_in_"))

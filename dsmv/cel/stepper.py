@@ -19,7 +19,7 @@ from numba import njit
 
 # Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
 # kernels it inlined until this file changes. After changing a kernel, bump this revision
-# (or clear the Numba cache). Kernel revision: 16 (a cell beside a face the soil may leave carries stress only while full).
+# (or clear the Numba cache). Kernel revision: 17 (a cell beside a face the soil may leave carries stress only while full; its own energy term).
 from dsmv.cel.kernels import (
     JIT,
     advect_cells,
@@ -51,8 +51,8 @@ N_BODY = 11
 # changes of elastic and kinetic energy that the remap makes, and the work lost to slip at a
 # limited-adhesion contact
 (E_PLASTIC, E_HOURGLASS, E_BULK, E_PUSH, E_BODY_GRAV, E_SOIL_GRAV, E_REMAP_ELASTIC, E_REMAP_KINETIC,
- E_FRICTION) = range(9)
-N_ENERGY = 9
+ E_FRICTION, E_GAP_RELEASE) = range(10)
+N_ENERGY = 10
 # exit codes
 RUNNING, AT_REST, NOT_FINITE = 0, 1, 2
 #: a cell the body cuts lends its nodes at least the mass of this fill of the whole cell: its open
@@ -103,7 +103,7 @@ def run_steps(
     remap = ipar[I_REMAP] != 0
     nxn, nyn = vx.shape
     work = np.zeros(3)
-    stress_out = np.zeros(1)
+    stress_out = np.zeros(2)  # plastic work, elastic energy released by gap cells (J)
     audit = np.zeros(2)
     n_tied = len(tie_i)
     separate = ipar[I_SEPARATE] == 1
@@ -203,7 +203,7 @@ def run_steps(
             friction -= m * dw * ty / dt  # the reaction on the body (N, up +)
         body[B_FRICTION] = friction
         energy[E_SOIL_GRAV] += -grav * dt * 0.5 * (momentum_before + momentum_after)
-        stress_out[0] = 0.0
+        stress_out[:] = 0.0
         for k in range(merge.shape[0]):  # a sliver and its neighbour change volume as one
             si, sj, ni, nj = merge[k, 0], merge[k, 1], merge[k, 2], merge[k, 3]
             d = merged_divergence(si, sj, ni, nj, x, y, vx, vy, body[B_VEL], aperture_x, aperture_y, open_frac)
@@ -214,6 +214,7 @@ def run_steps(
                       strength_factor, su_cell, stress_out, aperture_x, aperture_y, open_frac, body[B_VEL], div_override,
                       gap_cells)
         energy[E_PLASTIC] += stress_out[0]
+        energy[E_GAP_RELEASE] += stress_out[1]
         body[B_OFFSET] += body[B_VEL] * dt
         body[B_TIME] += dt
         body[B_STEP] += 1.0
