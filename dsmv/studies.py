@@ -320,13 +320,13 @@ def bearing_curves(sweep_dir: Path, path: Path) -> Path | None:
         for rough, style in ((True, "--"), (False, ":")):
             ax.plot(s, [embedded_strip_upper_bound(d, rough) for d in s], "k" + style, lw=1,
                     label=f"upper bound, wished in place at s, {'rough' if rough else 'smooth'} walls")
-        for offset, (roughness, lower) in enumerate(STRIP_LOWER_BOUND_AT_0P05B.items()):
-            if False not in separations:
-                break
-            upper = embedded_strip_upper_bound(0.05, roughness == "rough")
-            ax.errorbar(0.05 + 0.02 * (offset - 0.5) * travel_max, 0.5 * (lower + upper), yerr=0.5 * (upper - lower),
-                        fmt="none", ecolor=("k", "0.5")[offset], elinewidth=2, capsize=3,
-                        label=f"{roughness}, wished in place 0.05 B deep, soil tied to the walls: {lower}–{upper:.3f}")
+        if False in separations:
+            for offset, (roughness, lower) in enumerate(STRIP_LOWER_BOUND_AT_0P05B.items()):
+                upper = embedded_strip_upper_bound(0.05, roughness == "rough")
+                ax.errorbar(0.05 + 0.02 * (offset - 0.5) * travel_max, 0.5 * (lower + upper),
+                            yerr=0.5 * (upper - lower), fmt="none", ecolor=("k", "0.5")[offset], elinewidth=2,
+                            capsize=3, label=f"{roughness}, wished in place 0.05 B deep, soil tied to the walls: "
+                                             f"{lower}–{upper:.3f}")
         if True in separations:
             for offset, (roughness, lower) in enumerate(NOTCHED_STRIP_LOWER_BOUND_AT_0P05B.items()):
                 ax.plot([0.05 + 0.02 * (offset - 0.5) * travel_max], [lower], "^", color=("k", "0.5")[offset],

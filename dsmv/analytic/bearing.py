@@ -35,7 +35,7 @@ STRIP_LOWER_BOUND_AT_0P05B = {"rough": 5.357, "smooth": 5.296}
 #: rigorous lower bounds on q/su of the strip pushed to 0.05 B whose soil may part from its walls:
 #: the notch Prandtl's kinematics leave beside the wall (slope 3, s/3 = 0.0167 B wide at the old
 #: mudline) and a flat surface beyond it; the heave only adds soil and cannot lower them.
-#: ``python -m dsmv.analytic.limit_analysis --depth 0.05 --roughness R --notch 0.0167`` on the
+#: ``python -m dsmv.analytic.limit_analysis --depth 0.05 --roughness R --notch 0.016667`` on the
 #: finest mesh above (about 2 min; `pytest -m slow tests/test_limit_analysis.py` recomputes them).
 #: Clarabel stalls on these programmes (status NumericalError, duality gap about 0.5 %): the field
 #: it returns is checked feasible, so each value is a rigorous bound, if looser than the optimum

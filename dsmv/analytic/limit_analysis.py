@@ -81,7 +81,7 @@ class Bound:
     solve_s: float  #: wall time of the cone programme (s)
     max_violation: float  #: largest constraint violation of the solver's field (FEASIBILITY_TOL's units)
     #: how the cone solver ended: "Solved" is optimal; otherwise the field still bounds, less tightly
-    solver_status: str = "Solved"
+    solver_status: str
 
 
 @dataclass(frozen=True)
@@ -144,6 +144,12 @@ def _graded(start: float, stop: float, fine_size: float, growth: float, zone_siz
     return start + direction * np.asarray(offsets)
 
 
+def notch_allowed(depth: float, gap: float, notch: float) -> bool:
+    """Whether :func:`strip_mesh` can open a notch this wide (B): none, or one narrower than
+    NOTCH_BLEND / 2 beside a wall that exists (depth > 0) and has no slot."""
+    return notch == 0.0 or (0.0 < notch < 0.5 * NOTCH_BLEND and depth > 0.0 and gap == 0.0)
+
+
 def _diagonal_crossings(quads: np.ndarray) -> np.ndarray:
     """Where the diagonals 0–2 and 1–3 of each quadrilateral (m, 4, 2) cross (m, 2)."""
     p0, p1, p2, p3 = (quads[:, k] for k in range(4))
@@ -161,7 +167,7 @@ def strip_mesh(depth: float, extent: float = 3.0, corner_size: float = 0.01, gro
     wall, down to the base. `notch` opens a wedge-shaped gap instead, from nothing at the base
     corner to that width at the surface: the grid beside the wall is sheared away from it, the
     shift fading out over NOTCH_BLEND. Sizes in B."""
-    if notch > 0.0 and (depth <= 0.0 or gap > 0.0 or notch >= 0.5 * NOTCH_BLEND):
+    if not notch_allowed(depth, gap, notch):
         raise ValueError(f"a notch (here {notch}) needs a depth > 0, no slot, and a width below {0.5 * NOTCH_BLEND} B")
     xs = np.unique(np.concatenate([[HALF_WIDTH + gap],
         _graded(HALF_WIDTH, 0.0, corner_size, growth, zone_size, HALF_WIDTH, coarse_size),
@@ -458,8 +464,7 @@ def main(argv=None) -> None:
                                  ("--growth", args.growth, args.growth >= 1.0),
                                  ("--zone-size", args.zone_size, args.zone_size >= args.corner_size),
                                  ("--gap", args.gap, args.gap >= 0.0),
-                                 ("--notch", args.notch, 0.0 <= args.notch < 0.5 * NOTCH_BLEND
-                                  and (args.notch == 0.0 or (args.depth > 0.0 and args.gap == 0.0)))):
+                                 ("--notch", args.notch, notch_allowed(args.depth, args.gap, args.notch))):
         if not allowed:
             parser.error(f"{name} {value}: allowed are a depth ≥ 0, a corner size > 0, a growth ≥ 1, "
                          f"a zone size ≥ the corner size, a gap ≥ 0, and a notch in [0, {0.5 * NOTCH_BLEND:g}) "

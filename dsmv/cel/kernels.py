@@ -354,7 +354,7 @@ def update_stress(x, y, phi, q, vx, vy, dt, shear_mod, bulk_mod, su0, ks, axisym
                 # a wisp of soil in a nearly empty cell carries no stress: its strain rate,
                 # taken from void nodes, means nothing; nor does the sliver beside a gap
                 if sliver:
-                    out[1] += f * (x[i + 1] - x[i]) * (y[j + 1] - y[j]) * r * elastic_energy_density(
+                    out[1] += f * dx * (y[j + 1] - y[j]) * r * elastic_energy_density(
                         q[SXX, i, j], q[SYY, i, j], q[SXY, i, j], q[SZZ, i, j], shear_mod, bulk_mod)
                 q[SXX, i, j] = 0.0
                 q[SYY, i, j] = 0.0

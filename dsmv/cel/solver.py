@@ -118,6 +118,13 @@ def sliver_pairs(openings) -> np.ndarray:
     return np.array(pairs, dtype=np.int64).reshape(-1, 4)
 
 
+def soil_cells_touching(solid, node_i, node_j) -> np.ndarray:
+    """The cells outside the body (``solid`` False) with a corner among the nodes (node_i, node_j)."""
+    marked = np.zeros((solid.shape[0] + 1, solid.shape[1] + 1), dtype=bool)
+    marked[node_i, node_j] = True
+    return (marked[:-1, :-1] | marked[1:, :-1] | marked[1:, 1:] | marked[:-1, 1:]) & ~solid
+
+
 def track_side_view_cells(grid, track) -> np.ndarray:
     """Cells of a track seen from the side (``geometry.view=longitudinal``), half model.
 
@@ -233,8 +240,8 @@ class Cel2DSolver:
         :meth:`strength_factors`); on a smooth flat face only its normal velocity is tied, n
         being the face normal, pointing into the soil. The nodes on a flat face's base and wall
         carry that normal whatever the roughness (a corner and inside nodes carry none): with
-        solver.contact_separation, a tie with a normal lets go where the soil pulls away. With limited adhesion (roughness α in (0, 1), flat faces) the normally
-        tied nodes also carry ``tie_cap`` = α × their share of the face (m per unit thickness,
+        solver.contact_separation, a tie with a normal lets go where the soil pulls away. With
+        limited adhesion (roughness α in (0, 1), flat faces) the normally tied nodes also carry ``tie_cap`` = α × their share of the face (m per unit thickness,
         m²/rad axisymmetric): the stepper lets the face pull them along by up to tie_cap·su.
         Returns (solid, tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap).
         """
@@ -325,10 +332,7 @@ class Cel2DSolver:
         if self.cut_cells:
             factor[(open_frac < 1.0) & (open_frac > 0.0)] = 0.0
         elif self.interface_layer:
-            tied = np.zeros((solid.shape[0] + 1, solid.shape[1] + 1), dtype=bool)
-            tied[tie_i, tie_j] = True
-            layer = (tied[:-1, :-1] | tied[1:, :-1] | tied[1:, 1:] | tied[:-1, 1:]) & ~solid
-            factor[layer] = self.scene.geometry.adhesion_factor
+            factor[soil_cells_touching(solid, tie_i, tie_j)] = self.scene.geometry.adhesion_factor
         return factor
 
     def gap_cells(self, solid, tie_i, tie_j, tie_nx, tie_ny) -> np.ndarray:
@@ -340,11 +344,10 @@ class Cel2DSolver:
         the corner early in a push too, carries nothing (an O(h) effect), and its node's
         limited-adhesion grip (0 < α < 1) goes with its strength. Flat faces only: a T-bar's cut
         cells keep their stress."""
-        face = np.zeros((solid.shape[0] + 1, solid.shape[1] + 1), dtype=bool)
-        if self.scene.solver.contact_separation and self.flat_faced:
-            on_face = (tie_nx != 0.0) | (tie_ny != 0.0)
-            face[tie_i[on_face], tie_j[on_face]] = True
-        return (face[:-1, :-1] | face[1:, :-1] | face[1:, 1:] | face[:-1, 1:]) & ~solid
+        if not (self.scene.solver.contact_separation and self.flat_faced):
+            return np.zeros(solid.shape, dtype=bool)
+        on_face = (tie_nx != 0.0) | (tie_ny != 0.0)
+        return soil_cells_touching(solid, tie_i[on_face], tie_j[on_face])
 
     # ------------------------------------------------------------------ setup
 

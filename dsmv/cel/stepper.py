@@ -19,7 +19,7 @@ from numba import njit
 
 # Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
 # kernels it inlined until this file changes. After changing a kernel, bump this revision
-# (or clear the Numba cache). Kernel revision: 17 (a cell beside a face the soil may leave carries stress only while full; its own energy term).
+# (or clear the Numba cache). Kernel revision: 18 (review tidy; no change of arithmetic).
 from dsmv.cel.kernels import (
     JIT,
     advect_cells,
@@ -38,7 +38,7 @@ from dsmv.cel.kernels import (
  P_PUSH_V, P_K0, P_PHI_STRESS, P_REMAP_DISP) = range(19)
 N_PAR = 19
 # integer parameters
-# I_SEPARATE: a normally tied node lets go when the soil would pull away from the face (no tension)
+# I_SEPARATE: a face tie (one with a normal) lets go when the soil would pull away from the face (no tension)
 I_AXISYM, I_ORDER, I_DROP, I_INFLOW, I_REMAP, I_TRESCA, I_LAW, I_SKIP_VOID, I_SEPARATE = range(9)
 N_IPAR = 9
 # body state (mutable floats)
@@ -48,8 +48,8 @@ B_TIME, B_OFFSET, B_VEL, B_MAXDISP, B_FSUM, B_FCOUNT, B_INFLOW, B_STEP, B_FRICTI
 N_BODY = 11
 # energy accumulators of the model (J per unit thickness or per radian): plastic, hourglass and
 # bulk-viscosity dissipation, work of the push, of gravity on the body and on the soil, and the
-# changes of elastic and kinetic energy that the remap makes, and the work lost to slip at a
-# limited-adhesion contact
+# changes of elastic and kinetic energy that the remap makes, the work lost to slip at a
+# limited-adhesion contact, and the elastic energy gap cells let go (update_stress)
 (E_PLASTIC, E_HOURGLASS, E_BULK, E_PUSH, E_BODY_GRAV, E_SOIL_GRAV, E_REMAP_ELASTIC, E_REMAP_KINETIC,
  E_FRICTION, E_GAP_RELEASE) = range(10)
 N_ENERGY = 10
