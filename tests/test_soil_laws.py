@@ -90,7 +90,8 @@ def simple_shear(law, soil, gamma_dot, gamma_total, n_steps=4000):
         K.update_stress(x, y, phi, q, vx, vy, dt, G, Kb, soil.su0_pa, 0.0, False, 0.01, True,
                         law.compiled(), law.packed(), law.active, law.compiled_evolve(), np.ones((1, 1)),
                         np.zeros((1, 1)), out, np.ones((2, 1)), np.ones((2, 1)), np.ones((1, 1)), 0.0,
-                        np.full((1, 1), np.nan), np.zeros((1, 1), dtype=np.bool_))
+                        np.full((1, 1), np.nan), np.zeros((1, 1), dtype=np.bool_), np.full((1, 1), -1, dtype=np.int64),
+                        np.zeros((0, K.N_TWIN)))
         gammas.append((step + 1) * gamma_dot * dt)
         taus.append(q[K.SXY, 0, 0])
     return np.array(gammas), np.array(taus), G

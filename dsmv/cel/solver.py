@@ -118,6 +118,15 @@ def sliver_pairs(openings) -> np.ndarray:
     return np.array(pairs, dtype=np.int64).reshape(-1, 4)
 
 
+def soil_kinetic_energy(mass, vx, vy, twin) -> float:
+    """The soil's kinetic energy on the nodes and the corner twins (J per unit thickness or per radian)."""
+    from dsmv.cel import kernels as K
+
+    nodes = 0.5 * (mass * (vx * vx + vy * vy)).sum()
+    twins = 0.5 * (twin[:, K.TW_M] * (twin[:, K.TW_VX] ** 2 + twin[:, K.TW_VY] ** 2)).sum()
+    return float(nodes + twins)
+
+
 def soil_cells_touching(solid, node_i, node_j) -> np.ndarray:
     """The cells outside the body (``solid`` False) with a corner among the nodes (node_i, node_j)."""
     marked = np.zeros((solid.shape[0] + 1, solid.shape[1] + 1), dtype=bool)
@@ -315,6 +324,34 @@ class Cel2DSolver:
                 cap[on_side] = (alpha * 0.5 * (below + above) * radius)[on_side]
         return solid, tie_i.astype(np.int64), tie_j.astype(np.int64), tie_full, nx_, ny_, cap
 
+    def corner_twins(self, grid, j_base, solid):
+        """The corner twins of a flat-faced body (:data:`dsmv.cel.kernels.N_TWIN`): at each end of
+        its base, the soil cells beyond the base, beside the wall, get their own copy of the
+        corner node, tied along the wall's normal. Returns (cell_twin, twin_node, twin); none for
+        other bodies."""
+        from dsmv.cel import kernels as K
+
+        cell_twin = np.full(solid.shape, -1, dtype=np.int64)
+        normals, nodes = [], []
+        if self.flat_faced:
+            half = 0.5 * self.scene.geometry.width_m
+            for side in (1.0, -1.0):
+                (i_corner,) = np.nonzero(np.isclose(grid.x, side * half))
+                if len(i_corner) == 0:
+                    continue
+                i_corner = int(i_corner[0])
+                # the cells beyond the base touch the corner with their left (right side) or right nodes
+                i_cell, below, above = (i_corner, 3, 0) if side > 0 else (i_corner - 1, 2, 1)
+                k = len(normals)
+                for j_cell, local in ((j_base - 1, below), (j_base, above)):
+                    if 0 <= j_cell < grid.ny and not solid[i_cell, j_cell]:
+                        cell_twin[i_cell, j_cell] = 4 * k + local
+                normals.append(side)
+                nodes.append((i_corner, j_base))
+        twin = np.zeros((len(normals), K.N_TWIN))
+        twin[:, K.TW_NX] = normals
+        return cell_twin, np.array(nodes, dtype=np.int64).reshape(-1, 2), twin
+
     def body_openings(self, grid, solid):
         """What the body leaves open to the soil (:class:`~dsmv.cel.grid.Openings`): whole cells,
         or for a smooth cylinder the cells its circle cuts, partly."""
@@ -429,6 +466,7 @@ class Cel2DSolver:
         phi, q = geostatic_state(grid, rho, grav, elastic.k0, d0, openings.open_frac)
         strength_factor = self.strength_factors(solid, tie_i, tie_j, openings.open_frac)
         gap_cells = self.gap_cells(solid, tie_i, tie_j, tie_nx, tie_ny)
+        cell_twin, twin_node, twin = self.corner_twins(grid, j_base, solid)
         # the soil law's state variables ride with the material, as ξ and z0 do
         initial_state = self.law.initial_state()
         q = np.concatenate([q, np.broadcast_to(initial_state[:, None, None], (len(initial_state), nx, ny))])
@@ -461,10 +499,12 @@ class Cel2DSolver:
         vy = np.zeros((nx + 1, ny + 1))
         mass = np.zeros_like(vx)
         K.nodal_mass(phi, vol, rho, mass, openings.open_frac, S.CUT_MASS_FILL)
+        K.twin_masses(phi, vol, rho, mass, cell_twin, twin)
         body = np.zeros(S.N_BODY)
         v0 = -landing.velocity_m_s
         if drop:  # touchdown: the body and the soil nodes it meets share momentum
-            tied_mass = float((mass[tie_i, tie_j] * np.where(tie_full, 1.0, tie_ny**2)).sum())
+            tied_mass = float((mass[tie_i, tie_j] * np.where(tie_full, 1.0, tie_ny**2)).sum()
+                              + (twin[:, K.TW_M] * twin[:, K.TW_NY] ** 2).sum())
             v0 = par[S.P_BODY_M] * v0 / (par[S.P_BODY_M] + tied_mass)
         touchdown_loss = 0.0
         if drop:
@@ -492,7 +532,7 @@ class Cel2DSolver:
                 n, x, y, vol, phi, q, vx, vy, mass, work["fx"], work["fy"], work["ux"], work["uy"],
                 work["flux_x"], work["flux_y"], tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap, strength_factor,
                 work["su_cell"], solid, openings.aperture_x, openings.aperture_y, openings.open_frac, merge, gap_cells,
-                ghost, ghost_depth0,
+                cell_twin, twin_node, twin, ghost, ghost_depth0,
                 par, ipar, body, energy, law_fn, law_params, law_evolve,
             )
 
@@ -548,7 +588,7 @@ class Cel2DSolver:
                     f"a non-finite value appeared at t = {body[S.B_TIME]:.4g} s; lower solver.cfl "
                     f"(now {cfg.cfl}) or raise solver.bulk_viscosity_linear")
                 break
-            kinetic = float(0.5 * (mass * (vx * vx + vy * vy)).sum())
+            kinetic = soil_kinetic_energy(mass, vx, vy, twin)
             delivered = (0.5 * par[S.P_BODY_M] * landing.velocity_m_s**2 if drop else 0.0) + abs(
                 energy[S.E_BODY_GRAV]) + abs(energy[S.E_SOIL_GRAV]) + abs(energy[S.E_PUSH])
             if kinetic > 10.0 * delivered + 1e-9:
@@ -610,8 +650,8 @@ class Cel2DSolver:
         if show:
             print(file=sys.stderr)
 
-        audit = self._energy_audit(energy, elastic0, touchdown_loss, phi, q, vol, G, Kb, mass, vx, vy, body, par,
-                                   drop, scale)
+        audit = self._energy_audit(energy, elastic0, touchdown_loss, phi, q, vol, G, Kb, mass, vx, vy, twin, body,
+                                   par, drop, scale)
         mass_now = float(rho * (phi * vol).sum())
         mass_expected = mass0 + rho * body[S.B_INFLOW]
         history_arrays = {k: np.asarray(v) for k, v in history.items()}
@@ -661,7 +701,8 @@ class Cel2DSolver:
         return SolveResult(status, message, metrics, units, history_arrays)
 
     @staticmethod
-    def _energy_audit(energy, elastic0, touchdown_loss, phi, q, vol, G, Kb, mass, vx, vy, body, par, drop, scale):
+    def _energy_audit(energy, elastic0, touchdown_loss, phi, q, vol, G, Kb, mass, vx, vy, twin, body, par, drop,
+                      scale):
         """Every energy term on its own (J per track), and the relative mismatch of the balance.
 
         In: the body's kinetic energy at touchdown, the work of gravity on body and soil, the work
@@ -683,7 +724,7 @@ class Cel2DSolver:
             "energy_in_gravity_body_j": energy[S.E_BODY_GRAV],
             "energy_in_gravity_soil_j": energy[S.E_SOIL_GRAV],
             "energy_in_push_j": energy[S.E_PUSH],
-            "energy_kinetic_soil_j": float(0.5 * (mass * (vx * vx + vy * vy)).sum()),
+            "energy_kinetic_soil_j": soil_kinetic_energy(mass, vx, vy, twin),
             "energy_kinetic_body_j": 0.5 * body_m * body[S.B_VEL] ** 2 if drop else 0.0,
             "energy_elastic_change_j": K.elastic_energy(phi, q, vol, G, Kb) - elastic0,
             "energy_plastic_j": energy[S.E_PLASTIC],

@@ -19,7 +19,7 @@ from numba import njit
 
 # Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
 # kernels it inlined until this file changes. After changing a kernel, bump this revision
-# (or clear the Numba cache). Kernel revision: 18 (review tidy; no change of arithmetic).
+# (or clear the Numba cache). Kernel revision: 19 (corner twins).
 from dsmv.cel.kernels import (
     JIT,
     advect_cells,
@@ -27,6 +27,8 @@ from dsmv.cel.kernels import (
     nodal_forces,
     nodal_mass,
     node_strength,
+    twin_masses,
+    TW_FX, TW_FY, TW_M, TW_NX, TW_NY, TW_UX, TW_UY, TW_VX, TW_VY,
     update_stress,
     merged_divergence,
     update_velocities,
@@ -61,10 +63,35 @@ CUT_MASS_FILL = 0.5
 
 
 @njit(**JIT)
+def tie_holds(vx, vy, fx, fy, m, nx, ny, dt, grav, v_body_next):
+    """Whether a face tie (normal n into the soil) holds this step: the node's free velocity
+    would carry it into the body, not away from the face (no tension)."""
+    vn_free = (vx + dt * fx / m) * nx + (vy + dt * (fy / m - grav)) * ny
+    return vn_free <= v_body_next * ny
+
+
+@njit(**JIT)
+def tie_reaction(fx, fy, m, grav, full, nx, ny):
+    """What a tied node puts on the body: its force (N, up +) and the mass it adds (kg)."""
+    if full:
+        return fy - m * grav, m
+    return (fx * nx + (fy - m * grav) * ny) * ny, m * ny * ny
+
+
+@njit(**JIT)
+def tied_velocity(vx, vy, full, nx, ny, v_body):
+    """A tied node's velocity: the body's (full tie), or its own with the normal part the body's."""
+    if full:
+        return 0.0, v_body
+    gap = v_body * ny - (vx * nx + vy * ny)
+    return vx + gap * nx, vy + gap * ny
+
+
+@njit(**JIT)
 def run_steps(
     n_steps, x, y, vol, phi, q, vx, vy, mass, fx, fy, ux, uy, flux_x, flux_y,
     tie_i, tie_j, tie_full, tie_nx, tie_ny, tie_cap, strength_factor, su_cell, solid, aperture_x, aperture_y, open_frac,
-    merge, gap_cells, ghost, ghost_depth0, par, ipar, body, energy,
+    merge, gap_cells, cell_twin, twin_node, twin, ghost, ghost_depth0, par, ipar, body, energy,
     law, law_params, evolve,
 ):
     """Advance up to ``n_steps`` steps; return (steps done, exit code).
@@ -74,7 +101,10 @@ def run_steps(
     ``merge`` rows (i, j, i', j') pair a sliver of a cut cell with its neighbour
     (:func:`dsmv.cel.solver.sliver_pairs`): one volumetric strain, one fill, one mean stress.
     ``gap_cells`` (nx, ny) marks the cells beside a face the soil may leave, which carry stress
-    only while full (:func:`dsmv.cel.kernels.update_stress`).
+    only while full (:func:`dsmv.cel.kernels.update_stress`). ``cell_twin``, ``twin_node`` and
+    ``twin`` are the corners' twins (:data:`dsmv.cel.kernels.N_TWIN`): moved by their cells, tied
+    along the wall's normal like a face tie; a remap carries the soil through the faces at a
+    corner with the twin's travel, and keeps the twin's velocity (a corner stays put in the grid).
 
     ``law`` is the soil law's compiled strength factor (dsmv.soil_law), ``law_params`` its
     packed parameters; it is called only when ``ipar[I_LAW]`` is set. ``evolve`` updates the
@@ -108,6 +138,8 @@ def run_steps(
     n_tied = len(tie_i)
     separate = ipar[I_SEPARATE] == 1
     holding = np.ones(n_tied, dtype=np.bool_)  # every tie holds unless the soil may part from the faces
+    n_twins = twin.shape[0]
+    twin_holding = np.ones(n_twins, dtype=np.bool_)
     # a merged sliver and its neighbour are marked here (their common strain rate is set before each stress update)
     div_override = np.full(phi.shape, np.nan)
     for k in range(merge.shape[0]):
@@ -115,11 +147,13 @@ def run_steps(
         div_override[merge[k, 2], merge[k, 3]] = 0.0
     # nodal masses change only where soil moves through the grid: here and after each remap
     nodal_mass(phi, vol, rho, mass, open_frac, CUT_MASS_FILL)
+    twin_masses(phi, vol, rho, mass, cell_twin, twin)
     for step in range(n_steps):
         # ---- Lagrangian phase
         work[:] = 0.0
         nodal_forces(x, y, phi, q, vx, vy, rho, par[P_C], par[P_HG], par[P_BL], par[P_BQ], axisym, fx, fy, work,
-                     ipar[I_SKIP_VOID] == 1, aperture_x, aperture_y, open_frac, body[B_VEL], div_override)
+                     ipar[I_SKIP_VOID] == 1, aperture_x, aperture_y, open_frac, body[B_VEL], div_override,
+                     cell_twin, twin)
         energy[E_HOURGLASS] += work[0] * dt
         energy[E_BULK] += work[1] * dt
         # rigid body with the soil nodes tied to it (vertical motion): a fully tied node moves
@@ -134,19 +168,25 @@ def run_steps(
                 if (tie_nx[k] == 0.0 and tie_ny[k] == 0.0) or m <= par[P_MFLOOR]:  # no face: a corner, a staircase
                     holding[k] = True
                     continue
-                vn_free = (vx[i, j] + dt * fx[i, j] / m) * tie_nx[k] + (vy[i, j] + dt * (fy[i, j] / m - grav)) * tie_ny[k]
-                holding[k] = vn_free <= v_body_next * tie_ny[k]
+                holding[k] = tie_holds(vx[i, j], vy[i, j], fx[i, j], fy[i, j], m, tie_nx[k], tie_ny[k], dt, grav,
+                                       v_body_next)
+            for k in range(n_twins):
+                m = twin[k, TW_M]
+                twin_holding[k] = m <= par[P_MFLOOR] or tie_holds(
+                    twin[k, TW_VX], twin[k, TW_VY], twin[k, TW_FX], twin[k, TW_FY], m, twin[k, TW_NX], twin[k, TW_NY],
+                    dt, grav, v_body_next)
         for k in range(n_tied):
             i, j = tie_i[k], tie_j[k]
-            if not holding[k]:
-                continue
-            if tie_full[k]:
-                soil_on_nodes += fy[i, j] - mass[i, j] * grav
-                tied_mass += mass[i, j]
-            else:
-                nxk, nyk = tie_nx[k], tie_ny[k]
-                soil_on_nodes += (fx[i, j] * nxk + (fy[i, j] - mass[i, j] * grav) * nyk) * nyk
-                tied_mass += mass[i, j] * nyk * nyk
+            if holding[k]:
+                force, m = tie_reaction(fx[i, j], fy[i, j], mass[i, j], grav, tie_full[k], tie_nx[k], tie_ny[k])
+                soil_on_nodes += force
+                tied_mass += m
+        for k in range(n_twins):
+            if twin_holding[k]:
+                force, m = tie_reaction(twin[k, TW_FX], twin[k, TW_FY], twin[k, TW_M], grav, False, twin[k, TW_NX],
+                                        twin[k, TW_NY])
+                soil_on_nodes += force
+                tied_mass += m
         v_old = body[B_VEL]
         if drop:
             accel = (soil_on_nodes - par[P_BODY_W]) / (par[P_BODY_M] + tied_mass)
@@ -163,6 +203,19 @@ def run_steps(
         # Σ m·vy before the update and after it, kept current through every later change of vy
         # in this step (the audit of gravity's work on the soil needs both)
         momentum_before, momentum_after = update_velocities(vx, vy, fx, fy, mass, grav, dt, par[P_MFLOOR])
+        for k in range(n_twins):
+            m = twin[k, TW_M]
+            momentum_before += m * twin[k, TW_VY]
+            if m > par[P_MFLOOR]:
+                twin[k, TW_VX] += dt * twin[k, TW_FX] / m
+                twin[k, TW_VY] += dt * (twin[k, TW_FY] / m - grav)
+            else:
+                twin[k, TW_VX] = 0.0
+                twin[k, TW_VY] = 0.0
+            if twin_holding[k]:
+                twin[k, TW_VX], twin[k, TW_VY] = tied_velocity(twin[k, TW_VX], twin[k, TW_VY], False, twin[k, TW_NX],
+                                                               twin[k, TW_NY], body[B_VEL])
+            momentum_after += m * twin[k, TW_VY]
         # boundary conditions: symmetry axis and far side are rollers, the base is fixed
         for j in range(nyn):
             vx[0, j] = 0.0
@@ -176,13 +229,7 @@ def run_steps(
             if not holding[k]:
                 continue
             vy_free = vy[i, j]
-            if tie_full[k]:
-                vx[i, j] = 0.0
-                vy[i, j] = body[B_VEL]
-            else:
-                gap = body[B_VEL] * tie_ny[k] - (vx[i, j] * tie_nx[k] + vy[i, j] * tie_ny[k])
-                vx[i, j] += gap * tie_nx[k]
-                vy[i, j] += gap * tie_ny[k]
+            vx[i, j], vy[i, j] = tied_velocity(vx[i, j], vy[i, j], tie_full[k], tie_nx[k], tie_ny[k], body[B_VEL])
             momentum_after += mass[i, j] * (vy[i, j] - vy_free)
         friction = 0.0
         for k in range(n_tied):
@@ -212,7 +259,7 @@ def run_steps(
         update_stress(x, y, phi, q, vx, vy, dt, par[P_G], par[P_K], par[P_SU0], par[P_KS], axisym,
                       par[P_PHI_STRESS], ipar[I_TRESCA] == 1, law, law_params, ipar[I_LAW] == 1, evolve,
                       strength_factor, su_cell, stress_out, aperture_x, aperture_y, open_frac, body[B_VEL], div_override,
-                      gap_cells)
+                      gap_cells, cell_twin, twin)
         energy[E_PLASTIC] += stress_out[0]
         energy[E_GAP_RELEASE] += stress_out[1]
         body[B_OFFSET] += body[B_VEL] * dt
@@ -232,6 +279,10 @@ def run_steps(
                     ux[i, j] += vx[i, j] * dt
                     uy[i, j] += (vy[i, j] - v_grid) * dt
                     travel = max(travel, abs(ux[i, j]), abs(uy[i, j]))
+            for k in range(n_twins):
+                twin[k, TW_UX] += twin[k, TW_VX] * dt
+                twin[k, TW_UY] += (twin[k, TW_VY] - v_grid) * dt
+                travel = max(travel, abs(twin[k, TW_UX]), abs(twin[k, TW_UY]))
         if not (math.isfinite(body[B_VEL]) and math.isfinite(resistance)):
             return step + 1, NOT_FINITE
         if drop and body[B_VEL] >= 0.0 and v_old < 0.0:
@@ -247,6 +298,12 @@ def run_steps(
                 ghost[0, i] = par[P_K0] * ghost[1, i]
                 ghost[3, i] = ghost[0, i]
                 ghost[5, i] = depth
+        # the faces at a corner open to the soil are those of the twin's cells (the others are the body's)
+        for k in range(n_twins):
+            ux[twin_node[k, 0], twin_node[k, 1]] = twin[k, TW_UX]
+            uy[twin_node[k, 0], twin_node[k, 1]] = twin[k, TW_UY]
+            twin[k, TW_UX] = 0.0
+            twin[k, TW_UY] = 0.0
         audit[:] = 0.0
         first = int(body[B_REMAPS]) % 2  # the sweeps alternate their order
         for sweep in range(2):  # with the gathered travel as velocity × time: Δt = 1
@@ -280,6 +337,7 @@ def run_steps(
         ux[:, :] = 0.0
         uy[:, :] = 0.0
         nodal_mass(phi, vol, rho, mass, open_frac, CUT_MASS_FILL)
+        twin_masses(phi, vol, rho, mass, cell_twin, twin)
         body[B_REMAP_OFFSET] = body[B_OFFSET]
         body[B_REMAPS] += 1.0
     return n_steps, RUNNING
