@@ -45,7 +45,7 @@ def test_wall_adhesion_raises_the_load_with_alpha_and_the_audit_counts_the_slip(
     assert loads[-1] - loads[0] > 1.5, loads  # walls 1 B high on each side: up to +2·su·D/(su·B) = +2
     m = runs[0.5]
     assert m["energy_error"] < 1e-3
-    assert runs["smooth"]["energy_contact_slip_j"] == 0.0 == runs["rough"]["energy_contact_slip_j"]
+    assert runs["smooth"]["energy_contact_slip_j"] == 0.0 < runs["rough"]["energy_contact_slip_j"]  # rough: α = 1
     delivered = m["energy_in_push_j"]
     assert m["energy_contact_slip_j"] > 0.02 * delivered
     inputs = sum(v for k, v in m.items() if k.startswith("energy_in_"))

@@ -96,10 +96,18 @@ def test_embedment_raises_the_capacity_by_about_the_upper_bound(compose_cfg, sma
     assert 0.8 * bound < rise < 1.05 * bound
 
 
+# Limit analysis of the rough strip wished in place at depth D, soil bonded to base and walls
+# (`python -m dsmv.analytic.limit_analysis --depth D --roughness rough --bonded`, default mesh):
+# rigorous lower and upper bounds on q/su
+BONDED_ROUGH_STRIP_BRACKET = {0.1: (5.5321, 5.6598), 0.2: (5.6608, 6.0870)}
+
+
 @pytest.mark.parametrize("depth_m", [0.1, 0.2])
-def test_large_deformation_equals_the_strip_wished_in_place_at_that_depth(compose_cfg, depth_m):
-    """A strip pushed to s = D carries what the same strip wished in place at depth D carries once
-    it has yielded: the Eulerian remap (the only difference) adds no error of its own."""
+def test_large_deformation_carries_the_strip_wished_in_place_at_that_depth(compose_cfg, depth_m):
+    """A strip pushed to s = D carries at least what the same strip wished in place at depth D
+    carries once it has yielded, and little more: the heave only adds soil, which in weightless
+    soil can carry zero stress (B/10: +1.4 % at 0.1 B, +2.6 % at 0.2 B). The one wished in place,
+    without any remap, lies in limit analysis's bracket for it (1 % allowed for B/10)."""
     pushed = solve(compose_cfg, Cel2DSolver, STRIP + ["landing.displacement_m=" + str(depth_m + 0.005),
                                                       "mesh.cell_size_m=0.1"])
     assert pushed.status == "ok" and pushed.metrics["mass_error"] < 1e-10
@@ -108,7 +116,9 @@ def test_large_deformation_equals_the_strip_wished_in_place_at_that_depth(compos
                                                       "mesh.cell_size_m=0.1"])
     nc_pushed = nc_at(pushed, depth_m)
     nc_placed = nc_at(placed, 0.04)  # fully yielded, geometry still that of depth D
-    assert nc_pushed == pytest.approx(nc_placed, rel=0.02)
+    lower, upper = BONDED_ROUGH_STRIP_BRACKET[depth_m]
+    assert 0.99 * lower < nc_placed < 1.01 * upper
+    assert nc_placed < nc_pushed < 1.04 * nc_placed
     assert nc_pushed > PRANDTL  # embedment raises the capacity (lower bound 2 + π, dsmv.analytic.bearing)
 
 
@@ -197,9 +207,10 @@ def test_rough_circular_plate_converges_to_eason_and_shield(compose_cfg):
     "overrides,status,says",
     [
         (["solver.cfl=1.0"], "unstable", "solver.cfl"),  # beyond the 2D stability limit (≈ 1/√2)
-        # no hourglass control, no bulk viscosity, at the limit: the energy audit catches it
+        # no hourglass control, no bulk viscosity, at the limit, medium cells: the energy audit catches
+        # it (off by 220 %; on the coarse mesh this one stays just stable since the corner twin)
         (["solver.cfl=1.0", "solver.hourglass=0", "solver.bulk_viscosity_linear=0",
-          "solver.bulk_viscosity_quadratic=0"], "unstable", "energy"),
+          "solver.bulk_viscosity_quadratic=0", "mesh.cell_size_m=0.04"], "unstable", "energy"),
         (["solver.initial_travel_m=0.03"], "out_of_domain", "travel the domain was sized for"),
         # 500 Pa: even with embedment and side shear the soil cannot stop the track
         (["soil.su0_pa=500", "soil.ks_pa_per_m=0"], "bearing_failure", "without slowing down"),
@@ -238,7 +249,7 @@ def test_a_non_finite_value_ends_unstable_with_finite_outputs(compose_cfg, monke
 def test_nodal_masses_stay_those_of_the_cells(compose_cfg, monkeypatch):
     """The stepper computes nodal masses only after a remap, the one place φ changes: after
     every chunk of steps they must equal a fresh computation from the cells (a kernel that
-    changed φ mid-step would leave them stale)."""
+    changed φ mid-step would leave them stale). The corner twins' shares count too."""
     from dsmv.cel import kernels, stepper
 
     real = stepper.run_steps
@@ -249,10 +260,14 @@ def test_nodal_masses_stay_those_of_the_cells(compose_cfg, monkeypatch):
     def checked(n_steps, *args):
         out = real(n_steps, *args)
         named = signature.bind(n_steps, *args).arguments
-        vol, phi, mass, open_frac, par = (named[k] for k in ("vol", "phi", "mass", "open_frac", "par"))
+        vol, phi, mass, open_frac, par, cell_twin, twin = (
+            named[k] for k in ("vol", "phi", "mass", "open_frac", "par", "cell_twin", "twin"))
         fresh = np.zeros_like(mass)
+        fresh_twin = twin.copy()
         kernels.nodal_mass(phi, vol, par[stepper.P_RHO], fresh, open_frac, stepper.CUT_MASS_FILL)
+        kernels.twin_masses(phi, vol, par[stepper.P_RHO], fresh, cell_twin, fresh_twin)
         worst.append(np.abs(mass - fresh).max() / fresh.max())
+        worst.append(np.abs(twin[:, kernels.TW_M] - fresh_twin[:, kernels.TW_M]).max(initial=0.0) / fresh.max())
         return out
 
     monkeypatch.setattr(stepper, "run_steps", checked)
@@ -271,37 +286,40 @@ def test_hourglass_diagnostic_separates_the_zigzag_from_smooth_motion():
     """A linear velocity field (any rigid motion, any uniform strain rate) has no hourglass
     mode; a pure checkerboard of nodal velocities is all hourglass. Values by hand: the mode
     amplitudes are a quarter of the signed sums of the four nodal velocities."""
-    from dsmv.cel.kernels import hourglass_modes
+    from dsmv.cel.kernels import N_TWIN, hourglass_modes
 
     n = 6
     xs, ys = np.meshgrid(np.linspace(0.0, 1.0, n + 1), np.linspace(0.0, 1.0, n + 1), indexing="ij")
     phi = np.ones((n, n))
     h = 1.0 / n
+    no_twin = (np.full((n, n), -1, dtype=np.int64), np.zeros((0, N_TWIN)))
     # rigid rotation plus a uniform strain rate: a (1/s) and b (1/s)
     vx, vy = -0.3 * ys + 0.2 * xs + 1.0, 0.3 * xs - 0.1 * ys
-    hourglass_sq, linear_sq = hourglass_modes(phi, vx, vy, 0.99)
+    hourglass_sq, linear_sq = hourglass_modes(phi, vx, vy, 0.99, *no_twin)
     assert hourglass_sq == pytest.approx(0.0, abs=1e-28)
     # per cell: b_ξ = (h/2)·(0.2, 0.3), b_η = (h/2)·(−0.3, −0.1)
     assert linear_sq == pytest.approx(n * n * (h / 2) ** 2 * (0.04 + 0.09 + 0.09 + 0.01), rel=1e-12)
     zigzag = np.where((np.arange(n + 1)[:, None] + np.arange(n + 1)[None, :]) % 2 == 0, 1.0, -1.0)
-    hourglass_sq, linear_sq = hourglass_modes(phi, 0.5 * zigzag, 0 * zigzag, 0.99)
+    hourglass_sq, linear_sq = hourglass_modes(phi, 0.5 * zigzag, 0 * zigzag, 0.99, *no_twin)
     assert (hourglass_sq, linear_sq) == (pytest.approx(n * n * 0.25), pytest.approx(0.0, abs=1e-28))
     phi[:, 3:] = 0.5  # partly filled cells do not count
-    assert hourglass_modes(phi, 0.5 * zigzag, 0 * zigzag, 0.99)[0] == pytest.approx(n * 3 * 0.25)
+    assert hourglass_modes(phi, 0.5 * zigzag, 0 * zigzag, 0.99, *no_twin)[0] == pytest.approx(n * 3 * 0.25)
 
 
 def test_hourglass_control_damps_the_zigzag_the_diagnostic_measures(compose_cfg):
     """The viscous hourglass force acts on exactly the mode hourglass_mode_ratio measures: a
-    tenth of the coefficient lets more of it through (default landing, medium mesh: 0.27 at
-    0.05 and 0.43 at 0.005). The sinkage moves by the hourglass work the coefficient takes out:
-    +6.0 % on this coarse mesh, +3.1 % on the medium one (the README's hourglass study)."""
+    tenth of the coefficient lets more of it through (default landing, medium mesh: 0.34 at
+    0.05 and 0.55 at 0.005). The sinkage moves by the hourglass work the coefficient takes out:
+    +11 % on this coarse mesh, +5.8 % on the medium one (the README's hourglass study; most of
+    the zig-zag sits in the cells at the track's corner, which the corner twin sets free: before
+    it, +6.0 % and +3.1 %)."""
     runs = {hg: solve(compose_cfg, Cel2DSolver, ["solver=cel2d", "mesh=coarse", "solver.progress=off",
                                                  f"solver.hourglass={hg}"]) for hg in (0.05, 0.005)}
     ratio = {hg: r.metrics["hourglass_mode_ratio"] for hg, r in runs.items()}
     assert all(r.status == "ok" for r in runs.values())
     assert 0.0 < ratio[0.05] < ratio[0.005] < 1.0, ratio
     sinkage = {hg: r.metrics["max_sinkage_m"] for hg, r in runs.items()}
-    assert sinkage[0.05] < sinkage[0.005] < 1.1 * sinkage[0.05], sinkage
+    assert sinkage[0.05] < sinkage[0.005] < 1.15 * sinkage[0.05], sinkage
 
 
 @pytest.mark.parametrize("roughness", ["smooth", "rough"])

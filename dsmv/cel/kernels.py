@@ -248,13 +248,14 @@ def nodal_forces(x, y, phi, q, vx, vy, rho, wave_speed, hourglass, bulk_lin, bul
 
 
 @njit(**JIT)
-def hourglass_modes(phi, vx, vy, full):
+def hourglass_modes(phi, vx, vy, full, cell_twin, twin):
     """How much of the nodal velocity field is the Q4 hourglass mode (a zig-zag diagnostic).
 
     Each cell's four nodal velocities split into v̄ + b_ξ·ξ + b_η·η + a·Γ with ξ = (−1, 1, 1, −1),
     η = (−1, −1, 1, 1) and Γ = (1, −1, 1, −1). Sums over cells with φ ≥ ``full`` of |a|² and of
     |b_ξ|² + |b_η|² (m²/s²) are returned. A smooth field has |a|/|b| = O(h) and a rigid motion has
-    a = 0, so the square root of the ratio measures the zig-zag, independent of the frame.
+    a = 0, so the square root of the ratio measures the zig-zag, independent of the frame. A cell
+    beside a body's corner moves with the corner's twin (``cell_twin``).
     """
     nx, ny = phi.shape
     hourglass_sq = 0.0
@@ -265,6 +266,9 @@ def hourglass_modes(phi, vx, vy, full):
                 continue
             vx0, vx1, vx2, vx3 = vx[i, j], vx[i + 1, j], vx[i + 1, j + 1], vx[i, j + 1]
             vy0, vy1, vy2, vy3 = vy[i, j], vy[i + 1, j], vy[i + 1, j + 1], vy[i, j + 1]
+            if cell_twin[i, j] >= 0:
+                vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3 = with_twin(cell_twin[i, j], twin, vx0, vx1, vx2, vx3, vy0, vy1,
+                                                                   vy2, vy3)
             ax, ay = vx0 - vx1 + vx2 - vx3, vy0 - vy1 + vy2 - vy3
             bxx, bxy = -vx0 + vx1 + vx2 - vx3, -vy0 + vy1 + vy2 - vy3
             byx, byy = -vx0 - vx1 + vx2 + vx3, -vy0 - vy1 + vy2 + vy3
