@@ -6,7 +6,7 @@ import pytest
 
 from dsmv.cel.solver import Cel2DSolver
 from dsmv.scene import build_scene
-from dsmv.analytic.bearing import TBAR_NC
+from dsmv.analytic.bearing import NOTCHED_STRIP_LOWER_BOUND_AT_0P05B, STRIP_LOWER_BOUND_AT_0P05B, TBAR_NC
 from tests.test_cel_verification import PRANDTL, STRIP
 
 pytestmark = pytest.mark.slow
@@ -19,18 +19,30 @@ def run(compose_cfg, overrides):
 def test_small_strain_prandtl_at_b40_within_2p5_percent(compose_cfg):
     r = run(compose_cfg, STRIP + ["solver.remap=false", "landing.displacement_m=0.06", "solver.initial_travel_m=0.1",
                                   "mesh.cell_size_m=0.025"])
-    assert r.metrics["nc_at_0p05B"] == pytest.approx(PRANDTL, rel=0.025)  # measured +1.4 %
+    assert r.metrics["nc_at_0p05B"] == pytest.approx(PRANDTL, rel=0.025)  # measured +0.1 % (+1.4 % before the corner twin)
 
 
-def test_large_deformation_prandtl_converges_at_first_order(compose_cfg):
-    nc = {h: run(compose_cfg, STRIP + ["landing.displacement_m=0.06", f"mesh.cell_size_m={h}"]).metrics["nc_at_0p05B"]
+@pytest.mark.parametrize("roughness", ["rough", "smooth"])
+def test_prandtl_check_of_issue_3(compose_cfg, roughness):
+    """#3's acceptance, as `verify_prandtl` runs it (the soil free to part from the walls):
+    nc_at_0p05B within 4 % of 2 + π at B/20 and 2.5 % at B/40, the error shrinking from B/10.
+    Measured (session 9): rough 5.293, 5.271, 5.255; smooth 5.289, 5.268, 5.252. The pushed
+    strip's own factor is not 2 + π: it opens a notch, and limit analysis bounds that strip
+    below by 5.207 (rough) and 5.206 (smooth), which no mesh may undercut."""
+    nc = {h: run(compose_cfg, STRIP + ["landing.displacement_m=0.06", "solver.contact_separation=true",
+                                       f"geometry.roughness={roughness}", f"mesh.cell_size_m={h}"]).metrics["nc_at_0p05B"]
           for h in (0.1, 0.05, 0.025)}
-    d1, d2 = nc[0.1] - nc[0.05], nc[0.05] - nc[0.025]
-    order = math.log2(d1 / d2)
-    assert 0.7 < order < 1.5  # measured 0.99
-    limit = nc[0.025] - d2 / (2**order - 1)
-    # the limit carries the strip's embedment and heave: above 2 + π (dsmv.analytic.bearing bounds it)
-    assert PRANDTL < limit < PRANDTL * 1.08
+    assert nc[0.1] > nc[0.05] > nc[0.025] > NOTCHED_STRIP_LOWER_BOUND_AT_0P05B[roughness], nc
+    assert nc[0.05] < 1.04 * PRANDTL and nc[0.025] < 1.025 * PRANDTL, nc
+
+
+def test_tied_strip_reads_inside_its_bracket(compose_cfg):
+    """The soil tied to the walls (the solver's default contact): at 0.05 B the pushed rough strip
+    reads above the wished-in-place strip's rigorous lower bound and within 1 % of its closed-form
+    upper bound 5.404 (measured 5.387 at B/20, 5.378 at B/40)."""
+    for h in (0.05, 0.025):
+        nc = run(compose_cfg, STRIP + ["landing.displacement_m=0.06", f"mesh.cell_size_m={h}"]).metrics["nc_at_0p05B"]
+        assert STRIP_LOWER_BOUND_AT_0P05B["rough"] < nc < 1.01 * 5.404, (h, nc)
 
 
 @pytest.mark.parametrize("roughness, exact",
@@ -46,4 +58,4 @@ def test_tbar_at_d20_within_6_percent(compose_cfg, roughness, exact):
 def test_rough_circular_plate_at_b40(compose_cfg):
     r = run(compose_cfg, STRIP + ["solver.mode=axisymmetric", "solver.remap=false", "landing.displacement_m=0.11",
                                   "solver.initial_travel_m=0.15", "mesh.cell_size_m=0.025"])
-    assert r.metrics["nc_at_0p1B"] == pytest.approx(6.05, rel=0.04)  # measured +3.3 %
+    assert r.metrics["nc_at_0p1B"] == pytest.approx(6.05, rel=0.02)  # measured +0.8 % (+3.3 % before the corner twin)

@@ -39,7 +39,9 @@ JIT = dict(cache=True, error_model="numpy", fastmath=FAST)
 # through its other nodes) and, with contact separation, may leave it. Rows of the float array
 # ``twin`` (K, N_TWIN): velocity (m/s), force (N per unit thickness or per radian), lumped mass
 # (kg per unit thickness or per radian), the wall's normal into the soil, and the travel through
-# the grid since the last remap (m), which the remap gives the faces beside the corner.
+# the grid since the last remap (m): it counts towards the remap's trigger, and its vertical part
+# carries the soil through the face above the lower twin cell (the face below the corner, which
+# the cell under the base shares, keeps the body's node's travel).
 # ``twin_node`` (K, 2) is the node it copies; ``cell_twin`` (nx, ny) is 4·k + the cell's local
 # node (0..3) that twin k replaces, or -1.
 TW_VX, TW_VY, TW_FX, TW_FY, TW_M, TW_NX, TW_NY, TW_UX, TW_UY = range(9)
@@ -119,7 +121,7 @@ def twin_masses(phi, vol, rho, mass, cell_twin, twin):
                 continue
             m = 0.25 * rho * phi[i, j] * vol[i, j]
             ni, nj = local_node(i, j, code % 4)
-            mass[ni, nj] -= m
+            mass[ni, nj] = max(mass[ni, nj] - m, 0.0)  # no round-off residue below zero
             twin[code // 4, TW_M] += m
 
 

@@ -343,6 +343,8 @@ class Cel2DSolver:
                 i_corner = int(i_corner[0])
                 # the cells beyond the base touch the corner with their left (right side) or right nodes
                 i_cell, below, above = (i_corner, 3, 0) if side > 0 else (i_corner - 1, 2, 1)
+                if not 0 <= i_cell < grid.nx:
+                    continue
                 k = len(normals)
                 for j_cell, local in ((j_base - 1, below), (j_base, above)):
                     if 0 <= j_cell < grid.ny and not solid[i_cell, j_cell]:
@@ -584,7 +586,7 @@ class Cel2DSolver:
             modes_sq += np.array([hourglass_sq, linear_sq])
             if recorder is not None:
                 recorder.sample(body[S.B_TIME], sinkage, phi, q, vx, vy)
-            if code == S.NOT_FINITE or not (np.isfinite(vy).all() and np.isfinite(q).all()):
+            if code == S.NOT_FINITE or not (np.isfinite(vy).all() and np.isfinite(q).all() and np.isfinite(twin).all()):
                 status, message = "unstable", (
                     f"a non-finite value appeared at t = {body[S.B_TIME]:.4g} s; lower solver.cfl "
                     f"(now {cfg.cfl}) or raise solver.bulk_viscosity_linear")
@@ -597,7 +599,8 @@ class Cel2DSolver:
                     f"the soil's kinetic energy ({kinetic * scale:.3g} J) ran away past ten times the energy "
                     f"put in at t = {body[S.B_TIME]:.4g} s; lower solver.cfl (now {cfg.cfl})")
                 break
-            vmax = float(np.sqrt(vx * vx + vy * vy).max())
+            vmax = float(max(np.sqrt(vx * vx + vy * vy).max(),
+                             np.hypot(twin[:, K.TW_VX], twin[:, K.TW_VY]).max(initial=0.0)))
             if vmax > speed_limit:
                 status, message = "unstable", (
                     f"soil speed {vmax:.3g} m/s exceeds the guard {speed_limit:.3g} m/s at t = {body[S.B_TIME]:.4g} s; "

@@ -19,7 +19,7 @@ from numba import njit
 
 # Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
 # kernels it inlined until this file changes. After changing a kernel, bump this revision
-# (or clear the Numba cache). Kernel revision: 19 (corner twins).
+# (or clear the Numba cache). Kernel revision: 20 (corner twins; the remap's kinetic audit at the corners).
 from dsmv.cel.kernels import (
     JIT,
     advect_cells,
@@ -140,6 +140,7 @@ def run_steps(
     holding = np.ones(n_tied, dtype=np.bool_)  # every tie holds unless the soil may part from the faces
     n_twins = twin.shape[0]
     twin_holding = np.ones(n_twins, dtype=np.bool_)
+    swept = np.zeros((n_twins, 2))  # corner node and twin masses (kg) as the remap's sweeps leave them
     # a merged sliver and its neighbour are marked here (their common strain rate is set before each stress update)
     div_override = np.full(phi.shape, np.nan)
     for k in range(merge.shape[0]):
@@ -298,9 +299,10 @@ def run_steps(
                 ghost[0, i] = par[P_K0] * ghost[1, i]
                 ghost[3, i] = ghost[0, i]
                 ghost[5, i] = depth
-        # the faces at a corner open to the soil are those of the twin's cells (the others are the body's)
+        # of a corner node's four faces two are the body's, one (below the corner) is shared with
+        # the cell under the base, and one lies between the twin's cells: that one moves soil with
+        # the twin's vertical travel
         for k in range(n_twins):
-            ux[twin_node[k, 0], twin_node[k, 1]] = twin[k, TW_UX]
             uy[twin_node[k, 0], twin_node[k, 1]] = twin[k, TW_UY]
             twin[k, TW_UX] = 0.0
             twin[k, TW_UY] = 0.0
@@ -336,8 +338,17 @@ def run_steps(
                 q[r, ni, nj] += mean - mn
         ux[:, :] = 0.0
         uy[:, :] = 0.0
+        for k in range(n_twins):  # the masses the sweeps left at the corners, and the twins' own
+            swept[k, 0] = mass[twin_node[k, 0], twin_node[k, 1]]
+            swept[k, 1] = twin[k, TW_M]
         nodal_mass(phi, vol, rho, mass, open_frac, CUT_MASS_FILL)
         twin_masses(phi, vol, rho, mass, cell_twin, twin)
+        # the sweeps move the corner node's whole quarter shares; the twin takes its part back at
+        # the velocity it keeps: the kinetic energy that changes hands is the remap's too
+        for k in range(n_twins):
+            i, j = twin_node[k, 0], twin_node[k, 1]
+            energy[E_REMAP_KINETIC] += 0.5 * ((mass[i, j] - swept[k, 0]) * (vx[i, j] ** 2 + vy[i, j] ** 2)
+                                              + (twin[k, TW_M] - swept[k, 1]) * (twin[k, TW_VX] ** 2 + twin[k, TW_VY] ** 2))
         body[B_REMAP_OFFSET] = body[B_OFFSET]
         body[B_REMAPS] += 1.0
     return n_steps, RUNNING
