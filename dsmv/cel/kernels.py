@@ -33,19 +33,22 @@ JIT = dict(cache=True, error_model="numpy", fastmath=FAST)
 # velocity, so the cell beside the corner is dragged along with the base and smears the fan
 # over itself: the strip then reads as if about a third of a cell wider (+3.6 % at B/20 in
 # small strain). The soil cells beyond the base (beside the wall) therefore see their own copy
-# of the corner node, the twin; the cells under the base keep the body's node. The twin slides
-# along the wall (tied along its normal only, whatever the roughness: at the fan's centre the
-# soil slips up the wall, at 3V/2 relative to it in Prandtl's solution; the wall's grip acts
-# through its other nodes) and, with contact separation, may leave it. Rows of the float array
+# of the corner node, the twin; the cells under the base keep the body's node. The twin is a
+# node of the wall: tied along its normal, held along it by the wall's adhesion α·su over the
+# lower half of the wall face above the corner (gripped by the soil that cell holds: none while
+# the strip sits on the surface, where at the fan's centre the soil slips up past the corner,
+# at 3V/2 relative to it in Prandtl's solution), and, with contact separation, free to leave
+# the wall. A full tie, as the shared node was, grips with any shear. Rows of the float array
 # ``twin`` (K, N_TWIN): velocity (m/s), force (N per unit thickness or per radian), lumped mass
 # (kg per unit thickness or per radian), the wall's normal into the soil, and the travel through
 # the grid since the last remap (m): it counts towards the remap's trigger, and its vertical part
 # carries the soil through the face above the lower twin cell (the face below the corner, which
 # the cell under the base shares, keeps the body's node's travel).
+# ``TW_CAP`` is α × that half face (m, m²/rad axisymmetric), as a face tie's ``tie_cap``.
 # ``twin_node`` (K, 2) is the node it copies; ``cell_twin`` (nx, ny) is 4·k + the cell's local
 # node (0..3) that twin k replaces, or -1.
-TW_VX, TW_VY, TW_FX, TW_FY, TW_M, TW_NX, TW_NY, TW_UX, TW_UY = range(9)
-N_TWIN = 9
+TW_VX, TW_VY, TW_FX, TW_FY, TW_M, TW_NX, TW_NY, TW_UX, TW_UY, TW_CAP = range(10)
+N_TWIN = 10
 
 
 @njit(**JIT)

@@ -353,6 +353,10 @@ class Cel2DSolver:
                 nodes.append((i_corner, j_base))
         twin = np.zeros((len(normals), K.N_TWIN))
         twin[:, K.TW_NX] = normals
+        if self.flat_faced and len(normals):  # α × the half cell of wall above the corner
+            wall_share = 0.5 * (grid.y[j_base + 1] - grid.y[j_base]) if j_base < grid.ny else 0.0
+            radius = 0.5 * self.scene.geometry.width_m if self.axisym else 1.0
+            twin[:, K.TW_CAP] = self.scene.geometry.adhesion_factor * wall_share * radius
         return cell_twin, np.array(nodes, dtype=np.int64).reshape(-1, 2), twin
 
     def body_openings(self, grid, solid):

@@ -19,7 +19,7 @@ from numba import njit
 
 # Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
 # kernels it inlined until this file changes. After changing a kernel, bump this revision
-# (or clear the Numba cache). Kernel revision: 20 (corner twins; the remap's kinetic audit at the corners).
+# (or clear the Numba cache). Kernel revision: 21 (corner twins with the wall's adhesion).
 from dsmv.cel.kernels import (
     JIT,
     advect_cells,
@@ -28,7 +28,7 @@ from dsmv.cel.kernels import (
     nodal_mass,
     node_strength,
     twin_masses,
-    TW_FX, TW_FY, TW_M, TW_NX, TW_NY, TW_UX, TW_UY, TW_VX, TW_VY,
+    TW_CAP, TW_FX, TW_FY, TW_M, TW_NX, TW_NY, TW_UX, TW_UY, TW_VX, TW_VY,
     update_stress,
     merged_divergence,
     update_velocities,
@@ -76,6 +76,15 @@ def tie_reaction(fx, fy, m, grav, full, nx, ny):
     if full:
         return fy - m * grav, m
     return (fx * nx + (fy - m * grav) * ny) * ny, m * ny * ny
+
+
+@njit(**JIT)
+def adhesion_slip(w, dw_max):
+    """The change of a tied node's slip speed w (m/s) that the face's capped pull makes in one step:
+    all of it when the pull can (the node sticks), else at most dw_max, against the slip."""
+    if abs(w) <= dw_max:
+        return -w
+    return -dw_max if w > 0.0 else dw_max
 
 
 @njit(**JIT)
@@ -242,13 +251,27 @@ def run_steps(
                 continue
             tx, ty = -tie_ny[k], tie_nx[k]  # along the face
             w = vx[i, j] * tx + (vy[i, j] - body[B_VEL]) * ty  # slip speed relative to the body
-            dw_max = tie_cap[k] * node_strength(su_cell, phi, solid, i, j) * dt / m
-            dw = -w if abs(w) <= dw_max else (-dw_max if w > 0.0 else dw_max)
+            dw = adhesion_slip(w, tie_cap[k] * node_strength(su_cell, phi, solid, i, j) * dt / m)
             vx[i, j] += dw * tx
             vy[i, j] += dw * ty
             momentum_after += m * dw * ty
             energy[E_FRICTION] += -m * dw * (w + dw)  # the pull times the slip it leaves: 0 when it sticks
             friction -= m * dw * ty / dt  # the reaction on the body (N, up +)
+        for k in range(n_twins):  # the twins, by the same rule: their share of wall is the lower half of
+            m = twin[k, TW_M]      # the wall face of the cell above the corner, gripped by what that holds
+            if twin[k, TW_CAP] <= 0.0 or not twin_holding[k] or m <= par[P_MFLOOR]:
+                continue
+            tx, ty = -twin[k, TW_NY], twin[k, TW_NX]
+            w = twin[k, TW_VX] * tx + (twin[k, TW_VY] - body[B_VEL]) * ty
+            ci = twin_node[k, 0] if twin[k, TW_NX] > 0.0 else twin_node[k, 0] - 1
+            cj = twin_node[k, 1]
+            su = su_cell[ci, cj] * min(phi[ci, cj], 1.0) if cj < phi.shape[1] else 0.0
+            dw = adhesion_slip(w, twin[k, TW_CAP] * su * dt / m)
+            twin[k, TW_VX] += dw * tx
+            twin[k, TW_VY] += dw * ty
+            momentum_after += m * dw * ty
+            energy[E_FRICTION] += -m * dw * (w + dw)
+            friction -= m * dw * ty / dt
         body[B_FRICTION] = friction
         energy[E_SOIL_GRAV] += -grav * dt * 0.5 * (momentum_before + momentum_after)
         stress_out[:] = 0.0
