@@ -179,7 +179,7 @@ class Cel2DCheckSolver:
                 np.ones((nx, ny)), np.zeros((nx, ny)),
                 np.zeros((nx, ny), dtype=np.bool_), *openings, np.zeros((0, 4), dtype=np.int64),
                 np.zeros((nx, ny), dtype=np.bool_), np.full((nx, ny), -1, dtype=np.int64),
-                np.zeros((0, 2), dtype=np.int64), np.zeros((0, K.N_TWIN)), np.zeros((K.NQ_BASE, nx)), np.zeros(nx),
+                np.zeros((0, 4), dtype=np.int64), np.zeros((0, K.N_TWIN)), np.zeros((K.NQ_BASE, nx)), np.zeros(nx),
                 par, ipar, body, energy, tresca.compiled(), np.zeros(8), tresca.compiled_evolve())
         n_steps = int(math.ceil(cfg.duration_s / dt))
         samples = 100

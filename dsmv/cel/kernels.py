@@ -45,8 +45,9 @@ JIT = dict(cache=True, error_model="numpy", fastmath=FAST)
 # carries the soil through the face above the lower twin cell (the face below the corner, which
 # the cell under the base shares, keeps the body's node's travel).
 # ``TW_CAP`` is α × that half face (m, m²/rad axisymmetric), as a face tie's ``tie_cap``.
-# ``twin_node`` (K, 2) is the node it copies; ``cell_twin`` (nx, ny) is 4·k + the cell's local
-# node (0..3) that twin k replaces, or -1.
+# ``twin_node`` (K, 4) holds the node it copies (i, j) and the cell above the corner beside the
+# wall (i, j); ``cell_twin`` (nx, ny) is 4·k + the cell's local node (0..3) that twin k replaces,
+# or -1.
 TW_VX, TW_VY, TW_FX, TW_FY, TW_M, TW_NX, TW_NY, TW_UX, TW_UY, TW_CAP = range(10)
 N_TWIN = 10
 

@@ -328,7 +328,8 @@ class Cel2DSolver:
     def corner_twins(self, grid, j_base, solid):
         """The corner twins of a flat-faced body (:data:`dsmv.cel.kernels.N_TWIN`): at each end of
         its base, the soil cells beyond the base, beside the wall, get their own copy of the
-        corner node, tied along the wall's normal. Returns (cell_twin, twin_node, twin); none for
+        corner node, tied along the wall's normal and held along it by adhesion α·su over the lower
+        half of the wall face above the corner. Returns (cell_twin, twin_node, twin); none for
         other bodies."""
         from dsmv.cel import kernels as K
 
@@ -350,14 +351,14 @@ class Cel2DSolver:
                     if 0 <= j_cell < grid.ny and not solid[i_cell, j_cell]:
                         cell_twin[i_cell, j_cell] = 4 * k + local
                 normals.append(side)
-                nodes.append((i_corner, j_base))
+                nodes.append((i_corner, j_base, i_cell, j_base))
         twin = np.zeros((len(normals), K.N_TWIN))
         twin[:, K.TW_NX] = normals
         if self.flat_faced and len(normals):  # α × the half cell of wall above the corner
             wall_share = 0.5 * (grid.y[j_base + 1] - grid.y[j_base]) if j_base < grid.ny else 0.0
             radius = 0.5 * self.scene.geometry.width_m if self.axisym else 1.0
             twin[:, K.TW_CAP] = self.scene.geometry.adhesion_factor * wall_share * radius
-        return cell_twin, np.array(nodes, dtype=np.int64).reshape(-1, 2), twin
+        return cell_twin, np.array(nodes, dtype=np.int64).reshape(-1, 4), twin
 
     def body_openings(self, grid, solid):
         """What the body leaves open to the soil (:class:`~dsmv.cel.grid.Openings`): whole cells,
@@ -386,7 +387,7 @@ class Cel2DSolver:
         spread across a partly full cell, the sliver of soil beside it would bridge it. The rule
         cannot tell a gap from a free surface or a smeared fill: a wall cell under 95 % full, at
         the corner early in a push too, carries nothing (an O(h) effect), and its node's
-        limited-adhesion grip (0 < α < 1) goes with its strength. Flat faces only: a T-bar's cut
+        adhesive grip (α > 0) goes with its strength. Flat faces only: a T-bar's cut
         cells keep their stress."""
         if not (self.scene.solver.contact_separation and self.flat_faced):
             return np.zeros(solid.shape, dtype=bool)

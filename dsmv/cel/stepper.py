@@ -19,7 +19,7 @@ from numba import njit
 
 # Numba (0.68) keys a cached function on its own file's content only: run_steps keeps the
 # kernels it inlined until this file changes. After changing a kernel, bump this revision
-# (or clear the Numba cache). Kernel revision: 21 (corner twins with the wall's adhesion).
+# (or clear the Numba cache). Kernel revision: 22 (one helper for a face's capped pull; no change of arithmetic).
 from dsmv.cel.kernels import (
     JIT,
     advect_cells,
@@ -79,12 +79,15 @@ def tie_reaction(fx, fy, m, grav, full, nx, ny):
 
 
 @njit(**JIT)
-def adhesion_slip(w, dw_max):
-    """The change of a tied node's slip speed w (m/s) that the face's capped pull makes in one step:
-    all of it when the pull can (the node sticks), else at most dw_max, against the slip."""
-    if abs(w) <= dw_max:
-        return -w
-    return -dw_max if w > 0.0 else dw_max
+def pull_along_face(vx, vy, tx, ty, v_body, dw_max, m, dt):
+    """A face's capped pull on a tied node of mass m (kg) moving along the face (tx, ty): it takes
+    the node's whole slip speed relative to the body when it can (the node sticks), else at most
+    dw_max (m/s), against the slip. Returns the node's new velocity, its momentum change m·Δvy, the
+    pull times the slip it leaves (J per s of step, times Δt: 0 when it sticks), and the pull's
+    reaction on the body (N, up +)."""
+    w = vx * tx + (vy - v_body) * ty  # slip speed relative to the body
+    dw = -w if abs(w) <= dw_max else (-dw_max if w > 0.0 else dw_max)
+    return vx + dw * tx, vy + dw * ty, m * dw * ty, -m * dw * (w + dw), -m * dw * ty / dt
 
 
 @njit(**JIT)
@@ -112,8 +115,9 @@ def run_steps(
     ``gap_cells`` (nx, ny) marks the cells beside a face the soil may leave, which carry stress
     only while full (:func:`dsmv.cel.kernels.update_stress`). ``cell_twin``, ``twin_node`` and
     ``twin`` are the corners' twins (:data:`dsmv.cel.kernels.N_TWIN`): moved by their cells, tied
-    along the wall's normal like a face tie; a remap carries the soil through the faces at a
-    corner with the twin's travel, and keeps the twin's velocity (a corner stays put in the grid).
+    and pulled by the wall like its face ties; a remap carries the soil through the face between
+    the twin's cells with the twin's vertical travel, and keeps the twin's velocity (a corner stays
+    put in the grid).
 
     ``law`` is the soil law's compiled strength factor (dsmv.soil_law), ``law_params`` its
     packed parameters; it is called only when ``ipar[I_LAW]`` is set. ``evolve`` updates the
@@ -249,29 +253,23 @@ def run_steps(
             m = mass[i, j]
             if m <= par[P_MFLOOR]:
                 continue
-            tx, ty = -tie_ny[k], tie_nx[k]  # along the face
-            w = vx[i, j] * tx + (vy[i, j] - body[B_VEL]) * ty  # slip speed relative to the body
-            dw = adhesion_slip(w, tie_cap[k] * node_strength(su_cell, phi, solid, i, j) * dt / m)
-            vx[i, j] += dw * tx
-            vy[i, j] += dw * ty
-            momentum_after += m * dw * ty
-            energy[E_FRICTION] += -m * dw * (w + dw)  # the pull times the slip it leaves: 0 when it sticks
-            friction -= m * dw * ty / dt  # the reaction on the body (N, up +)
-        for k in range(n_twins):  # the twins, by the same rule: their share of wall is the lower half of
+            dw_max = tie_cap[k] * node_strength(su_cell, phi, solid, i, j) * dt / m
+            vx[i, j], vy[i, j], dp, slip, reaction = pull_along_face(vx[i, j], vy[i, j], -tie_ny[k], tie_nx[k],
+                                                                     body[B_VEL], dw_max, m, dt)
+            momentum_after += dp
+            energy[E_FRICTION] += slip
+            friction += reaction
+        for k in range(n_twins):  # the twins by the same rule: their share of wall is the lower half of
             m = twin[k, TW_M]      # the wall face of the cell above the corner, gripped by what that holds
             if twin[k, TW_CAP] <= 0.0 or not twin_holding[k] or m <= par[P_MFLOOR]:
                 continue
-            tx, ty = -twin[k, TW_NY], twin[k, TW_NX]
-            w = twin[k, TW_VX] * tx + (twin[k, TW_VY] - body[B_VEL]) * ty
-            ci = twin_node[k, 0] if twin[k, TW_NX] > 0.0 else twin_node[k, 0] - 1
-            cj = twin_node[k, 1]
-            su = su_cell[ci, cj] * min(phi[ci, cj], 1.0) if cj < phi.shape[1] else 0.0
-            dw = adhesion_slip(w, twin[k, TW_CAP] * su * dt / m)
-            twin[k, TW_VX] += dw * tx
-            twin[k, TW_VY] += dw * ty
-            momentum_after += m * dw * ty
-            energy[E_FRICTION] += -m * dw * (w + dw)
-            friction -= m * dw * ty / dt
+            ci, cj = twin_node[k, 2], twin_node[k, 3]
+            dw_max = twin[k, TW_CAP] * su_cell[ci, cj] * min(phi[ci, cj], 1.0) * dt / m
+            twin[k, TW_VX], twin[k, TW_VY], dp, slip, reaction = pull_along_face(
+                twin[k, TW_VX], twin[k, TW_VY], -twin[k, TW_NY], twin[k, TW_NX], body[B_VEL], dw_max, m, dt)
+            momentum_after += dp
+            energy[E_FRICTION] += slip
+            friction += reaction
         body[B_FRICTION] = friction
         energy[E_SOIL_GRAV] += -grav * dt * 0.5 * (momentum_before + momentum_after)
         stress_out[:] = 0.0
