@@ -24,10 +24,11 @@ Cell data (float32):
 ``volume_fraction``                  -     soil volume per cell volume φ (compressed soil: > 1)
 ``stress_xx_pa`` … ``stress_zz_pa``  Pa    the soil's own stress, tension positive; zz is the
                                            out-of-plane stress (the hoop stress in axisymmetry)
-``su_pa``                            Pa    current undrained strength (su_intact(z0)·law factor)
+``su_pa``                            Pa    current undrained strength, the stress update's own
+                                           (su_intact(z0)·law factor·α in an interface layer)
 ``mobilised_strength``               -     √J2/su (Tresca: (σ1 − σ3)/(2·su)); 1 at yield
 ``plastic_shear_strain``             -     ξ, the accumulated plastic shear strain
-``shear_strain_rate_per_s``          1/s   γ̇ = ε̇1 − ε̇3, the rate the soil law sees
+``shear_strain_rate_per_s``          1/s   γ̇ = ε̇1 − ε̇3 by the stress update's own rule
 ``plastic_shear_strain_rate_per_s``  1/s   γ̇ where the soil is at yield (YIELD_RATIO), else 0
 ``initial_depth_m``                  m     z0, the depth where the cell's soil started
 ``hourglass_velocity_m_s``           m/s   amplitude of the Q4 hourglass (zig-zag) mode in the
@@ -36,13 +37,15 @@ Cell data (float32):
 ===================================  ====  ======================================================
 
 Point data: ``velocity_m_s`` (n, 3), the nodal material velocity in the laboratory frame
-(the solver's own nodal values, z component 0; empty nodes carry 0). Field data per frame:
+(the solver's own values at the grid's nodes, z component 0; empty nodes carry 0; a body's split
+corner nodes are not points of the frame, their cells' derived fields use them). Field data per frame:
 ``time_s``, ``sinkage_m`` (the body's downward displacement).
 
 Snapshots cost nothing when output is off: the solver creates no recorder and its loop
 only checks for ``None`` between chunks. When on, the solver calls :meth:`FieldRecorder.sample`
-between compiled chunks (never inside a kernel): a frame is a copy of φ, the cell state and
-the nodal velocities; the derived fields are computed when the frames are written.
+between compiled chunks (never inside a kernel): a frame is a copy of φ, the cell state, the
+strength and strain rate the kernels computed, and the nodal velocities; the derived fields are
+computed when the frames are written.
 """
 
 from __future__ import annotations
@@ -54,7 +57,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dsmv.cel import kernels as K
+from dsmv.cel import layout as K
 
 FIELDS_FILE = "fields.pvd"
 FIELDS_DIR = "fields"
@@ -72,31 +75,13 @@ STRESS_NAMES = {K.SXX: "stress_xx_pa", K.SYY: "stress_yy_pa", K.SXY: "stress_xy_
 YIELD_RATIO = 0.99
 
 
-def shear_strain_rate(x, y, vx, vy, axisym: bool) -> np.ndarray:
-    """Shear strain rate γ̇ = ε̇1 − ε̇3 per cell (1/s) from nodal velocities (m/s).
-
-    The one-point (cell-centre) rule of the stress update in :mod:`dsmv.cel.kernels`: the
-    in-plane principal rates and, in axisymmetry, the hoop rate v_r/r.
-    """
-    dx, dy = np.diff(x)[:, None], np.diff(y)[None, :]
-    v0, v1, v2, v3 = (vx[:-1, :-1], vx[1:, :-1], vx[1:, 1:], vx[:-1, 1:])
-    w0, w1, w2, w3 = (vy[:-1, :-1], vy[1:, :-1], vy[1:, 1:], vy[:-1, 1:])
-    dxx = (v1 + v2 - v0 - v3) / (2.0 * dx)
-    dyy = (w2 + w3 - w0 - w1) / (2.0 * dy)
-    dxy = 0.5 * ((v2 + v3 - v0 - v1) / (2.0 * dy) + (w1 + w2 - w0 - w3) / (2.0 * dx))
-    ring = np.sqrt(0.25 * (dxx - dyy) ** 2 + dxy**2)
-    dzz = 0.25 * (v0 + v1 + v2 + v3) / (0.5 * (x[1:] + x[:-1])[:, None]) if axisym else 0.0
-    hi = np.maximum(0.5 * (dxx + dyy) + ring, dzz)
-    lo = np.minimum(0.5 * (dxx + dyy) - ring, dzz)
-    return hi - lo
-
-
-def hourglass_velocity(vx, vy) -> np.ndarray:
+def hourglass_velocity(corner, v) -> np.ndarray:
     """Amplitude |a| of the Q4 hourglass mode Γ = (1, −1, 1, −1) in each cell's nodal velocities
-    (m/s): a = (v0 − v1 + v2 − v3)/4, as in :func:`dsmv.cel.kernels.hourglass_modes`."""
-    ax = 0.25 * (vx[:-1, :-1] - vx[1:, :-1] + vx[1:, 1:] - vx[:-1, 1:])
-    ay = 0.25 * (vy[:-1, :-1] - vy[1:, :-1] + vy[1:, 1:] - vy[:-1, 1:])
-    return np.hypot(ax, ay)
+    (m/s): a = (v0 − v1 + v2 − v3)/4, as in :func:`dsmv.cel.kernels.plane.hourglass_modes`; the
+    cells' nodes from the corner table (a body's split corners included)."""
+    w = v[:, corner]  # (2, nx, ny, 4)
+    a = 0.25 * (w[..., 0] - w[..., 1] + w[..., 2] - w[..., 3])
+    return np.hypot(a[0], a[1])
 
 
 def mobilised_strength(q: np.ndarray, su: np.ndarray, tresca: bool) -> np.ndarray:
@@ -121,8 +106,9 @@ class _Snapshot:
     sinkage_m: float
     phi: np.ndarray
     q: np.ndarray
-    vx: np.ndarray
-    vy: np.ndarray
+    su: np.ndarray
+    rate: np.ndarray
+    v: np.ndarray
 
 
 class FieldRecorder:
@@ -138,39 +124,42 @@ class FieldRecorder:
     that state can lie a chunk before the end).
 
     ``grid``: the solver's :class:`~dsmv.cel.grid.Grid`; ``solid``: cells inside the body;
-    ``law``: the soil-law plugin; ``soil``: the soil config (su0, ks); ``tresca``: the
+    ``corner``: the corner table (cells' nodes, :mod:`dsmv.cel.layout`); ``tresca``: the
     solver's yield surface; ``stress_cutoff``: the volume fraction below which a cell carries
     no stress (derived fields are 0 there).
     """
 
-    def __init__(self, grid, solid, law, soil, *, axisym: bool, tresca: bool, stress_cutoff: float,
-                 frames: int, spacing_s: float):
-        self.grid, self.solid, self.law, self.soil = grid, solid, law, soil
-        self.axisym, self.tresca, self.stress_cutoff = axisym, tresca, stress_cutoff
+    def __init__(self, grid, solid, corner, *, tresca: bool, stress_cutoff: float, frames: int, spacing_s: float):
+        self.grid, self.solid, self.corner = grid, solid, corner
+        self.tresca, self.stress_cutoff = tresca, stress_cutoff
         self.frames = frames
         self.spacing_s = spacing_s
         self.taken: list[tuple[int, _Snapshot]] = []  # (multiple of the spacing, snapshot)
         self.deepest: _Snapshot | None = None
 
     @staticmethod
-    def _copy(time_s, sinkage_m, phi, q, vx, vy, into: _Snapshot | None = None) -> _Snapshot:
+    def _copy(time_s, sinkage_m, state, into: _Snapshot | None = None) -> _Snapshot:
         if into is None:
-            return _Snapshot(time_s, sinkage_m, phi.copy(), q.copy(), vx.copy(), vy.copy())
-        for target, source in ((into.phi, phi), (into.q, q), (into.vx, vx), (into.vy, vy)):
+            return _Snapshot(time_s, sinkage_m, *(a.copy() for a in state))
+        for target, source in zip((into.phi, into.q, into.su, into.rate, into.v), state):
             np.copyto(target, source)
         into.time_s, into.sinkage_m = time_s, sinkage_m
         return into
 
-    def sample(self, time_s: float, sinkage_m: float, phi, q, vx, vy, final: bool = False) -> None:
-        """Look at the state between two chunks; copy it when a frame is due (``final``: the run's end)."""
+    def sample(self, time_s: float, sinkage_m: float, phi, q, su, rate, v, final: bool = False) -> None:
+        """Look at the state between two chunks; copy it when a frame is due (``final``: the run's end).
+
+        ``su`` and ``rate`` are the kernels' strength (Pa) and shear strain rate (1/s) per cell, ``v``
+        the velocities of all nodes (d, n)."""
+        state = (phi, q, su, rate, v)
         if self.deepest is None or sinkage_m >= self.deepest.sinkage_m:
-            self.deepest = self._copy(time_s, sinkage_m, phi, q, vx, vy, self.deepest)
+            self.deepest = self._copy(time_s, sinkage_m, state, self.deepest)
         # which multiple of the spacing this is; the nudge keeps a time that sums up to a
         # multiple from landing a round-off below it
         k = int(math.floor(time_s / self.spacing_s + 1e-9))
         if self.taken and (self.taken[-1][1].time_s == time_s or (k <= self.taken[-1][0] and not final)):
             return
-        self.taken.append((k, self._copy(time_s, sinkage_m, phi, q, vx, vy)))
+        self.taken.append((k, self._copy(time_s, sinkage_m, state)))
         if len(self.taken) > 2 * self.frames + 1 and not final:  # + 1: the frame at t = 0
             self.taken = [(j // 2, s) for j, s in self.taken if j % 2 == 0]
             self.spacing_s *= 2.0
@@ -183,14 +172,8 @@ class FieldRecorder:
             return self._cell_fields(snap)
 
     def _cell_fields(self, snap: _Snapshot) -> dict[str, np.ndarray]:
-        x, y = self.grid.x, self.grid.y
-        phi, q = snap.phi, snap.q
+        phi, q, su, rate = snap.phi, snap.q, snap.su, snap.rate
         soil = phi > self.stress_cutoff
-        rate = np.where(soil, shear_strain_rate(x, y, snap.vx, snap.vy, self.axisym), 0.0)
-        su = np.maximum(self.soil.su0_pa + self.soil.ks_pa_per_m * q[K.Z0], 0.0)
-        if self.law.active:  # as in the stress update: an inactive law's factor is 1
-            su = su * self.law.strength_factor(q[K.XI], rate, *q[K.NQ_BASE :])
-        su = np.where(soil, su, 0.0)
         ratio = mobilised_strength(q, su, self.tresca)
         out = {"volume_fraction": phi}
         out |= {name: q[k] for k, name in STRESS_NAMES.items()}
@@ -201,7 +184,7 @@ class FieldRecorder:
             "shear_strain_rate_per_s": rate,
             "plastic_shear_strain_rate_per_s": np.where(ratio >= YIELD_RATIO, rate, 0.0),
             "initial_depth_m": q[K.Z0],
-            "hourglass_velocity_m_s": np.where(soil, hourglass_velocity(snap.vx, snap.vy), 0.0),
+            "hourglass_velocity_m_s": np.where(soil, hourglass_velocity(self.corner, snap.v), 0.0),
             "body": self.solid.astype(float),
         }
         return out
@@ -216,7 +199,8 @@ class FieldRecorder:
         node = np.arange(points.shape[0]).reshape(nx + 1, ny + 1)
         quads = np.stack([node[:-1, :-1], node[1:, :-1], node[1:, 1:], node[:-1, 1:]], axis=-1).reshape(-1, 4)
         cells = {name: [np.ascontiguousarray(v, dtype=np.float32).ravel()] for name, v in self.cell_fields(snap).items()}
-        velocity = np.column_stack([snap.vx.ravel(), snap.vy.ravel(), np.zeros(snap.vx.size)]).astype(np.float32)
+        grid_v = snap.v[:, : (nx + 1) * (ny + 1)]  # the grid's nodes, node (i, j) at i·(ny+1) + j
+        velocity = np.column_stack([grid_v[0], grid_v[1], np.zeros(grid_v.shape[1])]).astype(np.float32)
         return meshio.Mesh(points, [("quad", quads)], cell_data=cells, point_data={"velocity_m_s": velocity})
 
     @staticmethod

@@ -74,12 +74,23 @@ def test_a_face_grips_a_partly_filled_cell_in_proportion_to_its_fill():
     at the mudline a fifth full grips a fifth as hard (at full su it dragged the soil down)."""
     import numpy as np
 
-    from dsmv.cel.kernels import node_strength
+    from dsmv.cel.contact import grip_cells
+    from dsmv.cel.kernels.nodes import grip_strength
+    from dsmv.cel.layout import Cells, Contact
 
     su_pa = 10_000.0
     solid = np.array([[True, True], [False, False]])  # the body left of the node, soil right of it
     phi = np.array([[0.0, 0.0], [1.0, 0.2]])  # below the node full, above it a fifth
-    su_cell = np.where(phi > 0.0, su_pa, 0.0)
-    assert node_strength(su_cell, phi, solid, 1, 1) == pytest.approx(0.5 * (1.0 + 0.2) * su_pa)
+    start, cells = grip_cells(solid, np.array([1]), np.array([1]), [])  # the tie at node (1, 1)
+    none = np.zeros(0, dtype=np.int64)
+    contact = Contact(np.array([4]), np.array([False]), np.array([[1.0, 0.0]]), np.array([1.0]), start, cells,
+                      np.array([True]), none, none, none, none, np.zeros((0, 4), dtype=np.int64))
+
+    def grip():
+        state = Cells(phi, np.zeros((6, 2, 2)), np.where(phi > 0.0, su_pa, 0.0), np.ones((2, 2)), solid,
+                      1.0 - solid, np.zeros((2, 2), dtype=bool), np.full((2, 2), np.nan))
+        return grip_strength(contact, state, 0)
+
+    assert grip() == pytest.approx(0.5 * (1.0 + 0.2) * su_pa)
     phi[1, 1] = 1.0
-    assert node_strength(su_cell, phi, solid, 1, 1) == pytest.approx(su_pa)  # fully in contact: su
+    assert grip() == pytest.approx(su_pa)  # fully in contact: su

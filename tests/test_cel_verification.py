@@ -236,7 +236,7 @@ def test_a_non_finite_value_ends_unstable_with_finite_outputs(compose_cfg, monke
         done, code = real(n_steps, *args)
         calls["n"] += 1
         if calls["n"] == 3:
-            args[5][0, 0] = np.inf  # vx: a velocity blows up
+            args[3].v[0, 0] = np.inf  # nodes: a velocity blows up
             return done, stepper.NOT_FINITE
         return done, code
 
@@ -250,8 +250,9 @@ def test_a_non_finite_value_ends_unstable_with_finite_outputs(compose_cfg, monke
 def test_nodal_masses_stay_those_of_the_cells(compose_cfg, monkeypatch):
     """The stepper computes nodal masses only after a remap, the one place φ changes: after
     every chunk of steps they must equal a fresh computation from the cells (a kernel that
-    changed φ mid-step would leave them stale). The corner twins' shares count too."""
-    from dsmv.cel import kernels, stepper
+    changed φ mid-step would leave them stale). The split corner nodes' shares count too."""
+    from dsmv.cel import stepper
+    from dsmv.cel.kernels.nodes import nodal_mass
 
     real = stepper.run_steps
     worst = []
@@ -261,14 +262,11 @@ def test_nodal_masses_stay_those_of_the_cells(compose_cfg, monkeypatch):
     def checked(n_steps, *args):
         out = real(n_steps, *args)
         named = signature.bind(n_steps, *args).arguments
-        vol, phi, mass, open_frac, par, cell_twin, twin = (
-            named[k] for k in ("vol", "phi", "mass", "open_frac", "par", "cell_twin", "twin"))
-        fresh = np.zeros_like(mass)
-        fresh_twin = twin.copy()
-        kernels.nodal_mass(phi, vol, par[stepper.P_RHO], fresh, open_frac, stepper.CUT_MASS_FILL)
-        kernels.twin_masses(phi, vol, par[stepper.P_RHO], fresh, cell_twin, fresh_twin)
-        worst.append(np.abs(mass - fresh).max() / fresh.max())
-        worst.append(np.abs(twin[:, kernels.TW_M] - fresh_twin[:, kernels.TW_M]).max(initial=0.0) / fresh.max())
+        mesh, cells, nodes, par = (named[k] for k in ("mesh", "cells", "nodes", "par"))
+        assert len(nodes.mass) > mesh.n_grid  # the track's corners are split
+        fresh = np.zeros_like(nodes.mass)
+        nodal_mass(mesh, cells, par.density, fresh)
+        worst.append(np.abs(nodes.mass - fresh).max() / fresh.max())
         return out
 
     monkeypatch.setattr(stepper, "run_steps", checked)
@@ -287,24 +285,29 @@ def test_hourglass_diagnostic_separates_the_zigzag_from_smooth_motion():
     """A linear velocity field (any rigid motion, any uniform strain rate) has no hourglass
     mode; a pure checkerboard of nodal velocities is all hourglass. Values by hand: the mode
     amplitudes are a quarter of the signed sums of the four nodal velocities."""
-    from dsmv.cel.kernels import N_TWIN, hourglass_modes
+    from dsmv.cel.kernels.plane import hourglass_modes as modes
+    from dsmv.cel.layout import Mesh, structured_corners
 
     n = 6
     xs, ys = np.meshgrid(np.linspace(0.0, 1.0, n + 1), np.linspace(0.0, 1.0, n + 1), indexing="ij")
     phi = np.ones((n, n))
     h = 1.0 / n
-    no_twin = (np.full((n, n), -1, dtype=np.int64), np.zeros((0, N_TWIN)))
+    mesh = Mesh(xs[:, 0], ys[0], np.full((n, n), h * h), structured_corners((n, n)), (n + 1) ** 2)
+
+    def hourglass_modes(phi, vx, vy, full):
+        return modes(mesh, phi, np.stack([vx.ravel(), vy.ravel()]), full)
+
     # rigid rotation plus a uniform strain rate: a (1/s) and b (1/s)
     vx, vy = -0.3 * ys + 0.2 * xs + 1.0, 0.3 * xs - 0.1 * ys
-    hourglass_sq, linear_sq = hourglass_modes(phi, vx, vy, 0.99, *no_twin)
+    hourglass_sq, linear_sq = hourglass_modes(phi, vx, vy, 0.99)
     assert hourglass_sq == pytest.approx(0.0, abs=1e-28)
     # per cell: b_ξ = (h/2)·(0.2, 0.3), b_η = (h/2)·(−0.3, −0.1)
     assert linear_sq == pytest.approx(n * n * (h / 2) ** 2 * (0.04 + 0.09 + 0.09 + 0.01), rel=1e-12)
     zigzag = np.where((np.arange(n + 1)[:, None] + np.arange(n + 1)[None, :]) % 2 == 0, 1.0, -1.0)
-    hourglass_sq, linear_sq = hourglass_modes(phi, 0.5 * zigzag, 0 * zigzag, 0.99, *no_twin)
+    hourglass_sq, linear_sq = hourglass_modes(phi, 0.5 * zigzag, 0 * zigzag, 0.99)
     assert (hourglass_sq, linear_sq) == (pytest.approx(n * n * 0.25), pytest.approx(0.0, abs=1e-28))
     phi[:, 3:] = 0.5  # partly filled cells do not count
-    assert hourglass_modes(phi, 0.5 * zigzag, 0 * zigzag, 0.99, *no_twin)[0] == pytest.approx(n * 3 * 0.25)
+    assert hourglass_modes(phi, 0.5 * zigzag, 0 * zigzag, 0.99)[0] == pytest.approx(n * 3 * 0.25)
 
 
 def test_hourglass_control_damps_the_zigzag_the_diagnostic_measures(compose_cfg):

@@ -89,55 +89,69 @@ def test_no_fields_by_default_nor_from_a_solver_without_them(compose_cfg, tmp_pa
     assert not (tmp_path / FIELD_PLOT_FILE).exists()
 
 
-def test_strength_in_the_fields_is_the_soil_laws(compose_cfg, tmp_path):
-    """Einav–Randolph: su = su_intact(z0)·factor(ξ, γ̇) with the law's NumPy twin, cell by cell."""
+def test_the_fields_show_the_kernels_own_strength(compose_cfg, tmp_path, monkeypatch):
+    """A T-bar with α = 0.5: its interface layer has strength α·su (5 kPa of 10 kPa) in the stress
+    update, and the field output shows that strength, not the intact one: su_pa is the kernel's own
+    su cell by cell (float32 of it) and the interface cells that yield read a mobilised strength of 1."""
     from dsmv.cel.solver import Cel2DSolver
 
-    scene = build_scene(compose_cfg(["solver=cel2d", "mesh=coarse", "solver.progress=off", "tracking=disabled",
-                                     "soil.law=einav_randolph", "output.fields=true", "output.field_frames=2"]))
-    result = Cel2DSolver(scene).solve(tmp_path)
-    assert result.status == "ok"
-    law = registry.load("soil_laws", "einav_randolph", "soil.law")(scene.soil)
-    frame = fields.read_frame(tmp_path / fields.MAX_SINKAGE_FRAME)
-    c = frame.cells
-    soil = c["volume_fraction"] > scene.solver.stress_cutoff
-    expected = (scene.soil.su0_pa + scene.soil.ks_pa_per_m * c["initial_depth_m"]) * law.strength_factor(
-        c["plastic_shear_strain"], c["shear_strain_rate_per_s"])
-    assert c["su_pa"][soil] == pytest.approx(expected[soil], rel=1e-5)
-    assert (c["su_pa"][~soil] == 0.0).all()
-    # the plastic rate is the shear rate where the soil is at yield, zero where it is elastic
-    yielding = c["mobilised_strength"] >= fields.YIELD_RATIO
-    assert yielding.any() and (~yielding & soil).any()
-    assert (c["plastic_shear_strain_rate_per_s"][~yielding] == 0.0).all()
-    assert c["plastic_shear_strain_rate_per_s"][yielding] == pytest.approx(c["shear_strain_rate_per_s"][yielding])
+    captured = {}
+    real = Cel2DSolver.initial_state
+
+    def keep(self):
+        captured["state"] = real(self)
+        return captured["state"]
+
+    monkeypatch.setattr(Cel2DSolver, "initial_state", keep)
+    scene = build_scene(compose_cfg(["experiment=verify_tbar", "hydra.mode=RUN", "geometry.roughness=0.5",
+                                     "mesh.cell_size_m=0.05", "landing.displacement_m=0.05", "solver.progress=off",
+                                     "tracking=disabled", "output.plots=false", "output.fields=true",
+                                     "output.field_frames=2"]))
+    assert Cel2DSolver(scene).solve(tmp_path).status == "ok"
+    state = captured["state"]
+    last = fields.read_frame(fields.series(tmp_path)[-1][1]).cells
+    assert last["su_pa"] == pytest.approx(state.cells.su.astype(np.float32), rel=1e-6, abs=1e-3)
+    layer = (state.cells.strength_factor == 0.5) & (last["volume_fraction"] > 0.99)
+    assert layer.any() and last["su_pa"][layer] == pytest.approx(0.5 * scene.soil.su0_pa, rel=1e-6)
+    assert last["mobilised_strength"][layer].max() == pytest.approx(1.0, rel=1e-5)
 
 
 @pytest.mark.parametrize("axisym", [False, True])
 def test_shear_strain_rate_of_known_flows(axisym):
+    """The field's strain rate is the stress update's (dsmv.cel.kernels.plane.shear_strain_rates)."""
+    from dsmv.cel.kernels.plane import cell_volumes, shear_strain_rates
+    from dsmv.cel.state import Elastic, body_free_state, step_parameters
+
     x, y = np.linspace(0.1, 1.1, 6), np.linspace(-1.0, 0.0, 5)
     X, Y = np.meshgrid(x, y, indexing="ij")
+    mesh, cells, faces, nodes, *_ = body_free_state(x, y, np.ones((5, 4)), np.zeros((6, 5, 4)),
+                                                    cell_volumes(x, y, axisym))
+    par = step_parameters(dt=1e-3, density=1.0, elastic=Elastic(1.0, 1.0, 1.0, 0.0), h=0.25, gravity=0.0, su0=1.0,
+                          ks=0.0, hourglass=0.0, bulk_linear=0.0, bulk_quadratic=0.0, stress_cutoff=0.01,
+                          axisymmetric=axisym, advection_order=2, drop=False, inflow=False, remap=True, tresca=False,
+                          law_active=False)
     if axisym:  # isochoric radial flow: rates c (radial), c (hoop), −2c (vertical) → ε̇1 − ε̇3 = 3c
         c = 0.2
-        rate = fields.shear_strain_rate(x, y, c * X, -2 * c * Y, axisym=True)
-        assert rate == pytest.approx(np.full((5, 4), 3 * c))
+        nodes.v[0], nodes.v[1] = (c * X).ravel(), (-2 * c * Y).ravel()
+        assert shear_strain_rates(mesh, cells, faces, nodes, par, 0.0) == pytest.approx(np.full((5, 4), 3 * c))
     else:  # simple shear v_x = a·y: principal rates ±a/2 → γ̇ = a
         a = 0.7
-        rate = fields.shear_strain_rate(x, y, a * Y, np.zeros_like(Y), axisym=False)
-        assert rate == pytest.approx(np.full((5, 4), a))
+        nodes.v[0] = (a * Y).ravel()
+        assert shear_strain_rates(mesh, cells, faces, nodes, par, 0.0) == pytest.approx(np.full((5, 4), a))
 
 
 def test_a_run_of_any_length_keeps_n_to_2n_evenly_spaced_frames():
     grid = Grid(x=np.linspace(0, 1, 3), y=np.linspace(-1, 0, 3), h=0.5)
     phi, q = np.ones((2, 2)), np.zeros((6, 2, 2))
-    vx = vy = np.zeros((3, 3))
+    su, rate, v = np.ones((2, 2)), np.zeros((2, 2)), np.zeros((2, 9))
     n, chunk = 4, 0.01
     for chunks in (3, 9, 50, 1000):
-        recorder = fields.FieldRecorder(grid, np.zeros((2, 2), bool), None, None, axisym=False, tresca=False,
-                                        stress_cutoff=0.01, frames=n, spacing_s=chunk)
+        recorder = fields.FieldRecorder(grid, np.zeros((2, 2), bool), None, tresca=False, stress_cutoff=0.01,
+                                        frames=n, spacing_s=chunk)
         sinkage = lambda t: 1.0 - (t - 0.7 * chunks * chunk) ** 2  # deepest at 70 % of the run
         for k in range(chunks + 1):
-            recorder.sample(k * chunk, sinkage(k * chunk), phi, q, vx, vy)
-        recorder.sample(chunks * chunk, sinkage(chunks * chunk), phi, q, vx, vy, final=True)
+            recorder.sample(k * chunk, sinkage(k * chunk), phi, q, su, rate, v)
+        recorder.sample(chunks * chunk, sinkage(chunks * chunk), phi, q, su, rate, v, final=True)
         times = np.array([s.time_s for _, s in recorder.taken])
         assert times[0] == 0.0 and times[-1] == pytest.approx(chunks * chunk)
         assert min(chunks, n) <= len(times) - 1 <= 2 * n + 1
@@ -164,8 +178,8 @@ def test_a_run_that_goes_unstable_still_leaves_its_fields_and_contours(compose_c
         done, code = real(n_steps, *args)
         calls["n"] += 1
         if calls["n"] == 40:
-            args[4][0, 3, 5] = np.nan  # q: σxx goes NaN
-            args[5][2, 2] = np.inf  # vx: a velocity blows up
+            args[1].q[0, 3, 5] = np.nan  # cells: σxx goes NaN
+            args[3].v[0, 20] = np.inf  # nodes: a velocity blows up
             return done, stepper.NOT_FINITE
         return done, code
 

@@ -10,7 +10,9 @@ from hypothesis import strategies as st
 from scipy.optimize import brentq
 
 from dsmv import registry
-from dsmv.cel import kernels as K
+from dsmv.cel.kernels.plane import update_stress
+from dsmv.cel.layout import NQ_BASE, SXY
+from dsmv.cel.state import Elastic, body_free_state, step_parameters
 from dsmv.scene import build_scene
 
 LAWS = list(registry.available("soil_laws"))
@@ -77,24 +79,24 @@ def simple_shear(law, soil, gamma_dot, gamma_total, n_steps=4000):
     h = 1.0
     x = np.array([0.0, h])
     y = np.array([0.0, h])
-    phi = np.ones((1, 1))
-    q = np.zeros((K.NQ_BASE, 1, 1))
-    vx = np.array([[0.0, gamma_dot * h], [0.0, gamma_dot * h]])  # nodes (i, j): top row moves
-    vy = np.zeros((2, 2))
-    G = soil.youngs_modulus_pa / (2 * (1 + soil.poisson_ratio))
-    Kb = soil.youngs_modulus_pa / (3 * (1 - 2 * soil.poisson_ratio))
+    n_state = len(law.initial_state())
+    q = np.zeros((NQ_BASE + n_state, 1, 1))
+    q[NQ_BASE:, 0, 0] = law.initial_state()
+    elastic = Elastic.of(soil)
     dt = gamma_total / gamma_dot / n_steps
+    mesh, cells, faces, nodes, *_ = body_free_state(x, y, np.ones((1, 1)), q, np.ones((1, 1)))
+    nodes.v[0] = [0.0, gamma_dot * h, 0.0, gamma_dot * h]  # nodes (i, j) at i·2 + j: the top row moves
+    par = step_parameters(dt=dt, density=soil.density_kg_m3, elastic=elastic, h=h, gravity=0.0, su0=soil.su0_pa,
+                          ks=0.0, hourglass=0.0, bulk_linear=0.0, bulk_quadratic=0.0, stress_cutoff=0.01,
+                          axisymmetric=False, advection_order=2, drop=False, inflow=False, remap=True, tresca=True,
+                          law_active=law.active)
     out = np.zeros(2)
     gammas, taus = [], []
     for step in range(n_steps):
-        K.update_stress(x, y, phi, q, vx, vy, dt, G, Kb, soil.su0_pa, 0.0, False, 0.01, True,
-                        law.compiled(), law.packed(), law.active, law.compiled_evolve(), np.ones((1, 1)),
-                        np.zeros((1, 1)), out, np.ones((2, 1)), np.ones((2, 1)), np.ones((1, 1)), 0.0,
-                        np.full((1, 1), np.nan), np.zeros((1, 1), dtype=np.bool_), np.full((1, 1), -1, dtype=np.int64),
-                        np.zeros((0, K.N_TWIN)))
+        update_stress(mesh, cells, faces, nodes, par, 0.0, law.compiled(), law.packed(), law.compiled_evolve(), out)
         gammas.append((step + 1) * gamma_dot * dt)
-        taus.append(q[K.SXY, 0, 0])
-    return np.array(gammas), np.array(taus), G
+        taus.append(q[SXY, 0, 0])
+    return np.array(gammas), np.array(taus), elastic.shear_pa
 
 
 @pytest.mark.parametrize("overrides", [["soil.sensitivity=4", "soil.xi95=2", "soil.rate.eta=0"],

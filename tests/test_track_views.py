@@ -21,7 +21,7 @@ def test_longitudinal_view_has_grousers_at_the_pitch_and_a_sprocket_arc(compose_
     solver = _solver(compose_cfg)
     grid = solver.build()
     track = solver.scene.geometry
-    solid, *_ = solver.body_cells_and_ties(grid, grid.row_of(0.0))
+    solid = solver.body_contact(grid).solid
     h = grid.x[1] - grid.x[0]
     half = 0.5 * track.contact_length_m
     assert solver.characteristic_width_m(0.1) == track.contact_length_m  # the in-plane width is L

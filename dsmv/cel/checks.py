@@ -19,8 +19,8 @@ from typing import Literal
 import numpy as np
 from pydantic import Field
 
-from dsmv.cel.grid import Openings
-from dsmv.cel.state import Elastic, geostatic_state, stepper_flags, stepper_parameters
+from dsmv.cel.layout import B_TIME, N_BODY, NQ_BASE
+from dsmv.cel.state import Elastic, body_free_state, geostatic_state, step_parameters
 from dsmv import registry
 from dsmv.results import SolveResult
 from dsmv.scene import Number, Scene, Schema
@@ -55,7 +55,8 @@ def _smooth(xc, yc, cx, cy, width):
 
 def advect_square(n_cells: int, courant: float, travel: float, order: int) -> dict:
     """Carry a square of soil across [0, 1]² diagonally; return errors against the translate."""
-    from dsmv.cel import kernels as K
+    from dsmv.cel.kernels.plane import cell_volumes
+    from dsmv.cel.kernels.remap2d import advect_cells
 
     h = 1.0 / n_cells
     x = np.linspace(0.0, 1.0, n_cells + 1)
@@ -63,7 +64,7 @@ def advect_square(n_cells: int, courant: float, travel: float, order: int) -> di
     xc = 0.5 * (x[1:] + x[:-1])
     lo, hi = 0.15, 0.45
     phi = _exact_square_fraction(x, y, lo, hi)
-    q = np.zeros((K.NQ_BASE, n_cells, n_cells))
+    q = np.zeros((NQ_BASE, n_cells, n_cells))
     # the smooth scalar rides everywhere in a full-soil field: a second grid, φ = 1
     phi_full = np.ones_like(phi)
     q_full = np.zeros_like(q)
@@ -76,22 +77,21 @@ def advect_square(n_cells: int, courant: float, travel: float, order: int) -> di
     uy = ux.copy()
     # The walls hold the soil in, so the full field empties from the upwind walls and piles up
     # at the downwind ones; both fronts stay far from the bump, which is what is compared.
-    vol = K.cell_volumes(x, y, False)
-    ghost = np.zeros((K.NQ_BASE, n_cells))
-    flux_x = np.zeros((n_cells + 1, n_cells))
-    flux_y = np.zeros((n_cells + 1, n_cells))
+    vol = cell_volumes(x, y, False)
+    mesh, square, faces, _, _, inflow = body_free_state(x, y, phi, q, vol)
+    full = body_free_state(x, y, phi_full, q_full, vol)[1]
+    # unit moduli, no inflow: the sweep only moves things
+    par = step_parameters(dt=dt, density=1.0, elastic=Elastic(1.0, 1.0, 1.0, 0.0), h=h, gravity=0.0, su0=0.0, ks=0.0,
+                          hourglass=0.0, bulk_linear=0.0, bulk_quadratic=0.0, stress_cutoff=0.0, axisymmetric=False,
+                          advection_order=order, drop=False, inflow=False, remap=True, tresca=False,
+                          law_active=False)._replace(phi_min=1e-12)
     mass0 = float((phi * vol).sum())
     audit = np.zeros(2)
-    no_body = Openings.of_cells(np.zeros((n_cells, n_cells), dtype=bool))
     for step in range(n_steps):
         for sweep in range(2):
             axis = (step + sweep) % 2
-            flux = flux_x if axis == 0 else flux_y
-            aperture = no_body.aperture_x if axis == 0 else no_body.aperture_y
-            K.advect_cells(axis, x, y, vol, phi, q, ux, uy, dt, order, False, ghost, False, flux, 1e-12, 1.0, 1.0, audit,
-                           aperture, no_body.open_frac)
-            K.advect_cells(axis, x, y, vol, phi_full, q_full, ux, uy, dt, order, False, ghost, False, flux, 1e-12,
-                           1.0, 1.0, audit, aperture, no_body.open_frac)
+            advect_cells(axis, mesh, square, faces, ux, uy, dt, par, inflow, audit)
+            advect_cells(axis, mesh, full, faces, ux, uy, dt, par, inflow, audit)
     exact_phi = _exact_square_fraction(x, y, lo + travel, hi + travel)
     exact_bump = _smooth(xc, xc, 0.3 + travel, 0.3 + travel, 0.1)
     return {
@@ -145,42 +145,38 @@ class Cel2DCheckSolver:
         return SolveResult("ok", message, metrics, units, None)  # a convergence study has no time history
 
     def _geostatic(self) -> SolveResult:
-        from dsmv.cel import kernels as K
-        from dsmv.cel import stepper as S
         from dsmv.cel.grid import build_grid
+        from dsmv.cel.kernels.plane import cell_volumes
+        from dsmv.cel.ledger import N_ENERGY
+        from dsmv.cel.stepper import run_steps
 
         scene, cfg = self.scene, self.scene.solver
-        soil, mesh = scene.soil, scene.mesh
-        h = mesh.cell_size_m
+        soil, mesh_cfg = scene.soil, scene.mesh
+        h = mesh_cfg.cell_size_m
         grid = build_grid(h, 0.5 * cfg.block_width_m, cfg.block_width_m, 0.5 * cfg.block_depth_m,
-                          cfg.block_depth_m, 3 * h, mesh.growth_ratio, mesh.max_cell_size_m)
+                          cfg.block_depth_m, 3 * h, mesh_cfg.growth_ratio, mesh_cfg.max_cell_size_m)
         x, y, nx, ny = grid.x, grid.y, grid.nx, grid.ny
         rho, grav = soil.density_kg_m3, scene.landing.gravity_m_s2
         elastic = Elastic.of(soil)
         dt = cfg.cfl * h / elastic.wave_speed_m_s
         phi, q = geostatic_state(grid, rho, grav, elastic.k0, mudline=0.0)
-        vol = K.cell_volumes(x, y, False)
-        par = stepper_parameters(dt=dt, density=rho, elastic=elastic, h=h, gravity=grav, su0=soil.su0_pa,
-                                 ks=soil.ks_pa_per_m, hourglass=0.05, bulk_linear=0.06, bulk_quadratic=1.2,
-                                 stress_cutoff=0.01)
-        ipar = stepper_flags(axisym=False, advection_order=2, drop=False, bottom_inflow=False, remap=True,
-                             exact_tresca=False, law_active=False)
-        vx = np.zeros((nx + 1, ny + 1))
-        vy = np.zeros_like(vx)
+        vol = cell_volumes(x, y, False)
+        # the solver's default numerics (Cel2DConfig), no body, closed base
+        from dsmv.cel.config import CelConfig
+
+        defaults = CelConfig.model_fields
+        par = step_parameters(dt=dt, density=rho, elastic=elastic, h=h, gravity=grav, su0=soil.su0_pa,
+                              ks=soil.ks_pa_per_m, hourglass=defaults["hourglass"].default,
+                              bulk_linear=defaults["bulk_viscosity_linear"].default,
+                              bulk_quadratic=defaults["bulk_viscosity_quadratic"].default,
+                              stress_cutoff=defaults["stress_cutoff"].default, axisymmetric=False, advection_order=2,
+                              drop=False, inflow=False, remap=True, tresca=False, law_active=False)
+        state = (*body_free_state(x, y, phi, q, vol), par)
+        v = state[3].v
+        body = np.zeros(N_BODY)
+        energy = np.zeros(N_ENERGY)
         tresca = registry.load("soil_laws", "tresca", "soil.law")
-        none = np.zeros(0, dtype=np.int64)
-        no_body = Openings.of_cells(np.zeros((nx, ny), dtype=bool))
-        openings = (no_body.aperture_x, no_body.aperture_y, no_body.open_frac)
-        body = np.zeros(S.N_BODY)
-        energy = np.zeros(S.N_ENERGY)
-        args = (x, y, vol, phi, q, vx, vy, np.zeros_like(vx), np.zeros_like(vx), np.zeros_like(vx),
-                np.zeros_like(vx), np.zeros_like(vx), np.zeros((nx + 1, ny)), np.zeros((ny + 1, nx)),
-                none, none, none.astype(np.bool_), np.zeros(0), np.zeros(0), np.zeros(0),
-                np.ones((nx, ny)), np.zeros((nx, ny)),
-                np.zeros((nx, ny), dtype=np.bool_), *openings, np.zeros((0, 4), dtype=np.int64),
-                np.zeros((nx, ny), dtype=np.bool_), np.full((nx, ny), -1, dtype=np.int64),
-                np.zeros((0, 4), dtype=np.int64), np.zeros((0, K.N_TWIN)), np.zeros((K.NQ_BASE, nx)), np.zeros(nx),
-                par, ipar, body, energy, tresca.compiled(), np.zeros(8), tresca.compiled_evolve())
+        law = (tresca.compiled(), np.zeros(8), tresca.compiled_evolve())
         n_steps = int(math.ceil(cfg.duration_s / dt))
         samples = 100
         times, speeds = [0.0], [0.0]
@@ -188,10 +184,10 @@ class Cel2DCheckSolver:
         done = 0
         while done < n_steps:
             chunk = min(max(1, n_steps // samples), n_steps - done)
-            S.run_steps(chunk, *args)
+            run_steps(chunk, *state, body, energy, *law)
             done += chunk
-            times.append(body[S.B_TIME])
-            speeds.append(float(np.sqrt(vx * vx + vy * vy).max()))
+            times.append(body[B_TIME])
+            speeds.append(float(np.sqrt((v * v).sum(axis=0)).max()))
         wall = time.perf_counter() - t0
         soil_volume0 = float((geostatic_state(grid, rho, grav, elastic.k0, mudline=0.0)[0] * vol).sum())
         metrics = {

@@ -43,6 +43,11 @@ class Grid:
     h: float  # core cell size (m)
 
     @property
+    def axes(self) -> tuple[np.ndarray, ...]:
+        """Node coordinates per axis, the last one up."""
+        return (self.x, self.y)
+
+    @property
     def nx(self) -> int:
         return len(self.x) - 1
 

@@ -10,9 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dsmv.cel import kernels as K
-from dsmv.cel import stepper as S
 from dsmv.cel.grid import Grid
+from dsmv.cel.layout import NQ_BASE, SXX, SYY, SZZ, Z0, Params
 
 
 @dataclass(frozen=True)
@@ -48,40 +47,54 @@ def geostatic_state(grid: Grid, density: float, gravity: float, k0: float, mudli
     phi = np.tile(fill, (grid.nx, 1))
     if open_frac is not None:
         phi = phi * open_frac
-    q = np.zeros((K.NQ_BASE, grid.nx, grid.ny))
-    q[K.SYY] = -density * gravity * depth[None, :] * phi
-    q[K.SXX] = k0 * q[K.SYY]
-    q[K.SZZ] = k0 * q[K.SYY]
-    q[K.Z0] = depth[None, :] * phi
+    q = np.zeros((NQ_BASE, grid.nx, grid.ny))
+    q[SYY] = -density * gravity * depth[None, :] * phi
+    q[SXX] = k0 * q[SYY]
+    q[SZZ] = k0 * q[SYY]
+    q[Z0] = depth[None, :] * phi
     return phi, q
 
 
-def stepper_parameters(*, dt, density, elastic: Elastic, h, gravity, su0, ks, hourglass, bulk_linear,
-                       bulk_quadratic, stress_cutoff, body_mass=1.0, body_weight=0.0, push_velocity=0.0,
-                       remap_courant=0.0):
-    """The float parameters of :func:`dsmv.cel.stepper.run_steps`, packed in its order.
+def step_parameters(*, dt, density, elastic: Elastic, h, gravity, su0, ks, hourglass, bulk_linear, bulk_quadratic,
+                    stress_cutoff, axisymmetric, advection_order, drop, inflow, remap, tresca, law_active,
+                    skip_void=True, separation=False, body_mass=1.0, body_weight=0.0, push_velocity=0.0,
+                    remap_courant=0.0) -> Params:
+    """The step's :class:`~dsmv.cel.layout.Params`. ``remap_courant``: the remap runs once the soil
+    has moved this fraction of a core cell h through the grid (0: every step)."""
+    return Params(
+        dt=dt, density=density, shear=elastic.shear_pa, bulk=elastic.bulk_pa, wave_speed=elastic.wave_speed_m_s,
+        k0=elastic.k0, hourglass=hourglass, bulk_linear=bulk_linear, bulk_quadratic=bulk_quadratic,
+        gravity=gravity, su0=su0, ks=ks,
+        mass_floor=1e-9 * density * h * h,  # nodes lighter than this are empty
+        phi_min=1e-9,  # cells with less soil give none
+        stress_cutoff=stress_cutoff, body_mass=body_mass, body_weight=body_weight, push_velocity=push_velocity,
+        remap_travel=remap_courant * h, axisymmetric=bool(axisymmetric), advection_order=int(advection_order),
+        drop=bool(drop), inflow=bool(inflow), remap=bool(remap), tresca=bool(tresca), law_active=bool(law_active),
+        skip_void=bool(skip_void), separation=bool(separation),
+    )
 
-    ``remap_courant``: the remap runs once the soil has moved this fraction of a core cell h
-    through the grid (0: every step)."""
-    par = np.zeros(S.N_PAR)
-    par[S.P_DT], par[S.P_RHO] = dt, density
-    par[S.P_G], par[S.P_K], par[S.P_C], par[S.P_K0] = elastic.shear_pa, elastic.bulk_pa, elastic.wave_speed_m_s, elastic.k0
-    par[S.P_HG], par[S.P_BL], par[S.P_BQ] = hourglass, bulk_linear, bulk_quadratic
-    par[S.P_GRAV], par[S.P_SU0], par[S.P_KS] = gravity, su0, ks
-    par[S.P_MFLOOR] = 1e-9 * density * h * h  # nodes lighter than this are empty
-    par[S.P_PHIMIN] = 1e-9  # cells with less soil give none
-    par[S.P_PHI_STRESS] = stress_cutoff
-    par[S.P_BODY_M], par[S.P_BODY_W], par[S.P_PUSH_V] = body_mass, body_weight, push_velocity
-    par[S.P_REMAP_DISP] = remap_courant * h
-    return par
 
+def body_free_state(x, y, phi, q, vol):
+    """The containers of soil on a 2D grid with no body (verification cases, kernel tests): mesh,
+    cells, faces, nodes (at rest), a contact with no ties and the grid's boundary conditions, and a
+    closed base (no inflow)."""
+    from dsmv.cel.contact import fixed_velocities
+    from dsmv.cel.grid import Openings
+    from dsmv.cel.layout import Cells, Contact, Faces, Inflow, Mesh, Nodes, structured_corners
 
-def stepper_flags(*, axisym, advection_order, drop, bottom_inflow, remap, exact_tresca, law_active, skip_void=True,
-                  separate=False):
-    """The integer switches of :func:`dsmv.cel.stepper.run_steps`, packed in its order."""
-    flags = np.zeros(S.N_IPAR, dtype=np.int64)
-    flags[S.I_AXISYM], flags[S.I_ORDER], flags[S.I_DROP] = int(axisym), advection_order, int(drop)
-    flags[S.I_INFLOW], flags[S.I_REMAP] = int(bottom_inflow), int(remap)
-    flags[S.I_TRESCA], flags[S.I_LAW], flags[S.I_SKIP_VOID] = int(exact_tresca), int(law_active), int(skip_void)
-    flags[S.I_SEPARATE] = int(separate)
-    return flags
+    nx, ny = phi.shape
+    n_nodes = (nx + 1) * (ny + 1)
+    none = np.zeros(0, dtype=np.int64)
+    fixed_node, fixed_axis = fixed_velocities((nx + 1, ny + 1))
+    open_cells = Openings.of_cells(np.zeros((nx, ny), dtype=bool))
+    return (
+        Mesh(np.asarray(x, float), np.asarray(y, float), vol, structured_corners((nx, ny)), n_nodes),
+        Cells(phi, q, np.zeros((nx, ny)), np.ones((nx, ny)), np.zeros((nx, ny), dtype=np.bool_), np.ones((nx, ny)),
+              np.zeros((nx, ny), dtype=np.bool_), np.full((nx, ny), np.nan)),
+        Faces(open_cells.aperture_x, open_cells.aperture_y, np.zeros((nx + 1, ny)), np.zeros((ny + 1, nx))),
+        Nodes(np.zeros((2, n_nodes)), np.zeros((2, n_nodes)), np.zeros(n_nodes), np.zeros((2, n_nodes))),
+        Contact(none, none.astype(np.bool_), np.zeros((0, 2)), np.zeros(0), np.zeros(1, dtype=np.int64),
+                np.zeros((0, 2), dtype=np.int64), none.astype(np.bool_), none, none, fixed_node, fixed_axis,
+                np.zeros((0, 4), dtype=np.int64)),
+        Inflow(np.zeros((q.shape[0], nx)), np.zeros(nx)),
+    )

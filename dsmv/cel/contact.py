@@ -1,0 +1,323 @@
+"""Contact as data: one rule table decides how a scene's body holds the soil, built once.
+
+:class:`ContactRules` reads the scene (body, roughness α, mode, separation) and decides which
+contact the body gets; ``check_scene`` refuses what it cannot do and the set-up
+(:func:`build_contact`) builds the tie table from the same rules:
+
+- **flat faces** (a strip, a track's cross-section): the base and walls tie their nodes along the
+  face normal only; along the face the soil is held by adhesion α·su (rough is α = 1). The nodes
+  at the body's corners are split: the soil cells beyond the base see their own copy of the
+  corner node (:func:`split_corners`). Contact separation lets a face go of soil that pulls away.
+- **staircase** bodies (a T-bar's cylinder, a cone, the side view of a track): a curved face is a
+  staircase of cells, tied fully; a smooth face or limited adhesion lives in the *interface
+  layer*, the soil cells touching the body, whose strength is α·su (the thin-layer interface of
+  FE and CEL practice). Soil then slides round the body one layer out, through whole cells, which
+  the remap carries. (Ties along the circle's normal let soil slide along the staircase instead,
+  which the remap cannot carry past the steps: the soil piled up in front, a void opened behind,
+  and a smooth T-bar read 6.6 for 9.20.)
+- **cut cells** (a smooth cylinder in plane strain): the cells the circle cuts stay partly open,
+  every node inside the circle moves with it, and the nodes of the cut cells slide along its
+  normal; slivers merge with a neighbour (:func:`sliver_pairs`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from dsmv.cel.body import Cone, Cylinder, FlatBody, TrackSideView, nodes_touching, soil_cells_touching, solid_cells
+from dsmv.cel.grid import Grid, Openings
+from dsmv.cel.kernels.plane import CUT_OPEN_FLOOR
+from dsmv.cel.layout import Contact, structured_corners
+from dsmv.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class ContactRules:
+    """How a scene's body meets the soil: its shape family and the contact each part of it gets."""
+
+    kind: str                # strip | track | tbar | cone
+    longitudinal: bool       # a track seen from the side
+    alpha: float             # adhesion factor α (rough 1, smooth 0)
+    roughness: object        # geometry.roughness as given (rough, smooth or α)
+    axisymmetric: bool
+    separation: bool         # solver.contact_separation
+
+    @classmethod
+    def of(cls, scene, axisymmetric: bool) -> "ContactRules":
+        body = scene.geometry
+        return cls(body.kind, getattr(body, "view", "cross_section") == "longitudinal", body.adhesion_factor,
+                   body.roughness, axisymmetric, scene.solver.contact_separation)
+
+    @property
+    def flat_faced(self) -> bool:
+        """A flat base and vertical walls: normal ties with adhesion, split corners."""
+        return self.kind in ("strip", "track") and not self.longitudinal
+
+    @property
+    def circular(self) -> bool:
+        return self.kind == "tbar"
+
+    @property
+    def cut_cells(self) -> bool:
+        return self.circular and self.alpha == 0.0 and not self.axisymmetric
+
+    @property
+    def interface_layer(self) -> bool:
+        return self.circular and self.alpha < 1.0 and not self.cut_cells
+
+    @property
+    def separable(self) -> bool:
+        """Faces that may let the soil go: flat ones of any roughness, a smooth cylinder's cut cells."""
+        return self.flat_faced or self.cut_cells
+
+    def refusal(self) -> ConfigError | None:
+        """What this contact cannot do, as the error to raise (None: it can)."""
+        if self.longitudinal and self.alpha != 1.0:
+            return ConfigError("geometry.roughness", self.roughness,
+                               "the longitudinal view (plates and grousers) models a rough track only")
+        if self.alpha not in (0.0, 1.0) and not (self.flat_faced or self.circular):
+            return ConfigError("geometry.roughness", self.roughness,
+                               "limited adhesion α in (0, 1) needs a flat-faced body (strip, or a track's "
+                               "cross-section) or a T-bar (an interface layer of strength α·su); a cone takes "
+                               "'rough' (1)")
+        if self.kind == "cone" and self.alpha == 0.0:
+            return ConfigError("geometry.roughness", self.roughness, "a cone is 'rough' in cel2d for now "
+                                                                 "(a smooth staircase cone needs cut cells)")
+        if self.separation and not self.separable:
+            return ConfigError("solver.contact_separation", True,
+                               "separation acts on a flat-faced body (strip, track cross-section) of any "
+                               "roughness or a smooth T-bar in plane strain; this body's staircase faces stay "
+                               "tied fully")
+        return None
+
+    def shape(self, geometry, h: float):
+        """The body's shape (:mod:`dsmv.cel.body`)."""
+        if self.kind == "cone":
+            return Cone(geometry.apex_angle_deg, geometry.width_m)
+        if self.circular:
+            return Cylinder(0.5 * geometry.width_m)
+        if self.longitudinal:
+            return TrackSideView.of(geometry, h)
+        return FlatBody(0.5 * geometry.width_m)
+
+
+@dataclass
+class BodyContact:
+    """What the set-up builds from the rules: the body's cells and openings, the contact table,
+    the corner table with its split nodes, and the cell fields contact sets (strength factor, gap
+    cells)."""
+
+    solid: np.ndarray
+    openings: Openings
+    contact: Contact
+    corner: np.ndarray
+    n_nodes: int
+    strength_factor: np.ndarray
+    gap: np.ndarray
+
+
+def _ties(rules: ContactRules, shape, grid: Grid, j_base: int, solid: np.ndarray):
+    """The tied nodes (i, j) and, per tie: full or normal, the normal into the soil, the adhesion cap.
+
+    A node of a body cell is tied fully (moves with the body) when it is a corner or inside the
+    body, or when the body is a staircase. On a flat face (base or wall) only its normal velocity
+    is tied, n pointing into the soil; along the face the soil is held by adhesion α·su: such a
+    node carries ``cap`` = α × its share of the face (m per unit thickness, m²/rad axisymmetric).
+    (A rough face that tied its nodes fully would hold them with any shear, more than su: at B/40
+    that read the pushed strip's factor 1.3 % above the α → 1 limit, 5.321 against 5.255 at
+    α = 0.999.)"""
+    touching = nodes_touching(solid)
+    if rules.cut_cells:  # every node inside the circle moves with it
+        tie_i, tie_j = np.nonzero(shape.inside(grid.x[:, None], grid.y[None, :]))
+    else:
+        tie_i, tie_j = np.nonzero(touching)
+    # a node is inside when all its cells are solid (on the domain's edges: all of its two)
+    cells_around = np.full_like(touching, 4)
+    cells_around[0, :] = cells_around[-1, :] = 2
+    cells_around[:, 0] = cells_around[:, -1] = 2
+    inside = touching[tie_i, tie_j] == cells_around[tie_i, tie_j]
+    full = np.ones(len(tie_i), dtype=np.bool_)
+    normal = np.zeros((len(tie_i), 2))
+    cap = np.zeros(len(tie_i))
+    if rules.cut_cells:  # the nodes in the cut cells slide along the circle (tied along its normal)
+        xs, ys = grid.x[tie_i], grid.y[tie_j] - shape.radius
+        r = np.maximum(np.hypot(xs, ys), 1e-300)
+        normal[:, 0], normal[:, 1] = xs / r, ys / r
+        full = inside.copy()
+        normal[inside] = 0.0  # inside the body: no face, always tied
+    elif rules.flat_faced:
+        half = shape.half_width
+        xs, ys = grid.x[tie_i], grid.y[tie_j]
+        on_base = (tie_j == j_base) & (np.abs(xs) < half - 1e-12)
+        on_side = (tie_j > j_base) & np.isclose(np.abs(xs), half) & ~inside
+        normal[on_base, 1] = -1.0
+        normal[on_side, 0] = np.sign(xs[on_side])  # the whole section has a wall on either side
+        full = ~(on_base | on_side)
+        if rules.alpha > 0.0:  # each node's share of the base (x) or of the wall (y)
+            xg, yg = grid.x, grid.y
+            left = np.where(tie_i > 0, xs - xg[np.maximum(tie_i - 1, 0)], 0.0)
+            right = np.minimum(xg[np.minimum(tie_i + 1, grid.nx)], half) - xs
+            below = ys - yg[np.maximum(tie_j - 1, 0)]
+            above = np.where(tie_j < grid.ny, yg[np.minimum(tie_j + 1, grid.ny)] - ys, 0.0)
+            radius = xs if rules.axisymmetric else 1.0
+            cap[on_base] = (rules.alpha * 0.5 * (left + right) * radius)[on_base]
+            radius = half if rules.axisymmetric else 1.0
+            cap[on_side] = (rules.alpha * 0.5 * (below + above) * radius)[on_side]
+    return tie_i, tie_j, full, normal, cap
+
+
+def split_corners(rules: ContactRules, shape, grid: Grid, j_base: int, solid: np.ndarray):
+    """The split nodes of a flat-faced body's corners, where its base meets a wall.
+
+    Prandtl's fan is centred there: the soil under the base moves with the body, the soil beside it
+    rides the fan, and the velocity there has every direction of the fan between. One shared node
+    forces a single velocity, so the cell beside the corner is dragged along with the base and
+    smears the fan over itself: the strip then reads as if about a third of a cell wider (+3.6 % at
+    B/20 in small strain). The soil cells beyond the base (beside the wall) therefore see their own
+    copy of the corner node; the cells under the base keep the body's node. The copy is a node of
+    the wall: tied along its normal, held along it by the wall's adhesion α·su over the lower half
+    of the wall face above the corner (gripped by the soil that cell holds: none while the strip
+    sits on the surface, where at the fan's centre the soil slips up past the corner, at 3V/2
+    relative to it in Prandtl's solution), and, with contact separation, free to leave the wall.
+
+    Returns rows (corner node i, j, local corner of each beyond-base cell that uses the copy as
+    {cell: local}, the wall's normal x, the grip cell, the adhesion cap)."""
+    splits = []
+    if not rules.flat_faced:
+        return splits
+    half = shape.half_width
+    wall_share = 0.5 * (grid.y[j_base + 1] - grid.y[j_base]) if j_base < grid.ny else 0.0
+    radius = half if rules.axisymmetric else 1.0
+    for side in (1.0, -1.0):
+        (i_corner,) = np.nonzero(np.isclose(grid.x, side * half))
+        if len(i_corner) == 0:
+            continue
+        i_corner = int(i_corner[0])
+        # the cells beyond the base touch the corner with their left (right side) or right nodes
+        i_cell, below, above = (i_corner, 3, 0) if side > 0 else (i_corner - 1, 2, 1)
+        if not 0 <= i_cell < grid.nx:
+            continue
+        users = {(i_cell, j_cell): local for j_cell, local in ((j_base - 1, below), (j_base, above))
+                 if 0 <= j_cell < grid.ny and not solid[i_cell, j_cell]}
+        splits.append((i_corner, j_base, users, side, (i_cell, j_base), rules.alpha * wall_share * radius))
+    return splits
+
+
+def grip_cells(solid, tie_i, tie_j, splits):
+    """The cells whose strength grips each tie: a face node's soil cells; a split node's cell above
+    the corner. CSR rows (start per tie, cells)."""
+    nx, ny = solid.shape
+    start, cells = [0], []
+    for i, j in zip(tie_i, tie_j):
+        for ci in (i - 1, i):
+            for cj in (j - 1, j):
+                if 0 <= ci < nx and 0 <= cj < ny and not solid[ci, cj]:
+                    cells.append((ci, cj))
+        start.append(len(cells))
+    for *_, grip, _cap in splits:
+        cells.append(grip)
+        start.append(len(cells))
+    return np.array(start, dtype=np.int64), np.array(cells, dtype=np.int64).reshape(-1, 2)
+
+
+def sliver_pairs(openings: Openings) -> np.ndarray:
+    """Each sliver of a cut body (a cell open to less than ``CUT_OPEN_FLOOR``) paired with its most
+    open neighbour across an open face: rows (i, j, i_neighbour, j_neighbour).
+
+    A sliver alone cannot hold its soil: its pressure sees its volume change over the floored open
+    fraction, 6 % of it for a cell open to 3 %, so the remap drained it and then its neighbours (a
+    void behind a smooth T-bar). A pair changes volume as one, and shares one fill and one mean
+    stress after each remap."""
+    of, ax, ay = openings.open_frac, openings.aperture_x, openings.aperture_y
+    pairs = []
+    for i, j in zip(*np.nonzero((of > 0.0) & (of < CUT_OPEN_FLOOR))):
+        best, neighbour = -1.0, None
+        for di, dj, aperture in ((-1, 0, ax[i, j]), (1, 0, ax[i + 1, j]), (0, -1, ay[j, i]), (0, 1, ay[j + 1, i])):
+            a, b = i + di, j + dj
+            if 0 <= a < of.shape[0] and 0 <= b < of.shape[1] and aperture > 0.0 and of[a, b] >= CUT_OPEN_FLOOR:
+                if of[a, b] * aperture > best:
+                    best, neighbour = of[a, b] * aperture, (a, b)
+        if neighbour is not None:
+            pairs.append((i, j, *neighbour))
+    return np.array(pairs, dtype=np.int64).reshape(-1, 4)
+
+
+def fixed_velocities(node_shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """The boundary conditions as data: the symmetry axis and the far sides are rollers (no normal
+    velocity), the base is fixed. Rows (flat node, axis), in the order they are applied."""
+    index = np.arange(int(np.prod(node_shape))).reshape(node_shape)
+    dim = len(node_shape)
+    nodes, axes = [], []
+    for a in range(dim - 1):  # rollers: the two planes normal to each horizontal axis
+        for end in (0, -1):
+            side = np.take(index, [end], axis=a).ravel()
+            nodes.append(side), axes.append(np.full(side.size, a))
+    base = np.take(index, [0], axis=dim - 1).ravel()
+    for n in base:  # the base: every component, node by node
+        nodes.append(np.full(dim, n)), axes.append(np.arange(dim))
+    order = np.concatenate(axes)
+    return np.concatenate(nodes).astype(np.int64), order.astype(np.int64)
+
+
+def build_contact(rules: ContactRules, shape, grid: Grid, j_base: int) -> BodyContact:
+    """The body's cells, openings and contact table on a grid, from the rules."""
+    solid = solid_cells(shape, grid)
+    openings = Openings.of_circle(grid, shape.radius, shape.radius) if rules.cut_cells else Openings.of_cells(solid)
+    tie_i, tie_j, full, normal, cap = _ties(rules, shape, grid, j_base, solid)
+    splits = split_corners(rules, shape, grid, j_base, solid)
+    n_grid = (grid.nx + 1) * (grid.ny + 1)
+    corner = structured_corners((grid.nx, grid.ny))
+    for k, (_, _, users, *_rest) in enumerate(splits):
+        for (ci, cj), local in users.items():
+            corner[ci, cj, local] = n_grid + k
+    ny1 = grid.ny + 1
+    split_node = n_grid + np.arange(len(splits), dtype=np.int64)
+    split_parent = np.array([i * ny1 + j for i, j, *_ in splits], dtype=np.int64)
+    grip_start, grip_cell = grip_cells(solid, tie_i, tie_j, splits)
+    split_normal = np.zeros((len(splits), 2))
+    split_normal[:, 0] = [side for *_, side, _grip, _cap in splits]
+    # the ties: the grid's, then the split nodes' (tied along the wall's normal, with its adhesion)
+    fixed_node, fixed_axis = fixed_velocities((grid.nx + 1, grid.ny + 1))
+    contact = Contact(
+        node=np.concatenate([tie_i * ny1 + tie_j, split_node]).astype(np.int64),
+        full=np.concatenate([full, np.zeros(len(splits), dtype=np.bool_)]),
+        normal=np.ascontiguousarray(np.concatenate([normal, split_normal])),
+        cap=np.concatenate([cap, [c for *_, c in splits]]).astype(float),
+        grip_start=grip_start, grip_cell=grip_cell,
+        holding=np.ones(len(tie_i) + len(splits), dtype=np.bool_),
+        split_node=split_node, split_parent=split_parent,
+        fixed_node=fixed_node, fixed_axis=fixed_axis,
+        merge=sliver_pairs(openings),
+    )
+    factor = np.ones(solid.shape)
+    if rules.cut_cells:
+        factor[(openings.open_frac < 1.0) & (openings.open_frac > 0.0)] = 0.0
+    elif rules.interface_layer:
+        factor[soil_cells_touching(solid, tie_i, tie_j)] = rules.alpha
+    return BodyContact(solid, openings, contact, corner, n_grid + len(splits), factor,
+                       gap_cells(rules, solid, tie_i, tie_j, normal))
+
+
+def gap_cells(rules: ContactRules, solid, tie_i, tie_j, normal) -> np.ndarray:
+    """The soil cells beside a face the soil may leave (nx, ny), with contact separation: they carry
+    stress only while full (:func:`dsmv.cel.kernels.plane.update_stress`). A pushed strip leaves a
+    wedge-shaped gap beside its wall, a third of a cell wide at 0.05 B and B/20; spread across a
+    partly full cell, the sliver of soil beside it would bridge it. The rule cannot tell a gap
+    from a free surface or a smeared fill: a wall cell under 95 % full, at the corner early in a
+    push too, carries nothing (an O(h) effect), and its node's adhesive grip (α > 0) goes with its
+    strength. Flat faces only: a T-bar's cut cells keep their stress."""
+    if not (rules.separation and rules.flat_faced):
+        return np.zeros(solid.shape, dtype=bool)
+    on_face = (normal != 0.0).any(axis=1)
+    return soil_cells_touching(solid, tie_i[on_face], tie_j[on_face])
+
+
+def touchdown_mass(contact: Contact, mass: np.ndarray) -> float:
+    """The soil mass the body meets at touchdown (kg): fully tied nodes whole, normally tied ones by
+    the share of their normal along the motion."""
+    up = contact.normal.shape[1] - 1
+    share = np.where(contact.full, 1.0, contact.normal[:, up] ** 2)
+    return float((mass[contact.node] * share).sum())
+

@@ -1,0 +1,317 @@
+"""The stepping controller: compiled chunks of steps, Python trackers between them.
+
+The controller calls ``advance(n)`` (the compiled loop) for a chunk of steps, then hands the run
+to each tracker in turn: observers (the history, the zig-zag diagnostic, the field recorder,
+progress) look; guards (non-finite values, energy runaway, soil speed, out of domain, rest,
+bearing failure, the push's end, the travel the domain was sized for, the step budget) may end
+the run with a status and a message. Nothing slow sits in the compiled loop, and each guard is a
+small object with its own test.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Optional, Protocol
+
+import numpy as np
+
+from dsmv.cel import ledger
+from dsmv.cel.layout import B_FCOUNT, B_FSUM, B_MAXDISP, B_OFFSET, B_TIME, B_VEL
+from dsmv.cel.stepper import AT_REST, NOT_FINITE, RUNNING
+
+
+@dataclass(frozen=True)
+class Ending:
+    """Why a run stopped: its status (``ok``, ``unstable``, ``out_of_domain``, ``bearing_failure``) and message."""
+
+    status: str
+    message: str
+
+
+@dataclass
+class Run:
+    """What trackers see between chunks: the state containers, the body and energy arrays, the
+    exit code of the last chunk, the steps done and the run's constants."""
+
+    state: object          # the solver's state (containers and arrays; see Cel2DSolver)
+    body: np.ndarray
+    energy: np.ndarray
+    code: int = RUNNING
+    steps: int = 0
+    force_scale: float = 1.0     # model force → force per track
+    message: str = ""            # the ok run's message, set by the tracker that knows
+    history: dict = field(default_factory=lambda: {"time_s": [], "sinkage_m": [], "velocity_m_s": [], "force_n": []})
+
+    @property
+    def time_s(self) -> float:
+        return float(self.body[B_TIME])
+
+    @property
+    def sinkage_m(self) -> float:
+        return float(-self.body[B_OFFSET])
+
+    @property
+    def force_n(self) -> float:
+        """The soil's mean force on the body over the last chunk, per track (N, up +)."""
+        return self.force_scale * self.body[B_FSUM] / max(self.body[B_FCOUNT], 1.0)
+
+
+class Tracker(Protocol):
+    def after_chunk(self, run: Run) -> Optional[Ending]: ...
+
+
+class Controller:
+    """Runs ``advance`` in chunks of ``chunk`` steps, with the trackers between, until one ends the run."""
+
+    def __init__(self, advance: Callable[[int], tuple[int, int]], trackers: list, chunk: int, max_steps: int):
+        self.advance, self.trackers, self.chunk, self.max_steps = advance, trackers, chunk, max_steps
+
+    def run(self, run: Run) -> tuple[Ending, float, float]:
+        """Run to the end; returns the ending, the first call's time (compile or cache load, s) and
+        the wall time of the rest (s)."""
+        t_start = time.perf_counter()
+        run.steps, run.code = self.advance(1)  # the first call compiles (or loads the cache)
+        compile_s = time.perf_counter() - t_start
+        for tracker in self.trackers:
+            if hasattr(tracker, "start"):
+                tracker.start(run)
+        t_run = time.perf_counter()
+        while True:
+            run.body[B_FSUM] = 0.0
+            run.body[B_FCOUNT] = 0.0
+            if run.code == RUNNING:
+                done, run.code = self.advance(min(self.chunk, self.max_steps - run.steps))
+                run.steps += done
+            ending = None
+            for tracker in self.trackers:
+                ending = tracker.after_chunk(run)
+                if ending is not None:
+                    break
+            if ending is not None:
+                break
+        wall_s = time.perf_counter() - t_run
+        for tracker in self.trackers:
+            if hasattr(tracker, "finish"):
+                tracker.finish(run)
+        return ending, compile_s, wall_s
+
+
+# ----------------------------------------------------------------------------- observers
+
+
+class History:
+    """The time history: time, sinkage, the body's downward velocity and the soil's force, per chunk,
+    from the touchdown on (downward velocity ``velocity0_m_s``)."""
+
+    def __init__(self, velocity0_m_s: float):
+        self.velocity0_m_s = velocity0_m_s
+
+    def start(self, run: Run) -> None:
+        for name, value in (("time_s", 0.0), ("sinkage_m", 0.0), ("velocity_m_s", self.velocity0_m_s),
+                            ("force_n", 0.0)):
+            run.history[name].append(value)
+
+    def after_chunk(self, run: Run) -> None:
+        h = run.history
+        h["time_s"].append(run.time_s)
+        h["sinkage_m"].append(run.sinkage_m)
+        h["velocity_m_s"].append(-run.body[B_VEL])
+        h["force_n"].append(run.force_n)
+
+
+class Zigzag:
+    """Σ over chunks of the hourglass and linear velocity modes (m²/s²), for ``hourglass_mode_ratio``."""
+
+    def __init__(self, modes: Callable[[], tuple[float, float]]):
+        self.modes = modes
+        self.sums = np.zeros(2)
+
+    def after_chunk(self, run: Run) -> None:
+        self.sums += np.array(self.modes())
+
+    def ratio(self) -> float:
+        if not np.isfinite(self.sums).all():  # a run gone unstable may have summed infinities
+            return math.nan
+        return math.sqrt(self.sums[0] / self.sums[1]) if self.sums[1] > 0 else 0.0
+
+
+class Fields:
+    """The field recorder (dsmv.fields), fed between chunks; writes its frames at the end."""
+
+    def __init__(self, recorder, snapshot: Callable[[], tuple], run_dir):
+        self.recorder, self.snapshot, self.run_dir = recorder, snapshot, run_dir
+
+    def after_chunk(self, run: Run) -> None:
+        self.recorder.sample(run.time_s, run.sinkage_m, *self.snapshot())
+
+    def finish(self, run: Run) -> None:
+        self.recorder.sample(run.time_s, run.sinkage_m, *self.snapshot(), final=True)
+        self.recorder.write(self.run_dir)
+
+
+class Progress:
+    """A progress line on stderr at most once a second."""
+
+    def __init__(self):
+        self.t_run = self.last = time.perf_counter()
+
+    def start(self, run: Run) -> None:
+        self.t_run = self.last = time.perf_counter()
+
+    def after_chunk(self, run: Run) -> None:
+        if time.perf_counter() - self.last > 1.0:
+            self.last = time.perf_counter()
+            rate = (run.steps - 1) / (self.last - self.t_run)
+            print(f"\r  t = {run.time_s:.4f} s  sinkage {run.sinkage_m:.4f} m  "
+                  f"velocity {-run.body[B_VEL]:.3f} m/s  {rate:,.0f} steps/s", end="", file=sys.stderr)
+
+    def finish(self, run: Run) -> None:
+        print(file=sys.stderr)
+
+
+# ----------------------------------------------------------------------------- guards
+
+
+@dataclass
+class NonFinite:
+    """A NaN or infinity anywhere in the state: unstable."""
+
+    arrays: Callable[[], list]
+    cfl: float
+
+    def after_chunk(self, run: Run) -> Optional[Ending]:
+        if run.code == NOT_FINITE or not all(np.isfinite(a).all() for a in self.arrays()):
+            return Ending("unstable", f"a non-finite value appeared at t = {run.time_s:.4g} s; lower solver.cfl "
+                                      f"(now {self.cfl}) or raise solver.bulk_viscosity_linear")
+        return None
+
+
+@dataclass
+class EnergyRunaway:
+    """The soil's kinetic energy past ten times the energy put in: unstable."""
+
+    kinetic: Callable[[], float]
+    kinetic_in: float
+    scale: float
+    cfl: float
+
+    def after_chunk(self, run: Run) -> Optional[Ending]:
+        kinetic = self.kinetic()
+        if kinetic > 10.0 * ledger.delivered(run.energy, self.kinetic_in) + 1e-9:
+            return Ending("unstable", f"the soil's kinetic energy ({kinetic * self.scale:.3g} J) ran away past ten "
+                                      f"times the energy put in at t = {run.time_s:.4g} s; lower solver.cfl "
+                                      f"(now {self.cfl})")
+        return None
+
+
+@dataclass
+class SpeedLimit:
+    """A soil speed past 50 times the scene's own speeds: unstable."""
+
+    speed: Callable[[], float]
+    limit: float
+    cfl: float
+    hourglass: float
+
+    def after_chunk(self, run: Run) -> Optional[Ending]:
+        vmax = self.speed()
+        if vmax > self.limit:
+            return Ending("unstable", f"soil speed {vmax:.3g} m/s exceeds the guard {self.limit:.3g} m/s at "
+                                      f"t = {run.time_s:.4g} s; lower solver.cfl (now {self.cfl}) or raise "
+                                      f"solver.hourglass (now {self.hourglass})")
+        return None
+
+
+@dataclass
+class TopOfDomain:
+    """Soil in the top row of cells: out of the domain."""
+
+    top_fill: Callable[[], float]
+    travel: float
+
+    def after_chunk(self, run: Run) -> Optional[Ending]:
+        if self.top_fill() > 1e-6:
+            return Ending("out_of_domain", f"soil reached the top of the domain at sinkage {run.sinkage_m:.4g} m; "
+                                           f"raise solver.initial_travel_m (sized for {self.travel:.3g} m)")
+        return None
+
+
+@dataclass
+class Rest:
+    """A landing ends when the body first comes to rest, or (economy off) at twice that time. A body
+    that neither moves nor weighs anything stays at rest."""
+
+    weightless: bool
+    stop_at_rest: bool
+    rest_time_s: Optional[float] = None
+
+    def after_chunk(self, run: Run) -> Optional[Ending]:
+        if run.code == RUNNING and abs(run.body[B_VEL]) < 1e-12 and self.weightless:
+            return Ending("ok", "the body neither moves nor weighs anything: it stays at rest")
+        if run.code == AT_REST and self.rest_time_s is None:
+            self.rest_time_s = run.time_s
+            run.message = f"came to rest at {run.body[B_MAXDISP]:.4g} m after {self.rest_time_s:.4g} s"
+        if self.rest_time_s is not None:
+            if self.stop_at_rest or run.time_s >= 2.0 * self.rest_time_s:
+                return Ending("ok", run.message)
+            run.code = RUNNING  # economy off: run on past rest (the max sinkage is already known)
+        return None
+
+
+@dataclass
+class BearingFailure:
+    """A body must slow down within ``width`` of sinkage (one width B, or the travel the domain
+    was sized for when the soil may stop it later): else the soil cannot stop it."""
+
+    width: float
+    width_is_b: bool
+
+    def after_chunk(self, run: Run) -> Optional[Ending]:
+        s = np.asarray(run.history["sinkage_m"])
+        if s[-1] <= self.width:
+            return None
+        v = np.asarray(run.history["velocity_m_s"])
+        if v[-1] >= np.interp(s[-1] - self.width, s, v):  # no slower than one width ago
+            what = "one width B" if self.width_is_b else "the travel the domain was sized for"
+            return Ending("bearing_failure", f"the body kept sinking without slowing down over {self.width:g} m "
+                                             f"({what})")
+        return None
+
+
+@dataclass
+class PushEnd:
+    """A push ends at its displacement."""
+
+    displacement: float
+
+    def after_chunk(self, run: Run) -> Optional[Ending]:
+        if run.sinkage_m >= self.displacement - 1e-12:
+            return Ending("ok", f"pushed to {run.sinkage_m:.4g} m")
+        return None
+
+
+@dataclass
+class TravelLimit:
+    """A landing past the travel the domain was sized for: out of the domain."""
+
+    travel: float
+
+    def after_chunk(self, run: Run) -> Optional[Ending]:
+        if run.sinkage_m > self.travel:
+            return Ending("out_of_domain", f"the body passed the travel the domain was sized for ({self.travel:.3g} m)")
+        return None
+
+
+@dataclass
+class StepBudget:
+    """solver.max_steps spent: no result."""
+
+    max_steps: int
+
+    def after_chunk(self, run: Run) -> Optional[Ending]:
+        if run.steps >= self.max_steps:
+            return Ending("unstable", f"no result after solver.max_steps = {self.max_steps} steps")
+        return None

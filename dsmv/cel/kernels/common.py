@@ -1,0 +1,108 @@
+"""Scalar physics every dimension shares: the returns, the soil-law call, energies, limiters.
+
+Small functions of scalars, inlined by Numba into the per-dimension element kernels
+(:mod:`dsmv.cel.kernels.plane`), the remap sweeps and the contact stages. ``JIT`` holds the
+one set of Numba flags every kernel compiles with.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}  # never 'nnan'/'ninf': the guards need NaN
+JIT = dict(cache=True, error_model="numpy", fastmath=FAST)
+#: small helpers called per tie or in a stage, inlined into their callers' IR: a call that passes a
+#: container would otherwise count references on each of its arrays. Per-cell loops call scalar
+#: helpers only, and read their arrays once, before the loop (a container passed per cell cost 5×).
+INLINE = dict(JIT, inline="always")
+
+
+@njit(**JIT)
+def tresca_return(s1, s2, s3, su, shear_mod):
+    """Return of sorted principal stresses s1 ≥ s2 ≥ s3 to Tresca's hexagon, s1 − s3 ≤ 2·su.
+
+    Perfect plasticity, closed form (de Souza Neto, Perić & Owen 2008, Computational Methods
+    for Plasticity, Boxes 8.1–8.3): the one-vector return to the main plane, or the two-vector
+    return to the right (s1 = s2) or left (s2 = s3) corner. Returns the new principal stresses,
+    the plastic shear strain increment Δε1^p − Δε3^p, and the multiplier sum (work = 2su·that).
+    """
+    yield_stress = 2.0 * su
+    phi = s1 - s3 - yield_stress
+    if phi <= 0.0:
+        return s1, s2, s3, 0.0, 0.0
+    two_g = 2.0 * shear_mod
+    dg = phi / (2.0 * two_g)
+    n1, n2, n3 = s1 - two_g * dg, s2, s3 + two_g * dg
+    if n1 >= n2 >= n3:
+        return n1, n2, n3, 2.0 * dg, dg
+    ra = s1 - s3 - yield_stress
+    if n2 > n1:  # right corner: s1 = s2
+        rb = s2 - s3 - yield_stress
+        dga = (2.0 * ra - rb) / (3.0 * two_g)
+        dgb = (2.0 * rb - ra) / (3.0 * two_g)
+        e1, e2, e3 = dga, dgb, -(dga + dgb)
+        n1, n2, n3 = s1 - two_g * dga, s2 - two_g * dgb, s3 + two_g * (dga + dgb)
+    else:  # left corner: s2 = s3
+        rb = s1 - s2 - yield_stress
+        dga = (2.0 * ra - rb) / (3.0 * two_g)
+        dgb = (2.0 * rb - ra) / (3.0 * two_g)
+        e1, e2, e3 = dga + dgb, -dgb, -dga
+        n1, n2, n3 = s1 - two_g * (dga + dgb), s2 + two_g * dgb, s3 + two_g * dga
+    return n1, n2, n3, max(e1, e2, e3) - min(e1, e2, e3), dga + dgb
+
+
+@njit(**JIT)
+def elastic_energy_density(sxx, syy, sxy, szz, shear_mod, bulk_mod):
+    """Linear elastic energy per unit volume, s:s/(4G) + p²/(2K) (J/m³)."""
+    p = (sxx + syy + szz) / 3.0
+    ex, ey, ez = sxx - p, syy - p, szz - p
+    return (ex * ex + ey * ey + ez * ez + 2.0 * sxy * sxy) / (4.0 * shear_mod) + p * p / (2.0 * bulk_mod)
+
+
+@njit(**JIT)
+def van_leer(d_minus, d_plus):
+    """van Leer's limited slope from the two one-sided differences (0 at extrema)."""
+    prod = d_minus * d_plus
+    if prod <= 0.0:
+        return 0.0
+    return 2.0 * prod / (d_minus + d_plus)
+
+
+@njit(**JIT)
+def donor_acceptor(phi_d, phi_a, volume_flux, donor_volume, acceptor_first):
+    """Hirt–Nichols soil volume carried by a face volume flux |δV| from donor to acceptor.
+
+    ``phi_d``, ``phi_a``: the fills of the two cells' open parts; ``donor_volume``: the donor's
+    open volume (m³ per unit thickness or per radian)."""
+    pd = min(phi_d, 1.0)
+    pad = min(phi_a, 1.0) if acceptor_first else pd
+    dv = abs(volume_flux)
+    cf = max((1.0 - pad) * dv - (1.0 - pd) * donor_volume, 0.0)
+    moved = min(pad * dv + cf, pd * donor_volume)
+    # soil compressed beyond φ = 1 carries its density along
+    return moved * phi_d / pd if phi_d > 1.0 else moved
+
+
+@njit(**INLINE)
+def law_factor(law, p, xi, gamma_dot, s0, s1):
+    """The soil law's strength factor su/su_intact (-) at ξ, γ̇ (1/s) and state s0, s1; ``p``: its
+    packed parameters (dsmv.soil_law)."""
+    return law(xi, gamma_dot, s0, s1, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7])
+
+
+@njit(**INLINE)
+def law_state(evolve, p, k, s0, s1, xi, dxi, gamma_dot, dt):
+    """State variable k of a soil law after a step with plastic strain increment dxi (dsmv.soil_law)."""
+    return evolve(float(k), s0, s1, xi, dxi, gamma_dot, dt, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7])
+
+
+@njit(**INLINE)
+def radial_return(dev_norm, su, shear_mod):
+    """J2's radial return: the deviator's scale factor to √J2 ≤ su and the plastic strain |Δe^p|
+    (0 when elastic), from the deviator's norm |s| = √(2 J2) (Pa)."""
+    limit = math.sqrt(2.0) * su
+    if dev_norm > limit:
+        return limit / dev_norm, (dev_norm - limit) / (2.0 * shear_mod)
+    return 1.0, 0.0

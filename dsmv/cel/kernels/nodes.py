@@ -1,0 +1,280 @@
+"""Node and contact stages of the CEL step, for any number of axes (the last one is up).
+
+They work on the flat node arrays and the contact table of :mod:`dsmv.cel.layout`: every tie is
+one row, a split node (a body's corner) is an ordinary node with a tie of its own, so each stage
+is one loop over the table, whatever the body and the dimension.
+
+Contact: a fully tied node moves with the body; a normally tied one only along its normal n
+(into the soil). A normally tied node with ``cap`` > 0 (limited adhesion, α·su) also feels the
+body's pull along the face, up to cap·su, su being the strength of the cells that grip it
+(written by the stress update of the step before); the pull's reaction reaches the body in the
+next step. The contact's dissipation is the pull times the slip it leaves, m·|Δw|·|w'| per step
+(w' the slip speed after the pull): zero when the node sticks, as a full tie dissipates nothing
+(the kinetic energy a tie removes is the internal forces' work, already counted). With contact
+separation a tie on a face (one with a normal) lets go, for the step, of a node whose free
+velocity would carry it away from the face (no tension): it then moves with the soil, and
+pushes nothing onto the body. Corners and staircase nodes (no normal) hold.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from dsmv.cel.kernels.common import INLINE, JIT
+
+#: a cell the body cuts lends its nodes at least the mass of this fill of the whole cell: its open
+#: faces are as stiff as a full cell's, and the explicit step stays stable (see nodal_mass)
+CUT_MASS_FILL = 0.5
+
+
+@njit(**JIT)
+def nodal_mass(mesh, cells, density, mass):
+    """Lumped nodal mass: a quarter (2D; an eighth in 3D) of each neighbouring cell's soil mass (kg),
+    to the nodes of the corner table (a split node takes its own cells' shares).
+
+    A cell the body cuts (``open_frac`` < 1) lends its nodes the mass of at least
+    ``CUT_MASS_FILL`` of its volume: its nodes may lie inside the body, where little soil is,
+    yet carry the stiff open faces; the added inertia keeps the explicit step stable."""
+    mass[:] = 0.0
+    n_cells = cells.phi.size
+    n_corners = mesh.corner.shape[-1]
+    corner = mesh.corner.reshape((n_cells, n_corners))
+    phi = cells.phi.reshape(n_cells)
+    open_frac = cells.open_frac.reshape(n_cells)
+    vol = mesh.vol.reshape(n_cells)
+    share = 1.0 / n_corners
+    for c in range(n_cells):
+        fill = phi[c]
+        if open_frac[c] < 1.0 and open_frac[c] > 0.0 and fill < CUT_MASS_FILL:
+            fill = CUT_MASS_FILL
+        m = share * density * fill * vol[c]
+        if m > 0.0:
+            for k in range(n_corners):
+                mass[corner[c, k]] += m
+
+
+@njit(**JIT)
+def update_velocities(nodes, gravity, dt, mass_floor):
+    """Explicit velocity update v += Δt·(f/m − g·up) at nodes holding soil; empty nodes stop.
+
+    Returns the soil's vertical momentum Σ m·v_up before and after (kg·m/s per unit thickness or
+    per radian), which the audit of gravity's work needs. One pass per axis: each is a stride-1
+    loop the compiler vectorises."""
+    v, f, mass = nodes.v, nodes.f, nodes.mass
+    dim, n = v.shape
+    up = dim - 1
+    momentum_before = 0.0
+    for k in range(n):
+        momentum_before += mass[k] * v[up, k]
+    for a in range(up):
+        va, fa = v[a], f[a]
+        for k in range(n):
+            m = mass[k]
+            va[k] = va[k] + dt * fa[k] / m if m > mass_floor else 0.0
+    vu, fu = v[up], f[up]
+    momentum_after = 0.0
+    for k in range(n):
+        m = mass[k]
+        vu[k] = vu[k] + dt * (fu[k] / m - gravity) if m > mass_floor else 0.0
+        momentum_after += m * vu[k]
+    return momentum_before, momentum_after
+
+
+@njit(**JIT)
+def apply_fixed(nodes, contact):
+    """The boundary conditions: each listed velocity component is held at 0. Returns the change of
+    the vertical momentum (kg·m/s)."""
+    v, mass = nodes.v, nodes.mass
+    up = v.shape[0] - 1
+    change = 0.0
+    for k in range(len(contact.fixed_node)):
+        n, a = contact.fixed_node[k], contact.fixed_axis[k]
+        if a == up:
+            change -= mass[n] * v[a, n]
+        v[a, n] = 0.0
+    return change
+
+
+@njit(**INLINE)
+def has_face(contact, k):
+    """Whether tie k lies on a face (has a normal), not at a corner or on a staircase."""
+    for a in range(contact.normal.shape[1]):
+        if contact.normal[k, a] != 0.0:
+            return True
+    return False
+
+
+@njit(**JIT)
+def ties_that_hold(contact, nodes, dt, gravity, mass_floor, v_body_next):
+    """With contact separation: which ties hold this step (``contact.holding``), those whose free
+    velocity would carry the node into the body, not away from the face (no tension)."""
+    v, f, mass, normal = nodes.v, nodes.f, nodes.mass, contact.normal
+    up = v.shape[0] - 1
+    for k in range(len(contact.node)):
+        n = contact.node[k]
+        m = mass[n]
+        if not has_face(contact, k) or m <= mass_floor:
+            contact.holding[k] = True
+            continue
+        vn_free = 0.0
+        for a in range(up):
+            vn_free += (v[a, n] + dt * f[a, n] / m) * normal[k, a]
+        vn_free += (v[up, n] + dt * (f[up, n] / m - gravity)) * normal[k, up]
+        contact.holding[k] = vn_free <= v_body_next * normal[k, up]
+
+
+@njit(**JIT)
+def tie_reactions(contact, nodes, gravity):
+    """What the holding tied nodes put on the body: their force (N, up +) and the mass they add (kg)."""
+    f, mass, normal = nodes.f, nodes.mass, contact.normal
+    up = f.shape[0] - 1
+    force = 0.0
+    added = 0.0
+    for k in range(len(contact.node)):
+        if not contact.holding[k]:
+            continue
+        n = contact.node[k]
+        m = mass[n]
+        if contact.full[k]:
+            force += f[up, n] - m * gravity
+            added += m
+        else:
+            fn = 0.0
+            for a in range(up):
+                fn += f[a, n] * normal[k, a]
+            fn += (f[up, n] - m * gravity) * normal[k, up]
+            force += fn * normal[k, up]
+            added += m * normal[k, up] * normal[k, up]
+    return force, added
+
+
+@njit(**JIT)
+def apply_ties(contact, nodes, v_body):
+    """A holding tied node's velocity: the body's (full tie), or its own with the normal part the
+    body's. Returns the change of the vertical momentum (kg·m/s)."""
+    v, mass, normal = nodes.v, nodes.mass, contact.normal
+    dim = v.shape[0]
+    up = dim - 1
+    change = 0.0
+    for k in range(len(contact.node)):
+        if not contact.holding[k]:
+            continue
+        n = contact.node[k]
+        v_free = v[up, n]
+        if contact.full[k]:
+            for a in range(up):
+                v[a, n] = 0.0
+            v[up, n] = v_body
+        else:
+            vn = 0.0
+            for a in range(dim):
+                vn += v[a, n] * normal[k, a]
+            gap = v_body * normal[k, up] - vn
+            for a in range(dim):
+                v[a, n] += gap * normal[k, a]
+        change += mass[n] * (v[up, n] - v_free)
+    return change
+
+
+@njit(**INLINE)
+def grip_strength(contact, cells, k):
+    """The strength gripping tie k (Pa): φ·su averaged over its grip cells. A cell the soil only
+    partly fills (at the mudline) grips the face in proportion: counted at full su, the face
+    dragged the last wisps of soil down with it and dug a slot along the wall."""
+    start, end = contact.grip_start[k], contact.grip_start[k + 1]
+    if end == start:
+        return 0.0
+    total = 0.0
+    for c in range(start, end):
+        i, j = contact.grip_cell[c, 0], contact.grip_cell[c, 1]
+        total += cells.su[i, j] * min(cells.phi[i, j], 1.0)
+    return total / (end - start)
+
+
+@njit(**INLINE)
+def pull_along_face(vx, vy, tx, ty, v_body, dw_max, m, dt):
+    """A face's capped pull on a tied node of mass m (kg) moving along the face (tx, ty): it takes
+    the node's whole slip speed relative to the body when it can (the node sticks), else at most
+    dw_max (m/s), against the slip. Returns the node's new velocity, its momentum change m·Δvy, the
+    pull times the slip it leaves (J per s of step, times Δt: 0 when it sticks), and the pull's
+    reaction on the body (N, up +)."""
+    w = vx * tx + (vy - v_body) * ty  # slip speed relative to the body
+    dw = -w if abs(w) <= dw_max else (-dw_max if w > 0.0 else dw_max)
+    return vx + dw * tx, vy + dw * ty, m * dw * ty, -m * dw * (w + dw), -m * dw * ty / dt
+
+
+@njit(**JIT)
+def adhesion(contact, cells, nodes, v_body, dt, mass_floor, energy_slip):
+    """The faces' capped pull (α·su) on their holding, normally tied nodes, in plane (the slip runs
+    along the face's in-plane tangent). Adds the slip's dissipation to ``energy_slip[0]`` (J);
+    returns the change of the vertical momentum (kg·m/s) and the pull's reaction on the body (N)."""
+    v, mass, normal = nodes.v, nodes.mass, contact.normal
+    change = 0.0
+    reaction = 0.0
+    for k in range(len(contact.node)):
+        if contact.full[k] or contact.cap[k] <= 0.0 or not contact.holding[k]:
+            continue
+        n = contact.node[k]
+        m = mass[n]
+        if m <= mass_floor:
+            continue
+        dw_max = contact.cap[k] * grip_strength(contact, cells, k) * dt / m
+        v[0, n], v[1, n], dp, slip, pull = pull_along_face(v[0, n], v[1, n], -normal[k, 1], normal[k, 0], v_body,
+                                                           dw_max, m, dt)
+        change += dp
+        energy_slip[0] += slip
+        reaction += pull
+    return change, reaction
+
+
+@njit(**JIT)
+def gather_travel(nodes, v_grid, dt):
+    """Each node's travel through the grid, which moves with the body at ``v_grid`` (m/s), gathered
+    since the last remap; returns the largest component (m)."""
+    v, u = nodes.v, nodes.travel
+    dim, n = v.shape
+    travel = 0.0
+    for a in range(dim):
+        va, ua = v[a], u[a]
+        shift = v_grid if a == dim - 1 else 0.0
+        for k in range(n):
+            ua[k] += (va[k] - shift) * dt
+            travel = max(travel, abs(ua[k]))
+    return travel
+
+
+@njit(**JIT)
+def hand_travel_to_parents(contact, nodes):
+    """Before a remap: the face between a split node's cells moves soil with the split node's
+    vertical travel, so it takes its parent's place there (the remap sweeps the structured nodes)."""
+    u = nodes.travel
+    up = u.shape[0] - 1
+    for k in range(len(contact.split_node)):
+        s = contact.split_node[k]
+        u[up, contact.split_parent[k]] = u[up, s]
+        for a in range(u.shape[0]):
+            u[a, s] = 0.0
+
+
+@njit(**JIT)
+def split_masses(contact, mass, out):
+    """The masses (kg) of each split node's parent [k, 0] and of the split node [k, 1]."""
+    for k in range(len(contact.split_node)):
+        out[k, 0] = mass[contact.split_parent[k]]
+        out[k, 1] = mass[contact.split_node[k]]
+
+
+@njit(**JIT)
+def split_mass_kinetic_change(contact, nodes, swept):
+    """The sweeps move a parent node's whole shares; the split node takes its part back at the
+    velocity it keeps: the kinetic energy that changes hands (J), the remap's too."""
+    v, mass = nodes.v, nodes.mass
+    total = 0.0
+    for k in range(len(contact.split_node)):
+        p, s = contact.split_parent[k], contact.split_node[k]
+        vp, vs = 0.0, 0.0
+        for a in range(v.shape[0]):
+            vp += v[a, p] ** 2
+            vs += v[a, s] ** 2
+        total += 0.5 * ((mass[p] - swept[k, 0]) * vp + (mass[s] - swept[k, 1]) * vs)
+    return total

@@ -1,0 +1,200 @@
+"""The typed containers the compiled loop works on: one NamedTuple per kind of state.
+
+Numba compiles a NamedTuple of arrays and scalars into a struct and caches the machine code on
+disk like any other argument type, so the loop takes a handful of these instead of loose arrays
+and index constants. Containers hold arrays, never numerics; the kernels that change them live
+in :mod:`dsmv.cel.kernels`.
+
+Layout, in any number of axes d (2 today; the last axis is "up"):
+
+- cells: arrays of the grid's cell shape, e.g. (nx, ny); the transported state ``q`` has the
+  rows :class:`CellRows` names, then the soil law's state variables.
+- nodes: flat arrays over the grid's structured nodes (node (i, j) is i·(ny+1) + j) followed by
+  the **split nodes**, appended copies of a structured node (a body's corner, where the soil on
+  either side must move apart). ``corner`` maps every cell corner to its node, so a split node
+  is an ordinary node that some cells use in place of the structured one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class CellRows:
+    """Rows of the transported cell state q for a grid of ``dim`` axes: the stress components
+    (the soil's own, tension positive, Pa; in plane strain and axisymmetry the out-of-plane or hoop
+    stress is ``zz``), the accumulated plastic shear strain ξ, the initial depth z0 (m), then the
+    soil law's state variables."""
+
+    dim: int
+
+    @property
+    def stress(self) -> tuple[str, ...]:
+        return ("xx", "yy", "xy", "zz") if self.dim == 2 else ("xx", "yy", "zz", "xy", "yz", "zx")
+
+    def of(self, component: str) -> int:
+        return self.stress.index(component)
+
+    @property
+    def xi(self) -> int:
+        return len(self.stress)
+
+    @property
+    def z0(self) -> int:
+        return len(self.stress) + 1
+
+    @property
+    def base(self) -> int:
+        """Rows before the soil law's state variables."""
+        return len(self.stress) + 2
+
+
+PLANE = CellRows(2)
+SXX, SYY, SXY, SZZ, XI, Z0 = (PLANE.of("xx"), PLANE.of("yy"), PLANE.of("xy"), PLANE.of("zz"), PLANE.xi, PLANE.z0)
+NQ_BASE = PLANE.base
+
+
+class Mesh(NamedTuple):
+    """The grid's geometry: node coordinates per axis (m), cell volumes (m³ per unit thickness, or
+    per radian), the node of each cell corner ``corner`` (cells × 2^d, local corners in the order
+    of :func:`corner_offsets`), and how many nodes are structured (the rest are split nodes)."""
+
+    x: np.ndarray
+    y: np.ndarray
+    vol: np.ndarray
+    corner: np.ndarray
+    n_grid: int
+
+
+class Cells(NamedTuple):
+    """Cell state: volume fraction φ, transported state q (:class:`CellRows`), current strength su
+    (Pa, written by the stress update), the strength factor (α in a curved body's interface
+    layer), the body's share (solid cells, open fraction), the gap cells of contact separation,
+    and the volumetric strain rate a merged sliver pair shares (NaN elsewhere)."""
+
+    phi: np.ndarray
+    q: np.ndarray
+    su: np.ndarray
+    strength_factor: np.ndarray
+    solid: np.ndarray
+    open_frac: np.ndarray
+    gap: np.ndarray
+    shared_divergence: np.ndarray
+
+
+class Faces(NamedTuple):
+    """Per face normal to each axis: its open fraction (the body closes faces) and the soil volume
+    through it in the last remap sweep ([face, line], m³)."""
+
+    aperture_x: np.ndarray
+    aperture_y: np.ndarray
+    flux_x: np.ndarray
+    flux_y: np.ndarray
+
+
+class Nodes(NamedTuple):
+    """Node state, flat (:mod:`module docstring <dsmv.cel.layout>`): velocity (d, n) in m/s,
+    force (d, n) in N per unit thickness or per radian, lumped mass (n,) in kg, and the travel
+    through the grid since the last remap (d, n) in m."""
+
+    v: np.ndarray
+    f: np.ndarray
+    mass: np.ndarray
+    travel: np.ndarray
+
+
+class Contact(NamedTuple):
+    """The contact as data, built once (:mod:`dsmv.cel.contact`).
+
+    Ties, one row each: the node, whether it is tied fully (moves with the body) or only along
+    its face normal ``normal`` (d, pointing into the soil; zero at a corner or a staircase node),
+    its adhesion capacity ``cap`` (α × its share of the face, m or m²/rad: the face pulls it along
+    by at most cap·su), and the cells whose strength grips it (``grip_cell`` rows from
+    ``grip_start[k]`` to ``grip_start[k + 1]``, cell indices per axis). ``holding`` is work space:
+    which ties hold this step. Split nodes: each with the structured node it copies
+    (``split_parent``). Boundary conditions: node and axis of every fixed velocity component.
+    Merged slivers of a cut body: rows (i, j, i', j')."""
+
+    node: np.ndarray
+    full: np.ndarray
+    normal: np.ndarray
+    cap: np.ndarray
+    grip_start: np.ndarray
+    grip_cell: np.ndarray
+    holding: np.ndarray
+    split_node: np.ndarray
+    split_parent: np.ndarray
+    fixed_node: np.ndarray
+    fixed_axis: np.ndarray
+    merge: np.ndarray
+
+
+class Inflow(NamedTuple):
+    """Soil entering through the base: its state per base cell (rows of q) and the depth at t = 0
+    of the ghost cell below the base (m)."""
+
+    ghost: np.ndarray
+    depth0: np.ndarray
+
+
+class Params(NamedTuple):
+    """The step's parameters: SI floats and switches, fixed for a run."""
+
+    dt: float               # time step (s)
+    density: float          # soil's buoyant density (kg/m³)
+    shear: float            # shear modulus G (Pa)
+    bulk: float             # bulk modulus K (Pa)
+    wave_speed: float       # P-wave speed (m/s)
+    k0: float               # at-rest earth pressure ratio (-)
+    hourglass: float        # viscous hourglass coefficient (-)
+    bulk_linear: float      # bulk viscosity b1 (-)
+    bulk_quadratic: float   # bulk viscosity b2 (-)
+    gravity: float          # m/s²
+    su0: float              # strength at the mudline (Pa)
+    ks: float               # strength gradient (Pa/m)
+    mass_floor: float       # nodes lighter than this are empty (kg)
+    phi_min: float          # cells with less soil give none in the remap (-)
+    stress_cutoff: float    # cells with less soil carry no stress (-)
+    body_mass: float        # the body's inertia in the model (kg per unit thickness or per radian)
+    body_weight: float      # its wet weight (N per unit thickness or per radian)
+    push_velocity: float    # a push's speed, and a drop's touchdown speed (m/s, down +)
+    remap_travel: float     # the remap runs once some node has travelled this far (m; 0: every step)
+    axisymmetric: bool
+    advection_order: int    # 1 donor cell, 2 van Leer
+    drop: bool              # free fall (true) or push at constant speed
+    inflow: bool            # soil enters through the base
+    remap: bool             # false: small strain on the undeformed grid
+    tresca: bool            # Tresca's hexagon, else J2
+    law_active: bool        # evaluate the soil law (softening or rate)
+    skip_void: bool         # cells without soil do no force arithmetic
+    separation: bool        # face ties let go of soil that pulls away
+
+
+# the body's mutable state, a float array: time (s), offset of the grid (m, up +), velocity (m/s,
+# up +), deepest sinkage (m), the sum and count of the soil's force on the body over the chunk
+# (N, up +), soil volume entered at the base (m³), steps, the adhesive pull of the last step (N,
+# applied in the next), the offset at the last remap (m), remaps done
+B_TIME, B_OFFSET, B_VEL, B_MAXDISP, B_FSUM, B_FCOUNT, B_INFLOW, B_STEP, B_FRICTION, B_REMAP_OFFSET, B_REMAPS = range(11)
+N_BODY = 11
+
+
+def corner_offsets(dim: int) -> np.ndarray:
+    """The local corners of a cell, (2^d, d) offsets: in 2D (0,0), (1,0), (1,1), (0,1), counter-clockwise."""
+    if dim == 2:
+        return np.array([(0, 0), (1, 0), (1, 1), (0, 1)])
+    return np.array([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)])
+
+
+def structured_corners(cell_shape: tuple[int, ...]) -> np.ndarray:
+    """The corner table of a grid without split nodes: (*cell_shape, 2^d) flat node indices (int32:
+    the per-cell gather reads half the bytes)."""
+    dim = len(cell_shape)
+    node_shape = tuple(n + 1 for n in cell_shape)
+    index = np.arange(int(np.prod(node_shape)), dtype=np.int32).reshape(node_shape)
+    cells = tuple(slice(0, n) for n in cell_shape)
+    return np.stack([index[tuple(slice(o, o + n) for o, n in zip(off, cell_shape))] for off in corner_offsets(dim)],
+                    axis=-1)[cells]
