@@ -11,7 +11,7 @@ from scipy.optimize import brentq
 
 from dsmv import registry
 from dsmv.cel.kernels.plane import update_stress
-from dsmv.cel.layout import NQ_BASE, SXY
+from dsmv.cel.layout import NQ_BASE, SXY, SoilLawKernel
 from dsmv.cel.state import Elastic, body_free_state, step_parameters
 from dsmv.scene import build_scene
 
@@ -90,10 +90,11 @@ def simple_shear(law, soil, gamma_dot, gamma_total, n_steps=4000):
                           ks=0.0, hourglass=0.0, bulk_linear=0.0, bulk_quadratic=0.0, stress_cutoff=0.01,
                           axisymmetric=False, advection_order=2, drop=False, inflow=False, remap=True, tresca=True,
                           law_active=law.active)
+    kernel = SoilLawKernel(law.compiled(), law.packed(), law.compiled_evolve())
     out = np.zeros(2)
     gammas, taus = [], []
     for step in range(n_steps):
-        update_stress(mesh, cells, faces, nodes, par, 0.0, law.compiled(), law.packed(), law.compiled_evolve(), out)
+        update_stress(mesh, cells, faces, nodes, par, 0.0, kernel, out)
         gammas.append((step + 1) * gamma_dot * dt)
         taus.append(q[SXY, 0, 0])
     return np.array(gammas), np.array(taus), elastic.shear_pa

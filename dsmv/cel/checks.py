@@ -19,7 +19,7 @@ from typing import Literal
 import numpy as np
 from pydantic import Field
 
-from dsmv.cel.layout import B_TIME, N_BODY, NQ_BASE
+from dsmv.cel.layout import B_TIME, N_BODY, NQ_BASE, SoilLawKernel
 from dsmv.cel.state import Elastic, body_free_state, geostatic_state, step_parameters
 from dsmv import registry
 from dsmv.results import SolveResult
@@ -176,7 +176,7 @@ class Cel2DCheckSolver:
         body = np.zeros(N_BODY)
         energy = np.zeros(N_ENERGY)
         tresca = registry.load("soil_laws", "tresca", "soil.law")
-        law = (tresca.compiled(), np.zeros(8), tresca.compiled_evolve())
+        law = SoilLawKernel(tresca.compiled(), np.zeros(8), tresca.compiled_evolve())
         n_steps = int(math.ceil(cfg.duration_s / dt))
         samples = 100
         times, speeds = [0.0], [0.0]
@@ -184,7 +184,7 @@ class Cel2DCheckSolver:
         done = 0
         while done < n_steps:
             chunk = min(max(1, n_steps // samples), n_steps - done)
-            run_steps(chunk, *state, body, energy, *law)
+            run_steps(chunk, *state, body, energy, law)
             done += chunk
             times.append(body[B_TIME])
             speeds.append(float(np.sqrt((v * v).sum(axis=0)).max()))

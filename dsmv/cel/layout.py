@@ -141,6 +141,15 @@ class Inflow(NamedTuple):
     depth0: np.ndarray
 
 
+class SoilLawKernel(NamedTuple):
+    """A soil law as the kernels call it (dsmv.soil_law): its compiled strength factor, its packed
+    parameters and its compiled state update."""
+
+    factor: object
+    params: np.ndarray
+    evolve: object
+
+
 class Params(NamedTuple):
     """The step's parameters: SI floats and switches, fixed for a run."""
 

@@ -31,8 +31,9 @@ from dsmv.cel import controller as C
 from dsmv.cel import ledger
 from dsmv.cel.config import Cel2DConfig, CelConfig, Economies  # noqa: F401  (the solvers' config models)
 from dsmv.cel.contact import ContactRules, build_contact, touchdown_mass
-from dsmv.cel.layout import B_INFLOW, B_MAXDISP, B_OFFSET, B_TIME, B_VEL, N_BODY, NQ_BASE, Cells, Faces, Inflow, \
-    Mesh, Nodes
+from dsmv.cel.layout import (
+    B_INFLOW, B_MAXDISP, B_TIME, B_VEL, N_BODY, NQ_BASE, Cells, Faces, Inflow, Mesh, Nodes, SoilLawKernel,
+)
 from dsmv.cel.state import Elastic, geostatic_state, step_parameters
 from dsmv.errors import ConfigError
 from dsmv.results import SolveResult
@@ -70,7 +71,7 @@ class State:
     par: object
     body: np.ndarray
     energy: np.ndarray
-    law: tuple             # the compiled factor, its packed parameters, the compiled evolve
+    law: object            # the soil law's kernel (SoilLawKernel)
     scale: float           # model quantities → per track
     mass0: float           # soil mass at the start (kg, model)
     elastic0: float        # elastic energy at the start (J, model)
@@ -441,7 +442,7 @@ class Cel2DSolver(CelSolver):
         inflow = Inflow(ghost, np.full(nx, self.mudline - (grid.y[0] - 0.5 * (grid.y[1] - grid.y[0]))))
         body = np.zeros(N_BODY)
         state = State(grid, mesh, cells, faces, nodes, body_contact.contact, inflow, par, body, np.zeros(ledger.N_ENERGY),
-                      (self.law.compiled(), self.law.packed(), self.law.compiled_evolve()), scale,
+                      SoilLawKernel(self.law.compiled(), self.law.packed(), self.law.compiled_evolve()), scale,
                       float(rho * (phi * mesh.vol).sum()), elastic_energy(phi, q, mesh.vol, par.shear, par.bulk),
                       0.0, 0.5 * par.body_mass * landing.velocity_m_s**2 if drop else 0.0)
         self.touchdown(state)
@@ -466,7 +467,7 @@ class Cel2DSolver(CelSolver):
         from dsmv.cel.stepper import run_steps
 
         return run_steps(n, state.mesh, state.cells, state.faces, state.nodes, state.contact, state.inflow, state.par,
-                         state.body, state.energy, *state.law)
+                         state.body, state.energy, state.law)
 
     # ------------------------------------------------------------------ reductions the trackers use
 

@@ -55,22 +55,23 @@ def geostatic_state(grid: Grid, density: float, gravity: float, k0: float, mudli
     return phi, q
 
 
-def step_parameters(*, dt, density, elastic: Elastic, h, gravity, su0, ks, hourglass, bulk_linear, bulk_quadratic,
-                    stress_cutoff, axisymmetric, advection_order, drop, inflow, remap, tresca, law_active,
-                    skip_void=True, separation=False, body_mass=1.0, body_weight=0.0, push_velocity=0.0,
-                    remap_courant=0.0) -> Params:
-    """The step's :class:`~dsmv.cel.layout.Params`. ``remap_courant``: the remap runs once the soil
-    has moved this fraction of a core cell h through the grid (0: every step)."""
+#: Params fields a caller may leave out, and their values
+PARAM_DEFAULTS = {"body_mass": 1.0, "body_weight": 0.0, "push_velocity": 0.0, "skip_void": True, "separation": False}
+
+
+def step_parameters(*, elastic: Elastic, h: float, remap_courant: float = 0.0, **fields) -> Params:
+    """The step's :class:`~dsmv.cel.layout.Params` from the soil's elasticity, the core cell size h
+    (m) and the other fields by name (:data:`PARAM_DEFAULTS` for those left out). Derived here: the
+    elastic constants, the empty-node mass floor, and the remap's trigger (``remap_courant``: the
+    remap runs once the soil has moved this fraction of h through the grid; 0: every step)."""
+    fields = PARAM_DEFAULTS | fields
+    switches = ("axisymmetric", "drop", "inflow", "remap", "tresca", "law_active", "skip_void", "separation")
+    fields |= {k: bool(fields[k]) for k in switches} | {"advection_order": int(fields["advection_order"])}
     return Params(
-        dt=dt, density=density, shear=elastic.shear_pa, bulk=elastic.bulk_pa, wave_speed=elastic.wave_speed_m_s,
-        k0=elastic.k0, hourglass=hourglass, bulk_linear=bulk_linear, bulk_quadratic=bulk_quadratic,
-        gravity=gravity, su0=su0, ks=ks,
-        mass_floor=1e-9 * density * h * h,  # nodes lighter than this are empty
+        shear=elastic.shear_pa, bulk=elastic.bulk_pa, wave_speed=elastic.wave_speed_m_s, k0=elastic.k0,
+        mass_floor=1e-9 * fields["density"] * h * h,  # nodes lighter than this are empty
         phi_min=1e-9,  # cells with less soil give none
-        stress_cutoff=stress_cutoff, body_mass=body_mass, body_weight=body_weight, push_velocity=push_velocity,
-        remap_travel=remap_courant * h, axisymmetric=bool(axisymmetric), advection_order=int(advection_order),
-        drop=bool(drop), inflow=bool(inflow), remap=bool(remap), tresca=bool(tresca), law_active=bool(law_active),
-        skip_void=bool(skip_void), separation=bool(separation),
+        remap_travel=remap_courant * h, **fields,
     )
 
 

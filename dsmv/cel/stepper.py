@@ -78,7 +78,7 @@ def move_nodes(cells, nodes, contact, par, body, energy):
 
 
 @njit(**INLINE)
-def lagrange_step(mesh, cells, faces, nodes, contact, par, body, energy, law, law_params, evolve):
+def lagrange_step(mesh, cells, faces, nodes, contact, par, body, energy, law):
     """The Lagrangian phase of one step; returns the soil's force on the body (N) and its old velocity."""
     work = np.zeros(3)
     nodal_forces(mesh, cells, faces, nodes, par, body[B_VEL], work)
@@ -97,7 +97,7 @@ def lagrange_step(mesh, cells, faces, nodes, contact, par, body, energy, law, la
         cells.shared_divergence[si, sj] = d
         cells.shared_divergence[ni, nj] = d
     stress_out = np.zeros(2)  # plastic work, elastic energy released by gap cells (J)
-    update_stress(mesh, cells, faces, nodes, par, body[B_VEL], law, law_params, evolve, stress_out)
+    update_stress(mesh, cells, faces, nodes, par, body[B_VEL], law, stress_out)
     energy[E_PLASTIC] += stress_out[0]
     energy[E_GAP_RELEASE] += stress_out[1]
     body[B_OFFSET] += body[B_VEL] * par.dt
@@ -141,19 +141,18 @@ def remap(mesh, cells, faces, nodes, contact, inflow, par, body, energy, swept):
 
 
 @njit(**JIT)
-def run_steps(n_steps, mesh, cells, faces, nodes, contact, inflow, par, body, energy, law, law_params, evolve):
+def run_steps(n_steps, mesh, cells, faces, nodes, contact, inflow, par, body, energy, law):
     """Advance up to ``n_steps`` steps; return (steps done, exit code).
 
-    ``law`` is the soil law's compiled strength factor (dsmv.soil_law), ``law_params`` its
-    packed parameters; it is called only when ``par.law_active``. ``evolve`` updates the law's
-    state variables, the rows of ``cells.q`` (and ``inflow.ghost``) beyond NQ_BASE.
+    ``law`` is the soil law (:class:`~dsmv.cel.layout.SoilLawKernel`); its factor is called only
+    when ``par.law_active``, its ``evolve`` updates the law's state variables, the rows of
+    ``cells.q`` (and ``inflow.ghost``) beyond NQ_BASE.
     """
     swept = np.zeros((len(contact.split_node), 2))
     # nodal masses change only where soil moves through the grid: here and after each remap
     nodal_mass(mesh, cells, par.density, nodes.mass)
     for step in range(n_steps):
-        resistance, v_old = lagrange_step(mesh, cells, faces, nodes, contact, par, body, energy, law, law_params,
-                                          evolve)
+        resistance, v_old = lagrange_step(mesh, cells, faces, nodes, contact, par, body, energy, law)
         # The soil moves a small fraction of a cell per step (the step is set by the elastic wave
         # speed, not by the flow): each node's travel through the grid is gathered, and the remap
         # runs once some node has gone par.remap_travel (0: every step). Gathered before the

@@ -86,16 +86,18 @@ def donor_acceptor(phi_d, phi_a, volume_flux, donor_volume, acceptor_first):
 
 
 @njit(**INLINE)
-def law_factor(law, p, xi, gamma_dot, s0, s1):
-    """The soil law's strength factor su/su_intact (-) at ξ, γ̇ (1/s) and state s0, s1; ``p``: its
-    packed parameters (dsmv.soil_law)."""
-    return law(xi, gamma_dot, s0, s1, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7])
+def law_factor(law, xi, gamma_dot, s0, s1):
+    """The soil law's strength factor su/su_intact (-) at ξ, γ̇ (1/s) and state s0, s1
+    (``law``: a :class:`~dsmv.cel.layout.SoilLawKernel`)."""
+    p = law.params
+    return law.factor(xi, gamma_dot, s0, s1, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7])
 
 
 @njit(**INLINE)
-def law_state(evolve, p, k, s0, s1, xi, dxi, gamma_dot, dt):
+def law_state(law, k, s0, s1, xi, dxi, gamma_dot, dt):
     """State variable k of a soil law after a step with plastic strain increment dxi (dsmv.soil_law)."""
-    return evolve(float(k), s0, s1, xi, dxi, gamma_dot, dt, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7])
+    p = law.params
+    return law.evolve(float(k), s0, s1, xi, dxi, gamma_dot, dt, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7])
 
 
 @njit(**INLINE)

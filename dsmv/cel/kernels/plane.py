@@ -46,26 +46,26 @@ def cell_volumes(x, y, axisym):
 
 @njit(**INLINE)
 def cell_velocities(corner, v, i, j):
-    """The four nodal velocities of cell (i, j): vx0..vx3, vy0..vy3 (m/s)."""
+    """The four nodal velocities of cell (i, j), as one tuple vx0..vx3, vy0..vy3 (m/s)."""
     n0, n1, n2, n3 = corner[i, j, 0], corner[i, j, 1], corner[i, j, 2], corner[i, j, 3]
     return v[0, n0], v[0, n1], v[0, n2], v[0, n3], v[1, n0], v[1, n1], v[1, n2], v[1, n3]
 
 
 @njit(**INLINE)
-def cut_flux(i, j, dx, dy, vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3, v_body, faces):
+def cut_flux(i, j, dx, dy, vel, v_body, faces):
     """Net outflow of cell (i, j) through the open parts of its faces, relative to the body
-    (m²/s per unit thickness, plane strain); nodal velocities in local corner order."""
+    (m²/s per unit thickness, plane strain); ``vel`` the nodal velocities (:func:`cell_velocities`)."""
+    vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3 = vel
     ax, ay = faces.aperture_x, faces.aperture_y
     flux = dy * (ax[i + 1, j] * 0.5 * (vx1 + vx2) - ax[i, j] * 0.5 * (vx0 + vx3))
     return flux + dx * (ay[j + 1, i] * (0.5 * (vy2 + vy3) - v_body) - ay[j, i] * (0.5 * (vy0 + vy1) - v_body))
 
 
 @njit(**INLINE)
-def cut_divergence(i, j, dx, dy, vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3, v_body, faces, open_ij):
+def cut_divergence(i, j, dx, dy, vel, v_body, faces, open_ij):
     """Volumetric strain rate (1/s) of the soil in a cell the body cuts: :func:`cut_flux` over the
     cell's open area (floored at ``CUT_OPEN_FLOOR``)."""
-    return (cut_flux(i, j, dx, dy, vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3, v_body, faces)
-            / (max(open_ij, CUT_OPEN_FLOOR) * dx * dy))
+    return cut_flux(i, j, dx, dy, vel, v_body, faces) / (max(open_ij, CUT_OPEN_FLOOR) * dx * dy)
 
 
 @njit(**INLINE)
@@ -75,8 +75,8 @@ def merged_divergence(si, sj, ni, nj, mesh, nodes, v_body, faces, open_frac):
     x, y = mesh.x, mesh.y
     flux = 0.0
     for i, j in ((si, sj), (ni, nj)):
-        vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3 = cell_velocities(mesh.corner, nodes.v, i, j)
-        flux += cut_flux(i, j, x[i + 1] - x[i], y[j + 1] - y[j], vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3, v_body, faces)
+        flux += cut_flux(i, j, x[i + 1] - x[i], y[j + 1] - y[j], cell_velocities(mesh.corner, nodes.v, i, j), v_body,
+                         faces)
     return flux / ((open_frac[si, sj] + open_frac[ni, nj]) * (x[si + 1] - x[si]) * (y[sj + 1] - y[sj]))
 
 
@@ -137,14 +137,14 @@ def nodal_forces(mesh, cells, faces, nodes, par, v_body, work):
             area = dx * dy
             vol = area * r
             n0, n1, n2, n3 = corner[i, j, 0], corner[i, j, 1], corner[i, j, 2], corner[i, j, 3]
-            vx0, vx1, vx2, vx3 = v[0, n0], v[0, n1], v[0, n2], v[0, n3]
-            vy0, vy1, vy2, vy3 = v[1, n0], v[1, n1], v[1, n2], v[1, n3]
+            vel = (v[0, n0], v[0, n1], v[0, n2], v[0, n3], v[1, n0], v[1, n1], v[1, n2], v[1, n3])
+            vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3 = vel
             div = (vx1 + vx2 - vx0 - vx3) / (2.0 * dx) + (vy2 + vy3 - vy0 - vy1) / (2.0 * dy)
             if axisym:
                 div += 0.25 * (vx0 + vx1 + vx2 + vx3) / r
             open_ij = open_frac[i, j]
             if open_ij < 1.0:
-                div = cut_divergence(i, j, dx, dy, vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3, v_body, faces, open_ij)
+                div = cut_divergence(i, j, dx, dy, vel, v_body, faces, open_ij)
             # bulk viscosity: a pressure of the soil itself (Pa), in compression only; like σ it
             # acts on the cell's soil fraction f
             qb = 0.0
@@ -221,9 +221,10 @@ def hourglass_modes(mesh, phi, v, full):
 
 
 @njit(**JIT)
-def strain_increment(dt, dx, dy, r, axisym, vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3):
+def strain_increment(dt, dx, dy, r, axisym, vel):
     """A Q4 cell's strain increments Δεxx, Δεyy, Δεxy, Δεzz and spin increment (-) over Δt from its
-    four nodal velocities (one-point rule; r the centre's radius in axisymmetry)."""
+    four nodal velocities ``vel`` (one-point rule; r the centre's radius in axisymmetry)."""
+    vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3 = vel
     dxx = dt * (vx1 + vx2 - vx0 - vx3) / (2.0 * dx)
     dyy = dt * (vy2 + vy3 - vy0 - vy1) / (2.0 * dy)
     dvx_dy = (vx2 + vx3 - vx0 - vx1) / (2.0 * dy)
@@ -234,15 +235,14 @@ def strain_increment(dt, dx, dy, r, axisym, vx0, vx1, vx2, vx3, vy0, vy1, vy2, v
 
 
 @njit(**JIT)
-def volumetric_override(i, j, dt, dx, dy, dxx, dyy, vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3, v_body, faces, shared,
-                        open_ij):
+def volumetric_override(i, j, dt, dx, dy, dxx, dyy, vel, v_body, faces, shared, open_ij):
     """In a cell the body cuts (``open_frac`` < 1, plane strain) the volumetric strain is the one
     the remap makes: the net flux through the open parts of its faces relative to the body
     (vertical velocity ``v_body``, m/s), over its open volume (or a merged pair's common one,
     ``shared``); the deviatoric strain is the cell's own. The pressure then sees what the remap
     does to the soil, and :func:`nodal_forces` applies it through the same open faces."""
     if math.isnan(shared):
-        shared = cut_divergence(i, j, dx, dy, vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3, v_body, faces, open_ij)
+        shared = cut_divergence(i, j, dx, dy, vel, v_body, faces, open_ij)
     half = 0.5 * (dt * shared - dxx - dyy)
     return dxx + half, dyy + half
 
@@ -254,12 +254,11 @@ def cell_strain(mesh, cells, faces, nodes, i, j, dt, v_body, axisym):
     x, y = mesh.x, mesh.y
     dx, dy = x[i + 1] - x[i], y[j + 1] - y[j]
     r = 0.5 * (x[i] + x[i + 1]) if axisym else 1.0
-    vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3 = cell_velocities(mesh.corner, nodes.v, i, j)
-    dxx, dyy, dxy, dzz, w = strain_increment(dt, dx, dy, r, axisym, vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3)
+    vel = cell_velocities(mesh.corner, nodes.v, i, j)
+    dxx, dyy, dxy, dzz, w = strain_increment(dt, dx, dy, r, axisym, vel)
     shared, open_ij = cells.shared_divergence[i, j], cells.open_frac[i, j]
     if not math.isnan(shared) or open_ij < 1.0:
-        dxx, dyy = volumetric_override(i, j, dt, dx, dy, dxx, dyy, vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3, v_body,
-                                       faces, shared, open_ij)
+        dxx, dyy = volumetric_override(i, j, dt, dx, dy, dxx, dyy, vel, v_body, faces, shared, open_ij)
     return dxx, dyy, dxy, dzz, w
 
 
@@ -297,14 +296,14 @@ def tresca_plane(sxx, syy, sxy, szz, su, shear_mod):
 
 
 @njit(**INLINE)
-def evolve_law_state(q, i, j, evolve, law_params, xi_before, gamma_dot, dt):
+def evolve_law_state(q, i, j, law, xi_before, gamma_dot, dt):
     """A soil law's state variables (rows NQ_BASE… of q) after the step of cell (i, j)."""
     n_state = q.shape[0] - NQ_BASE
     s0 = q[NQ_BASE, i, j]
     s1 = q[NQ_BASE + 1, i, j] if n_state > 1 else 0.0
     xi = q[XI, i, j]
     for k in range(n_state):
-        q[NQ_BASE + k, i, j] = law_state(evolve, law_params, k, s0, s1, xi, xi - xi_before, gamma_dot, dt)
+        q[NQ_BASE + k, i, j] = law_state(law, k, s0, s1, xi, xi - xi_before, gamma_dot, dt)
 
 
 @njit(**JIT)
@@ -339,7 +338,7 @@ def j2_plane(sxx, syy, sxy, szz, su, shear_mod):
 
 
 @njit(**JIT)
-def update_stress(mesh, cells, faces, nodes, par, v_body, law, law_params, evolve, out):
+def update_stress(mesh, cells, faces, nodes, par, v_body, law, out):
     """Stress update for undrained soil of strength su: Jaumann rotation, elastic trial, return.
 
     su = (su0 + ks·z0)·f·law(ξ, γ̇, state) with z0 the depth where the soil started, f the cell's
@@ -386,12 +385,10 @@ def update_stress(mesh, cells, faces, nodes, par, v_body, law, law_params, evolv
                 su_cell[i, j] = 0.0
                 continue
             n0, n1, n2, n3 = corner[i, j, 0], corner[i, j, 1], corner[i, j, 2], corner[i, j, 3]
-            vx0, vx1, vx2, vx3 = v[0, n0], v[0, n1], v[0, n2], v[0, n3]
-            vy0, vy1, vy2, vy3 = v[1, n0], v[1, n1], v[1, n2], v[1, n3]
-            dxx, dyy, dxy, dzz, w = strain_increment(dt, dx, dy, r, axisym, vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3)
+            vel = (v[0, n0], v[0, n1], v[0, n2], v[0, n3], v[1, n0], v[1, n1], v[1, n2], v[1, n3])
+            dxx, dyy, dxy, dzz, w = strain_increment(dt, dx, dy, r, axisym, vel)
             if not math.isnan(shared[i, j]) or open_ij < 1.0:
-                dxx, dyy = volumetric_override(i, j, dt, dx, dy, dxx, dyy, vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3,
-                                               v_body, faces, shared[i, j], open_ij)
+                dxx, dyy = volumetric_override(i, j, dt, dx, dy, dxx, dyy, vel, v_body, faces, shared[i, j], open_ij)
             sxx, syy, sxy, szz = jaumann_trial(q[SXX, i, j], q[SYY, i, j], q[SXY, i, j], q[SZZ, i, j], dxx, dyy, dxy,
                                                dzz, w, lam, shear_mod)
             su = (par.su0 + par.ks * q[Z0, i, j]) * factor[i, j]
@@ -403,7 +400,7 @@ def update_stress(mesh, cells, faces, nodes, par, v_body, law, law_params, evolv
                 gamma_dot = shear_rate(dxx, dyy, dxy, dzz, dt)
                 s0 = q[NQ_BASE, i, j] if n_state > 0 else 0.0
                 s1 = q[NQ_BASE + 1, i, j] if n_state > 1 else 0.0
-                su *= law_factor(law, law_params, xi_before, gamma_dot, s0, s1)
+                su *= law_factor(law, xi_before, gamma_dot, s0, s1)
             su_cell[i, j] = su
             volume = dx * dy * r * f
             if par.tresca:
@@ -421,7 +418,7 @@ def update_stress(mesh, cells, faces, nodes, par, v_body, law, law_params, evolv
             q[SZZ, i, j] = szz
             q[SXY, i, j] = sxy
             if n_state > 0:
-                evolve_law_state(q, i, j, evolve, law_params, xi_before, gamma_dot, dt)
+                evolve_law_state(q, i, j, law, xi_before, gamma_dot, dt)
     out[0] += plastic
 
 

@@ -107,45 +107,60 @@ def advect_cells(axis, mesh, cells, faces, ux, uy, dt, par, inflow, audit):
                     slope = van_leer(value - lo, hi - value)
                     value += (0.5 if un > 0.0 else -0.5) * slope * (1.0 - courant)
                 qflux[k, face] = signed * value
-        # Each face limits its donor's outflow on its own, so a cell that gives through both
-        # faces (diverging flow) could give up to twice what it holds; clipping the negative
-        # remainder to 0 then creates soil (1e-10 of the mass in a 10 m/s landing). Scale such a
-        # cell's two outflows down to its content: both neighbours see the same fluxes.
-        for c in range(n_cells):
-            if flux[c, line] < 0.0 and flux[c + 1, line] > 0.0:
-                ci = c if axis == 0 else line
-                cj = line if axis == 0 else c
-                held = phi[ci, cj] * vol[ci, cj]
-                given = flux[c + 1, line] - flux[c, line]
-                if given > held:
-                    scale = held / given
-                    flux[c, line] *= scale
-                    flux[c + 1, line] *= scale
-                    for k in range(nq):
-                        qflux[k, c] *= scale
-                        qflux[k, c + 1] *= scale
-        for c in range(n_cells):
+        limit_diverging_outflow(axis, line, flux, qflux, phi, vol)
+        apply_line_fluxes(axis, line, flux, qflux, phi, q, vol, shear_mod, bulk_mod, audit)
+    return boundary
+
+
+@njit(**JIT)
+def limit_diverging_outflow(axis, line, flux, qflux, phi, vol):
+    """Each face limits its donor's outflow on its own, so a cell that gives through both faces
+    (diverging flow) could give up to twice what it holds; clipping the negative remainder to 0
+    then creates soil (1e-10 of the mass in a 10 m/s landing). Scale such a cell's two outflows
+    down to its content: both neighbours see the same fluxes."""
+    n_cells = flux.shape[0] - 1
+    for c in range(n_cells):
+        if flux[c, line] < 0.0 and flux[c + 1, line] > 0.0:
             ci = c if axis == 0 else line
             cj = line if axis == 0 else c
-            v = vol[ci, cj]
-            old_soil = phi[ci, cj] * v
-            new_soil = old_soil + flux[c, line] - flux[c + 1, line]
-            if flux[c, line] == 0.0 and flux[c + 1, line] == 0.0:
-                continue
-            if old_soil > 0.0:
-                audit[0] -= old_soil * elastic_energy_density(
-                    q[SXX, ci, cj], q[SYY, ci, cj], q[SXY, ci, cj], q[SZZ, ci, cj], shear_mod, bulk_mod)
-            if new_soil <= 1e-14 * v:
-                phi[ci, cj] = 0.0
-                for k in range(nq):
-                    q[k, ci, cj] = 0.0
-                continue
-            for k in range(nq):
-                q[k, ci, cj] = (old_soil * q[k, ci, cj] + qflux[k, c] - qflux[k, c + 1]) / new_soil
-            phi[ci, cj] = new_soil / v
-            audit[0] += new_soil * elastic_energy_density(
+            held = phi[ci, cj] * vol[ci, cj]
+            given = flux[c + 1, line] - flux[c, line]
+            if given > held:
+                scale = held / given
+                flux[c, line] *= scale
+                flux[c + 1, line] *= scale
+                for k in range(qflux.shape[0]):
+                    qflux[k, c] *= scale
+                    qflux[k, c + 1] *= scale
+
+
+@njit(**JIT)
+def apply_line_fluxes(axis, line, flux, qflux, phi, q, vol, shear_mod, bulk_mod, audit):
+    """The cells of one line after the sweep: soil and its state in and out through both faces;
+    ``audit[0]`` accumulates the change of stored elastic energy (J)."""
+    n_cells = flux.shape[0] - 1
+    nq = q.shape[0]
+    for c in range(n_cells):
+        ci = c if axis == 0 else line
+        cj = line if axis == 0 else c
+        v = vol[ci, cj]
+        old_soil = phi[ci, cj] * v
+        new_soil = old_soil + flux[c, line] - flux[c + 1, line]
+        if flux[c, line] == 0.0 and flux[c + 1, line] == 0.0:
+            continue
+        if old_soil > 0.0:
+            audit[0] -= old_soil * elastic_energy_density(
                 q[SXX, ci, cj], q[SYY, ci, cj], q[SXY, ci, cj], q[SZZ, ci, cj], shear_mod, bulk_mod)
-    return boundary
+        if new_soil <= 1e-14 * v:
+            phi[ci, cj] = 0.0
+            for k in range(nq):
+                q[k, ci, cj] = 0.0
+            continue
+        for k in range(nq):
+            q[k, ci, cj] = (old_soil * q[k, ci, cj] + qflux[k, c] - qflux[k, c + 1]) / new_soil
+        phi[ci, cj] = new_soil / v
+        audit[0] += new_soil * elastic_energy_density(
+            q[SXX, ci, cj], q[SYY, ci, cj], q[SXY, ci, cj], q[SZZ, ci, cj], shear_mod, bulk_mod)
 
 
 @njit(**JIT)
