@@ -93,7 +93,8 @@ class TrackSideView:
 
 def inside_nodes(shape, grid) -> np.ndarray:
     """Which grid nodes lie inside the shape: an array of the node shape, any number of axes."""
-    return shape.inside(*np.meshgrid(*grid.axes, indexing="ij", sparse=True))
+    inside = shape.inside(*np.meshgrid(*grid.axes, indexing="ij", sparse=True))
+    return np.broadcast_to(inside, tuple(len(a) for a in grid.axes))  # a shape may not vary along every axis
 
 
 def _corner_views(node_array: np.ndarray, cell_shape) -> list:
