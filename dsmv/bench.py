@@ -38,12 +38,10 @@ import numpy as np
 
 from dsmv.analytic.bearing import PRANDTL_NC
 
-#: the Prandtl case: rough strip B = 1 m on weightless Tresca soil (su 10 kPa, E = 500·su),
-#: pushed quasi-statically just past s = 0.05·B, the soil free to part from its walls
-#: (verify_prandtl, shortened)
-PRANDTL = ["solver=cel2d", "geometry=strip", "landing=push", "soil.su0_pa=10000", "soil.ks_pa_per_m=0",
-           "landing.velocity_m_s=0.1", "landing.displacement_m=0.065", "landing.gravity_m_s2=0",
-           "solver.contact_separation=true"]
+#: the Prandtl case: the canonical verification scene (conf/experiment/verify_prandtl.yaml: a rough
+#: strip B = 1 m on weightless Tresca soil, su 10 kPa, E = 500·su, the soil free to part from its
+#: walls) as one run, pushed quasi-statically just past s = 0.05·B
+PRANDTL = ["experiment=verify_prandtl", "hydra.mode=RUN", "landing.displacement_m=0.065"]
 #: the default landing on the CEL solver
 LANDING = ["solver=cel2d"]
 COMMON = ["tracking=disabled", "output.plots=false", "solver.progress=off"]
