@@ -2,6 +2,7 @@
 
 import pytest
 
+from dsmv.errors import ConfigError
 from dsmv.scene import Scene, build_scene, build_tracking
 from tests.conftest import group_options
 
@@ -72,3 +73,25 @@ def test_solver_yaml_documents_every_setting_of_its_schema(compose_cfg, option):
     cfg = compose_cfg([f"solver={option}"])
     schema = registry.load("solvers", cfg.solver.name, "solver.name").config_model
     assert set(cfg.solver.keys()) == set(schema.model_fields)
+
+
+def test_the_cel_defaults_are_the_documented_numerics(compose_cfg):
+    """The CEL solver's defaults have one home, its YAML (the schema requires every field): the
+    values the verification and the benchmarks were measured with."""
+    solver = build_scene(compose_cfg(["solver=cel2d"])).solver
+    assert (solver.cfl, solver.hourglass, solver.bulk_viscosity_linear, solver.bulk_viscosity_quadratic) == (
+        0.5, 0.05, 0.06, 1.2)
+    assert (solver.advection_order, solver.remap_courant, solver.stress_cutoff, solver.remap) == (2, 0.05, 0.01, True)
+    assert (solver.domain_depth_widths, solver.domain_half_width_widths, solver.core_margin_widths) == (5.0, 5.0, 1.0)
+    assert solver.economies.skip_void and solver.economies.symmetry and not solver.contact_separation
+
+
+def test_a_solver_yaml_missing_a_setting_fails_at_composition(compose_cfg):
+    from omegaconf import OmegaConf, open_dict
+
+    cfg = compose_cfg(["solver=cel2d"])
+    with open_dict(cfg):
+        del cfg.solver["hourglass"]
+    assert "hourglass" not in OmegaConf.to_container(cfg.solver)
+    with pytest.raises(ConfigError, match=r"solver\.hourglass"):
+        build_scene(cfg)

@@ -27,17 +27,17 @@ from dsmv.scene import Number, Scene, Schema
 
 
 class Cel2DCheckConfig(Schema):
-    """Config of ``solver=cel2d_check``."""
+    """Config of ``solver=cel2d_check``; the values live in ``conf/solver/cel2d_check.yaml``."""
 
     name: Literal["cel2d_check"]
     case: Literal["advection", "geostatic"]
-    courant: Number = Field(0.4, gt=0, le=1, description="advection: |u|·Δt/h per axis (-)")
-    advection_order: Literal[1, 2] = 2
-    travel: Number = Field(0.3, gt=0, le=0.4, description="advection: distance moved per axis, in domain sizes (-)")
-    duration_s: Number = Field(1.0, gt=0, description="geostatic: simulated time (s)")
-    block_width_m: Number = Field(4.0, gt=0, description="geostatic: width of the soil block (m)")
-    block_depth_m: Number = Field(4.0, gt=0, description="geostatic: depth of the soil block (m)")
-    cfl: Number = Field(0.5, gt=0, le=1)
+    courant: Number = Field(gt=0, le=1, description="advection: |u|·Δt/h per axis (-)")
+    advection_order: Literal[1, 2] = Field(description="advection: 1 donor cell, 2 van Leer")
+    travel: Number = Field(gt=0, le=0.4, description="advection: distance moved per axis, in domain sizes (-)")
+    duration_s: Number = Field(gt=0, description="geostatic: simulated time (s)")
+    block_width_m: Number = Field(gt=0, description="geostatic: width of the soil block (m)")
+    block_depth_m: Number = Field(gt=0, description="geostatic: depth of the soil block (m)")
+    cfl: Number = Field(gt=0, le=1, description="geostatic: time step as a fraction of the CFL limit (-)")
 
 
 def _exact_square_fraction(edges_x, edges_y, lo, hi):
@@ -161,16 +161,15 @@ class Cel2DCheckSolver:
         dt = cfg.cfl * h / elastic.wave_speed_m_s
         phi, q = geostatic_state(grid, rho, grav, elastic.k0, mudline=0.0)
         vol = cell_volumes(x, y, False)
-        # the solver's default numerics (Cel2DConfig), no body, closed base
-        from dsmv.cel.config import CelConfig
+        # the CEL solver's default numerics (its YAML), no body, closed base
+        from dsmv.cel.config import solver_defaults
 
-        defaults = CelConfig.model_fields
+        cel = solver_defaults("cel2d")
         par = step_parameters(dt=dt, density=rho, elastic=elastic, h=h, gravity=grav, su0=soil.su0_pa,
-                              ks=soil.ks_pa_per_m, hourglass=defaults["hourglass"].default,
-                              bulk_linear=defaults["bulk_viscosity_linear"].default,
-                              bulk_quadratic=defaults["bulk_viscosity_quadratic"].default,
-                              stress_cutoff=defaults["stress_cutoff"].default, axisymmetric=False, advection_order=2,
-                              drop=False, inflow=False, remap=True, tresca=False, law_active=False)
+                              ks=soil.ks_pa_per_m, hourglass=cel["hourglass"], bulk_linear=cel["bulk_viscosity_linear"],
+                              bulk_quadratic=cel["bulk_viscosity_quadratic"], stress_cutoff=cel["stress_cutoff"],
+                              axisymmetric=False, advection_order=cel["advection_order"], drop=False, inflow=False,
+                              remap=True, tresca=False, law_active=False)
         state = (*body_free_state(x, y, phi, q, vol), par)
         v = state[3].v
         body = np.zeros(N_BODY)

@@ -1,7 +1,9 @@
 """Config of the CEL solvers: numerical settings only; the physics comes from the scene.
 
-``CelConfig`` holds what every dimension shares; ``Cel2DConfig`` adds the 2D mode. The defaults
-here are the only ones: ``conf/solver/cel2d.yaml`` names the solver and documents the keys.
+``CelConfig`` holds what every dimension shares; ``Cel2DConfig`` adds the 2D mode. The schema says
+what each key means and allows; the values, defaults included, live in one home, the solver's YAML
+(``conf/solver/cel2d.yaml``): every field is required, so a YAML that misses one fails at once.
+:func:`solver_defaults` reads them for code that runs without a composed scene.
 """
 
 from __future__ import annotations
@@ -16,47 +18,57 @@ from dsmv.scene import Count, Number, Schema
 class Economies(Schema):
     """Work the solver skips; each can be switched off only to measure what it saves (dsmv-bench)."""
 
-    skip_inactive_law: bool = Field(True, description="a law without softening or rate skips that arithmetic")
-    stop_at_rest: bool = Field(True, description="a landing ends when the body first comes to rest; "
-                                                 "false: it runs on to twice that time")
-    skip_void: bool = Field(True, description="cells without soil do no force arithmetic")
-    symmetry: bool = Field(True, description="model half the section, with a symmetry plane on the body's axis; "
-                                             "false: the whole section (plane strain, rough contact)")
+    skip_inactive_law: bool = Field(description="a law without softening or rate skips that arithmetic")
+    stop_at_rest: bool = Field(description="a landing ends when the body first comes to rest; "
+                                           "false: it runs on to twice that time")
+    skip_void: bool = Field(description="cells without soil do no force arithmetic")
+    symmetry: bool = Field(description="model half the section, with a symmetry plane on the body's axis; "
+                                       "false: the whole section (plane strain, rough contact)")
 
 
 class CelConfig(Schema):
     """What every CEL solver is set with (numerical settings; the physics comes from the scene)."""
 
-    cfl: Number = Field(0.5, gt=0, le=1, description="time step as a fraction of the CFL limit (-)")
-    hourglass: Number = Field(0.05, ge=0, le=1, description="viscous hourglass coefficient (-)")
-    bulk_viscosity_linear: Number = Field(0.06, ge=0, description="linear bulk viscosity b1 (-)")
-    bulk_viscosity_quadratic: Number = Field(1.2, ge=0, description="quadratic bulk viscosity b2 (-)")
-    advection_order: Literal[1, 2] = 2
+    cfl: Number = Field(gt=0, le=1, description="time step as a fraction of the CFL limit (-)")
+    hourglass: Number = Field(ge=0, le=1, description="viscous hourglass coefficient (-)")
+    bulk_viscosity_linear: Number = Field(ge=0, description="linear bulk viscosity b1 (-)")
+    bulk_viscosity_quadratic: Number = Field(ge=0, description="quadratic bulk viscosity b2 (-)")
+    advection_order: Literal[1, 2] = Field(description="1: donor cell, 2: van Leer MUSCL")
     yield_surface: Literal["auto", "tresca", "von_mises"] = Field(
-        "auto", description="auto: von Mises (J2) in plane strain, where it equals Tresca; Tresca in axisymmetry"
-    )
-    stress_cutoff: Number = Field(0.01, ge=0, lt=1, description="cells with less soil carry no stress (-)")
-    remap: bool = Field(True, description="false: small-strain analysis on the undeformed grid (verification)")
-    contact_separation: bool = Field(False, description=(
+        description="auto: von Mises (J2) in plane strain, where it equals Tresca; Tresca in axisymmetry")
+    stress_cutoff: Number = Field(ge=0, lt=1, description="cells with less soil carry no stress (-)")
+    remap: bool = Field(description="false: small-strain analysis on the undeformed grid (verification)")
+    contact_separation: bool = Field(description=(
         "true: a face lets go of the soil that would pull away from it (no tension); "
         "false: the soil stays tied to it"))
     # at most 0.25: next to the axis of an axisymmetric model a cell's volume Courant number is
     # about twice the travel over h
-    remap_courant: Number = Field(0.05, ge=0, le=0.25, description=(
+    remap_courant: Number = Field(ge=0, le=0.25, description=(
         "the remap runs once the soil has moved this fraction of a core cell through the grid; 0: every step (-)"))
-    domain_depth_widths: Number = Field(5.0, ge=1, description="soil depth below the body, in body widths B")
-    domain_half_width_widths: Number = Field(5.0, ge=1, description="half-width of the domain, in B")
-    core_margin_widths: Number = Field(1.0, gt=0, description="uniform core beyond the body, in B")
-    history_samples: Count = Field(400, ge=10, description="samples in the time history (-)")
-    max_steps: Count = Field(20_000_000, ge=1)
-    progress: Literal["auto", "on", "off"] = "auto"
-    initial_travel_m: Optional[Number] = Field(None, gt=0, description="travel to size the domain for (m)")
-    cone_cells_per_depth: Count = Field(16, ge=4, description="cone: core cells across the expected penetration")
-    economies: "Economies" = Field(default_factory=lambda: Economies())
+    domain_depth_widths: Number = Field(ge=1, description="soil depth below the body, in body widths B")
+    domain_half_width_widths: Number = Field(ge=1, description="half-width of the domain, in B")
+    core_margin_widths: Number = Field(gt=0, description="uniform core beyond the body, in B")
+    history_samples: Count = Field(ge=10, description="samples in the time history (-)")
+    max_steps: Count = Field(ge=1, description="steps before a run gives up (-)")
+    progress: Literal["auto", "on", "off"] = Field(description="auto: on a terminal, outside sweeps")
+    initial_travel_m: Optional[Number] = Field(gt=0, description="travel to size the domain for (m)")
+    cone_cells_per_depth: Count = Field(ge=4, description="cone: core cells across the expected penetration")
+    economies: Economies
 
 
 class Cel2DConfig(CelConfig):
     """Config of ``solver=cel2d``."""
 
     name: Literal["cel2d"]
-    mode: Literal["auto", "plane_strain", "axisymmetric"] = "auto"
+    mode: Literal["auto", "plane_strain", "axisymmetric"] = Field(description="auto: from the geometry")
+
+
+def solver_defaults(name: str) -> dict:
+    """The settings of ``conf/solver/<name>.yaml``, the one home of a solver's defaults."""
+    from pathlib import Path
+
+    from omegaconf import OmegaConf
+
+    from dsmv.cli import CONFIG_DIR
+
+    return OmegaConf.to_container(OmegaConf.load(Path(CONFIG_DIR) / "solver" / f"{name}.yaml"), resolve=True)
