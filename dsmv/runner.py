@@ -1,14 +1,19 @@
 """One job: validate the scene, solve it, write the result contract, track it.
 
 Nothing is lost on failure: a solver that raises still leaves result.json (status
-``failed``, the error as message), the resolved config, and a FAILED MLflow run.
+``failed``, the error as message), the resolved config, and a FAILED MLflow run; a run stopped by
+SIGINT or SIGTERM leaves result.json with status ``interrupted`` and a KILLED MLflow run. A
+single run exits with its status's code (:data:`dsmv.results.EXIT_CODES`).
 """
 
 from __future__ import annotations
 
 import os
+import signal
 import sys
+import threading
 import traceback
+from contextlib import contextmanager
 from pathlib import Path
 
 from hydra.core.hydra_config import HydraConfig
@@ -17,7 +22,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from dsmv import registry, tracking
 from dsmv.errors import DsmvError
-from dsmv.results import SolveResult, write_history, write_result
+from dsmv.results import EXIT_CODES, SolveResult, write_history, write_result
 from dsmv.scene import Scene, build_scene
 
 RESOLVED_CONFIG_FILE = "config_resolved.yaml"
@@ -62,31 +67,57 @@ def run_job(cfg: DictConfig) -> dict:
 
     error_text, end_status = None, "FAILED"
     try:
-        (run_dir / RESOLVED_CONFIG_FILE).write_text(OmegaConf.to_yaml(cfg, resolve=True))
-        try:
-            solver = registry.load("solvers", scene.solver.name, "solver.name")(scene)
-            result = solver.solve(run_dir)
-        except DsmvError as error:
-            result, error_text = SolveResult("failed", str(error)), str(error)
-        except Exception as error:  # a bug: keep everything, report it, exit non-zero below
-            result = SolveResult("failed", f"{type(error).__name__}: {error}")
-            error_text = traceback.format_exc()
-        files = write_outputs(scene, result, run_dir)
-        if tracker is not None:
-            tracker.finish(result, files, error_text)
-        end_status = None
-    except KeyboardInterrupt:
+        with interrupts_as_keyboard_interrupt():
+            (run_dir / RESOLVED_CONFIG_FILE).write_text(OmegaConf.to_yaml(cfg, resolve=True))
+            try:
+                solver = registry.load("solvers", scene.solver.name, "solver.name")(scene)
+                result = solver.solve(run_dir)
+            except DsmvError as error:
+                result, error_text = SolveResult("failed", str(error)), str(error)
+            except KeyboardInterrupt:  # outside the CEL controller, which stops a run itself
+                result = SolveResult("interrupted", "interrupted before the solver finished")
+            except Exception as error:  # a bug: keep everything, report it, exit non-zero below
+                result = SolveResult("failed", f"{type(error).__name__}: {error}")
+                error_text = traceback.format_exc()
+            files = write_outputs(scene, result, run_dir)
+            if tracker is not None:
+                tracker.finish(result, files, error_text)
+            end_status = None
+    except KeyboardInterrupt:  # a second signal while the outputs were being written
         end_status = "KILLED"
-        raise
+        print(f"dsmv: interrupted while writing {run_dir}", file=sys.stderr)
+        sys.exit(EXIT_CODES["interrupted"])
     finally:
         if tracker is not None and end_status is not None:  # never leave a run RUNNING
             tracker.client.set_terminated(tracker.run_id, end_status)
 
-    print_summary(scene, result, run_dir, tracker, multirun)
+    if result.status == "interrupted":
+        print(f"dsmv: {result.message}; result.json written in {run_dir}", file=sys.stderr)
+    else:
+        print_summary(scene, result, run_dir, tracker, multirun)
     if error_text is not None and not multirun:
         print(f"dsmv: the run failed: {result.message}", file=sys.stderr)
-        sys.exit(1)
+    if not multirun and EXIT_CODES[result.status] != 0:
+        sys.exit(EXIT_CODES[result.status])
     return {"status": result.status, "metrics": result.metrics}
+
+
+@contextmanager
+def interrupts_as_keyboard_interrupt():
+    """SIGTERM (a timeout, a cancelled job) ends the job as Ctrl-C does, through the same path that
+    writes result.json and closes the MLflow run; the CEL controller catches both while it steps."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def write_outputs(scene: Scene, result: SolveResult, run_dir: Path) -> list[Path]:

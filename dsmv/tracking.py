@@ -124,7 +124,9 @@ class JobTracker:
         self.client.log_batch(self.run_id, params=[Param("status", result.status)], tags=tags)
         for path in files:
             self.client.log_artifact(self.run_id, str(path))
-        self.client.set_terminated(self.run_id, "FAILED" if error else "FINISHED")
+        # FAILED: the code raised; KILLED: a signal stopped the run (its reason is the message)
+        self.client.set_terminated(self.run_id, "FAILED" if error else
+                                   ("KILLED" if result.status == "interrupted" else "FINISHED"))
 
 
 def _history_metrics(history: dict, timestamp_ms: int) -> list:

@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 from dsmv.cel.solver import ENERGY_ERROR_LIMIT
-from dsmv.results import HISTORY_COLUMNS, HISTORY_FILE, RESULT_FILE
+from dsmv.results import EXIT_CODES, HISTORY_COLUMNS, HISTORY_FILE, RESULT_FILE
 
 BIN = Path(sys.executable).parent
 BASE = ["solver=cel2d", "tracking=disabled", "output.plots=false", "solver.progress=off"]
@@ -67,9 +67,10 @@ def run_cli(run_dir: Path, overrides, threads: int = 1) -> Run:
     env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), HYDRA_FULL_ERROR="0")
     proc = subprocess.run([str(BIN / "dsmv"), *BASE, *overrides, f"hydra.run.dir={run_dir}"], cwd=run_dir.parent,
                           env=env, capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr
     assert "Traceback" not in proc.stderr + proc.stdout
-    return read_run(run_dir)
+    run = read_run(run_dir)
+    assert proc.returncode == EXIT_CODES[run.status], proc.stderr  # the exit code tells the status
+    return run
 
 
 def run_in_process(compose_cfg, run_dir: Path, overrides) -> Run:

@@ -6,13 +6,22 @@ progress) look; guards (non-finite values, energy runaway, soil speed, out of do
 bearing failure, the push's end, the travel the domain was sized for, the step budget) may end
 the run with a status and a message. Nothing slow sits in the compiled loop, and each guard is a
 small object with its own test.
+
+Interrupts: SIGINT and SIGTERM only raise a flag, which the controller reads between compiled
+calls. A chunk (one history sample) is stepped in slices of about ``POLL_S`` of wall time, so a
+signal ends the run within about that, with status ``interrupted``. The slicing does not change
+the result: the compiled loop keeps its whole state in the containers, so n + m steps in two calls
+are bit for bit n + m steps in one, and trackers only look at whole chunks.
 """
 
 from __future__ import annotations
 
 import math
+import signal
 import sys
+import threading
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Callable, Optional, Protocol
 
@@ -63,40 +72,87 @@ class Tracker(Protocol):
     def after_chunk(self, run: Run) -> Optional[Ending]: ...
 
 
+#: wall time between two looks at the interrupt flag (s)
+POLL_S = 0.25
+SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
 class Controller:
     """Runs ``advance`` in chunks of ``chunk`` steps, with the trackers between, until one ends the run."""
 
     def __init__(self, advance: Callable[[int], tuple[int, int]], trackers: list, chunk: int, max_steps: int):
         self.advance, self.trackers, self.chunk, self.max_steps = advance, trackers, chunk, max_steps
+        self.signal: Optional[int] = None
+        self.slice = 1  # steps per compiled call, grown to about POLL_S of wall time
 
     def run(self, run: Run) -> tuple[Ending, float, float]:
         """Run to the end; returns the ending, the first call's time (compile or cache load, s) and
         the wall time of the rest (s)."""
-        t_start = time.perf_counter()
-        run.steps, run.code = self.advance(1)  # the first call compiles (or loads the cache)
-        compile_s = time.perf_counter() - t_start
-        for tracker in self.trackers:
-            if hasattr(tracker, "start"):
-                tracker.start(run)
-        t_run = time.perf_counter()
-        while True:
-            run.body[B_FSUM] = 0.0
-            run.body[B_FCOUNT] = 0.0
-            if run.code == RUNNING:
-                done, run.code = self.advance(min(self.chunk, self.max_steps - run.steps))
-                run.steps += done
-            ending = None
+        with self.catching_signals():
+            t_start = time.perf_counter()
+            run.steps, run.code = self.advance(1)  # the first call compiles (or loads the cache)
+            compile_s = time.perf_counter() - t_start
             for tracker in self.trackers:
-                ending = tracker.after_chunk(run)
+                if hasattr(tracker, "start"):
+                    tracker.start(run)
+            t_run = time.perf_counter()
+            while True:
+                run.body[B_FSUM] = 0.0
+                run.body[B_FCOUNT] = 0.0
+                self.step_chunk(run)
+                ending = self.interrupted(run) or self.look(run)
                 if ending is not None:
                     break
-            if ending is not None:
-                break
-        wall_s = time.perf_counter() - t_run
+            wall_s = time.perf_counter() - t_run
         for tracker in self.trackers:
             if hasattr(tracker, "finish"):
                 tracker.finish(run)
         return ending, compile_s, wall_s
+
+    def step_chunk(self, run: Run) -> None:
+        """One chunk of steps, in slices short enough to look at the interrupt flag between them."""
+        left = min(self.chunk, self.max_steps - run.steps)
+        while run.code == RUNNING and left > 0 and self.signal is None:
+            n = min(self.slice, left)
+            t0 = time.perf_counter()
+            done, run.code = self.advance(n)
+            elapsed = time.perf_counter() - t0
+            run.steps += done
+            left -= done
+            if done == n:  # aim the next slice at POLL_S, growing at most tenfold
+                self.slice = max(1, min(10 * n, int(n * POLL_S / max(elapsed, 1e-6))))
+
+    def look(self, run: Run) -> Optional[Ending]:
+        """The trackers in turn; the first guard that ends the run says why."""
+        for tracker in self.trackers:
+            ending = tracker.after_chunk(run)
+            if ending is not None:
+                return ending
+        return None
+
+    def interrupted(self, run: Run) -> Optional[Ending]:
+        if self.signal is None:
+            return None
+        name = signal.Signals(self.signal).name
+        return Ending("interrupted", f"interrupted by {name} at t = {run.time_s:.4g} s, sinkage {run.sinkage_m:.4g} m")
+
+    @contextmanager
+    def catching_signals(self):
+        """SIGINT and SIGTERM raise the flag instead of the default action, for the run's duration
+        (main thread only: signal handlers cannot be set elsewhere)."""
+        if threading.current_thread() is not threading.main_thread():
+            yield
+            return
+
+        def raise_flag(signum, frame):
+            self.signal = signum
+
+        previous = {s: signal.signal(s, raise_flag) for s in SIGNALS}
+        try:
+            yield
+        finally:
+            for s, handler in previous.items():
+                signal.signal(s, handler)
 
 
 # ----------------------------------------------------------------------------- observers
