@@ -272,7 +272,7 @@ class TrackingConfig(Schema):
 # --------------------------------------------------------------------------- scene
 
 #: solver settings that change how a run is shown or sampled, never its result
-RESULT_NEUTRAL_SOLVER_KEYS = {"progress", "history_samples", "max_steps"}
+RESULT_NEUTRAL_SOLVER_KEYS = {"progress", "history_samples", "max_steps", "max_wall_s"}
 
 
 @dataclass(frozen=True)

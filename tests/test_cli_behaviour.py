@@ -85,3 +85,18 @@ def test_a_signal_stops_the_run_and_keeps_its_record(tmp_path, sig):
     assert [line for line in err.splitlines() if line.startswith("dsmv:")] == [
         f"dsmv: {result['message']}; result.json written in {run_dir}"]
     assert _store_status(runs) == ("KILLED", "interrupted")
+
+
+def test_the_cost_guard_refuses_a_run_of_hours_at_once(tmp_path):
+    """0.5 mm cells: 4.6 million cells × 290 000 steps. Refused before any state is allocated."""
+    started = time.time()
+    proc, result = dsmv(tmp_path, "mesh.cell_size_m=0.0005")
+    assert time.time() - started < 5.0 + 3.0  # + the interpreter's and Hydra's start-up
+    assert proc.returncode == 2 and result is None
+    assert len(proc.stderr.strip().splitlines()) == 1 and "solver.max_wall_s" in proc.stderr
+
+
+def test_the_estimate_is_kept_beside_the_wall_time(tmp_path):
+    proc, result = dsmv(tmp_path)
+    assert result["status"] == "ok" and result["units"]["estimated_wall_s"] == "s"
+    assert 0.0 < result["metrics"]["estimated_wall_s"] < 3600.0

@@ -50,6 +50,8 @@ class CelConfig(Schema):
     core_margin_widths: Number = Field(gt=0, description="uniform core beyond the body, in B")
     history_samples: Count = Field(ge=10, description="samples in the time history (-)")
     max_steps: Count = Field(ge=1, description="steps before a run gives up (-)")
+    max_wall_s: Number = Field(gt=0, description=(
+        "refuse a run whose estimated wall time exceeds this (s); it never changes a result"))
     progress: Literal["auto", "on", "off"] = Field(description="auto: on a terminal, outside sweeps")
     initial_travel_m: Optional[Number] = Field(gt=0, description="travel to size the domain for (m)")
     cone_cells_per_depth: Count = Field(ge=4, description="cone: core cells across the expected penetration")

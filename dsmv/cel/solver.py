@@ -44,9 +44,31 @@ NC_SAMPLES = {"nc_at_0p02B": 0.02, "nc_at_0p05B": 0.05, "nc_at_0p1B": 0.1, "nc_a
 NC_WINDOW = 0.005
 #: an 'ok' run's energy audit must close to this (relative); worse means the numerics failed
 ENERGY_ERROR_LIMIT = 0.05
+#: the throughput the cost estimate assumes (cell updates per second, one thread): the default
+#: landing at 0.02 m cells measured 2.0e7 warm on these machines' cores; the estimate is a guard
+#: against hours, not a prediction (result.json holds estimated_wall_s beside wall_s)
+CELL_UPDATES_PER_S = 2.0e7
+#: memory per cell of the 2D state (B): the cell state (six stress, strain and depth rows and
+#: the law's), φ, strength, factors, openings, gap and merge fields, the face fluxes and apertures,
+#: the corner table, and the nodes' velocity, force, travel and mass
+BYTES_PER_CELL = 8 * (6 + 7 + 4 + 7) + 16
+#: memory per cell of one field frame (B): φ, q, su, the strain rate and the nodes' velocity
+BYTES_PER_FRAME_CELL = 8 * (1 + 6 + 2 + 2)
 #: the zig-zag diagnostic counts cells at least this full: a partly filled cell at the soil's
 #: surface has void nodes, which stand still, and would read as zig-zag
 ZIGZAG_FULL_CELL = 0.99
+
+
+def available_memory_b() -> float:
+    """The memory this machine has free (B): MemAvailable from /proc/meminfo, else unbounded."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024.0
+    except OSError:
+        pass
+    return math.inf
 
 
 def in_sweep() -> bool:
@@ -91,8 +113,14 @@ class CelSolver:
 
     @classmethod
     def check_scene(cls, scene: Scene) -> None:
-        """What this solver cannot run, as a ConfigError at composition time."""
-        cfg, body = scene.solver, scene.geometry
+        """What this solver cannot run, as a ConfigError at composition time: a body or contact it
+        has not, or a run too long or too big for this machine (:meth:`check_cost`)."""
+        cls.check_capabilities(scene)
+        cls(scene, checked=True).check_cost()
+
+    @classmethod
+    def check_capabilities(cls, scene: Scene) -> None:
+        body = scene.geometry
         if body.kind not in cls.bodies:
             raise ConfigError("geometry.kind", body.kind, f"{cls.name} runs {', '.join(cls.bodies)} bodies")
         refusal = ContactRules.of(scene, cls.is_axisymmetric(scene)).refusal()
@@ -103,8 +131,9 @@ class CelSolver:
     def is_axisymmetric(scene: Scene) -> bool:
         return False
 
-    def __init__(self, scene: Scene):
-        self.check_scene(scene)
+    def __init__(self, scene: Scene, checked: bool = False):
+        if not checked:
+            self.check_capabilities(scene)
         self.scene = scene
         self.law = registry.load("soil_laws", scene.soil.law, "soil.law")(scene.soil)
         self.axisym = self.is_axisymmetric(scene)
@@ -198,20 +227,55 @@ class CelSolver:
             trackers.append(C.Progress())
         return trackers, zigzag
 
-    def steps_per_sample(self, state: State) -> int:
-        """Steps per history sample, from the run's expected duration."""
+    def expected_duration_s(self) -> float:
+        """How long the run is expected to last in simulated time (s)."""
         scene, landing, grav = self.scene, self.scene.landing, self.scene.landing.gravity_m_s2
         if landing.kind == "drop" and self.cone:  # from rest under gravity; without it, at its touchdown speed
-            duration = (4.0 * math.sqrt(2.0 * self.travel / grav) if grav > 0
-                        else self.travel / max(landing.velocity_m_s, 0.1))
-        elif landing.kind == "drop":
+            return (4.0 * math.sqrt(2.0 * self.travel / grav) if grav > 0
+                    else self.travel / max(landing.velocity_m_s, 0.1))
+        if landing.kind == "drop":
             duration = energy_estimate(scene).solve().metrics.get("time_to_rest_s", 0.0) or 0.0
-            duration = max(duration, self.travel / max(landing.velocity_m_s, 0.1))
-        else:
-            duration = landing.displacement_m / landing.velocity_m_s
-        return max(1, int(duration / state.par.dt / scene.solver.history_samples))
+            return max(duration, self.travel / max(landing.velocity_m_s, 0.1))
+        return landing.displacement_m / landing.velocity_m_s
+
+    def steps_per_sample(self, state: State) -> int:
+        """Steps per history sample, from the run's expected duration."""
+        return max(1, int(self.expected_duration_s() / state.par.dt / self.scene.solver.history_samples))
+
+    def cost(self) -> dict[str, float]:
+        """What the run will take, estimated before any state is allocated: cells, steps (the expected
+        duration over the CFL step), memory (B) and wall time (s, at :data:`CELL_UPDATES_PER_S`)."""
+        from dsmv.cel.state import Elastic
+
+        grid = self.build()
+        cells = float(np.prod([len(a) - 1 for a in grid.axes]))
+        dt = self.scene.solver.cfl * self.h / Elastic.of(self.scene.soil).wave_speed_m_s
+        steps = min(self.expected_duration_s() / dt, self.scene.solver.max_steps)
+        frames = 2 * self.scene.output.field_frames + 2 if self.scene.output.fields else 0
+        return {"cells": cells, "steps": steps, "memory_b": cells * (BYTES_PER_CELL + frames * BYTES_PER_FRAME_CELL),
+                "wall_s": cells * steps / CELL_UPDATES_PER_S}
+
+    def check_cost(self) -> dict[str, float]:
+        """Refuse, as a config error, a run estimated to outlast ``solver.max_wall_s`` or to outgrow the
+        memory this machine has free."""
+        cost = self.cost()
+        what = f"{cost['cells']:,.0f} cells × {cost['steps']:,.0f} steps"
+        if cost["memory_b"] > available_memory_b():
+            raise ConfigError("mesh.cell_size_m", self.scene.mesh.cell_size_m,
+                              f"{what} need about {cost['memory_b'] / 2**30:.1f} GiB, more than the "
+                              f"{available_memory_b() / 2**30:.1f} GiB free: coarsen the mesh")
+        limit = self.scene.solver.max_wall_s
+        if cost["wall_s"] > limit:
+            raise ConfigError("solver.max_wall_s", limit, f"{what} would take about {cost['wall_s']:,.0f} s; "
+                              f"coarsen mesh.cell_size_m or raise solver.max_wall_s to run it")
+        return cost
 
     def solve(self, run_dir=None) -> SolveResult:
+        cost = self.check_cost()
+        if self.scene.solver.progress == "on" or (self.scene.solver.progress == "auto" and sys.stderr.isatty()
+                                                  and not in_sweep()):
+            print(f"  {cost['cells']:,.0f} cells, about {cost['steps']:,.0f} steps, {cost['memory_b'] / 2**20:,.0f} MiB, "
+                  f"about {cost['wall_s']:,.0f} s", file=sys.stderr)
         state = self.initial_state()
         trackers, zigzag = self.trackers(state, run_dir)
         run = C.Run(state, state.body, state.energy, force_scale=state.scale)
@@ -219,7 +283,9 @@ class CelSolver:
                                   self.scene.solver.max_steps)
         ending, compile_s, wall_s = controller.run(run)
         rest = next((t.rest_time_s for t in trackers if isinstance(t, C.Rest)), None)
-        return self.result(state, run, ending, zigzag.ratio(), rest, compile_s, wall_s)
+        result = self.result(state, run, ending, zigzag.ratio(), rest, compile_s, wall_s)
+        result.metrics["estimated_wall_s"], result.units["estimated_wall_s"] = cost["wall_s"], "s"
+        return result
 
     def result(self, state: State, run: C.Run, ending: C.Ending, zigzag: float, rest_time_s, compile_s,
                wall_s) -> SolveResult:
@@ -336,8 +402,8 @@ class Cel2DSolver(CelSolver):
         return mode == "axisymmetric" or (mode == "auto" and scene.geometry.kind == "cone")
 
     @classmethod
-    def check_scene(cls, scene: Scene) -> None:
-        super().check_scene(scene)
+    def check_capabilities(cls, scene: Scene) -> None:
+        super().check_capabilities(scene)
         cfg, body = scene.solver, scene.geometry
         if not cfg.economies.symmetry and (body.kind == "cone" or cfg.mode == "axisymmetric"
                                            or body.roughness != "rough" or scene.output.fields
@@ -348,8 +414,8 @@ class Cel2DSolver(CelSolver):
         if body.kind == "cone" and cfg.mode == "plane_strain":
             raise ConfigError("solver.mode", cfg.mode, "a cone is axisymmetric: 'auto' or 'axisymmetric'")
 
-    def __init__(self, scene: Scene):
-        super().__init__(scene)
+    def __init__(self, scene: Scene, checked: bool = False):
+        super().__init__(scene, checked)
         self.mode = "axisymmetric" if self.axisym else "plane_strain"
 
     def build(self):
