@@ -345,3 +345,21 @@ def test_contact_separation_lets_the_soil_part_from_the_wall(compose_cfg, roughn
     assert tied.metrics["energy_gap_release_j"] == 0.0 < parted.metrics["energy_gap_release_j"]
     assert parted.metrics["energy_error"] < 0.01
     assert parted.metrics["mass_error"] < 1e-10
+
+
+def test_slicing_chunks_for_interrupts_changes_no_bit(compose_cfg, monkeypatch):
+    """The controller steps each history chunk in slices of about POLL_S of wall time, to look at
+    the interrupt flag between them; a slice of a few steps and one slice per chunk give the same
+    result to the last bit (the compiled loop keeps its whole state in the containers)."""
+    from dsmv.cel import controller
+
+    scene = ["solver=cel2d", "mesh=coarse", "solver.progress=off", "soil.law=einav_randolph"]
+    runs = []
+    for poll_s in (1e-5, 1e9):
+        monkeypatch.setattr(controller, "POLL_S", poll_s)
+        runs.append(solve(compose_cfg, Cel2DSolver, scene))
+    timing = {"wall_s", "compile_s", "cell_updates_per_s", "estimated_wall_s"}
+    assert {k: v for k, v in runs[0].metrics.items() if k not in timing} == {
+        k: v for k, v in runs[1].metrics.items() if k not in timing}
+    for name, column in runs[0].history.items():
+        assert (column == runs[1].history[name]).all(), name
