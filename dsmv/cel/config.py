@@ -52,7 +52,8 @@ class CelConfig(Schema):
     max_steps: Count = Field(ge=1, description="steps before a run gives up (-)")
     max_wall_s: Number = Field(gt=0, description=(
         "refuse a run whose estimated wall time exceeds this (s); it never changes a result"))
-    progress: Literal["auto", "on", "off"] = Field(description="auto: on a terminal, outside sweeps")
+    progress: Literal["auto", "on", "off"] = Field(description=(
+        "auto: outside sweeps, a bar on a terminal and a plain line every 10 s in a log or pipe"))
     initial_travel_m: Optional[Number] = Field(gt=0, description="travel to size the domain for (m)")
     cone_cells_per_depth: Count = Field(ge=4, description="cone: core cells across the expected penetration")
     economies: Economies

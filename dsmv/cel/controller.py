@@ -90,7 +90,12 @@ class Controller:
         the wall time of the rest (s)."""
         with self.catching_signals():
             t_start = time.perf_counter()
+            notices = [t.slow_start_notice for t in self.trackers if hasattr(t, "slow_start_notice")]
+            timer = threading.Timer(1.0, lambda: print(*notices, file=sys.stderr, flush=True))
+            if notices:
+                timer.start()
             run.steps, run.code = self.advance(1)  # the first call compiles (or loads the cache)
+            timer.cancel()
             compile_s = time.perf_counter() - t_start
             for tracker in self.trackers:
                 if hasattr(tracker, "start"):
@@ -209,23 +214,46 @@ class Fields:
 
 
 class Progress:
-    """A progress line on stderr at most once a second."""
+    """Progress of one run on stderr, in simulated time against the expected duration: a tqdm bar on
+    a terminal (percentage, rate, time left), else a plain line every ``PLAIN_EVERY_S`` of wall time
+    (a log or a pipe). A cold start says, after a second, that the kernels are compiling."""
 
-    def __init__(self):
-        self.t_run = self.last = time.perf_counter()
+    PLAIN_EVERY_S = 10.0
+    slow_start_notice = "  compiling the CEL kernels (once; later runs load them from the cache) ..."
+
+    def __init__(self, expected_s: float, terminal: bool):
+        self.expected_s, self.terminal = max(expected_s, 1e-9), terminal
+        self.bar = None
+        self.last = 0.0
 
     def start(self, run: Run) -> None:
-        self.t_run = self.last = time.perf_counter()
+        from tqdm import tqdm
+
+        self.started = self.last = time.perf_counter()
+        if self.terminal:
+            self.bar = tqdm(total=self.expected_s, unit="s", desc="  simulated", file=sys.stderr, leave=False,
+                            bar_format="{desc} {n:.3f}/{total:.3f} s {percentage:3.0f}%|{bar}| "
+                                       "[{elapsed}<{remaining}] {postfix}")
+
+    def line(self, run: Run) -> str:
+        return f"sinkage {run.sinkage_m:.4f} m, velocity {-run.body[B_VEL]:.3f} m/s, {run.steps:,} steps"
 
     def after_chunk(self, run: Run) -> None:
-        if time.perf_counter() - self.last > 1.0:
+        if self.bar is not None:
+            self.bar.update(run.time_s - self.bar.n)
+            self.bar.set_postfix_str(self.line(run), refresh=False)
+        elif time.perf_counter() - self.last >= self.PLAIN_EVERY_S:
+            from tqdm import tqdm
+
             self.last = time.perf_counter()
-            rate = (run.steps - 1) / (self.last - self.t_run)
-            print(f"\r  t = {run.time_s:.4f} s  sinkage {run.sinkage_m:.4f} m  "
-                  f"velocity {-run.body[B_VEL]:.3f} m/s  {rate:,.0f} steps/s", end="", file=sys.stderr)
+            meter = tqdm.format_meter(run.time_s, self.expected_s, self.last - self.started, unit="s",
+                                      bar_format="{percentage:3.0f}% of the expected {total:.3f} s "
+                                                 "[{elapsed} elapsed, about {remaining} left]")
+            print(f"  t = {run.time_s:.4f} s: {self.line(run)}; {meter}", file=sys.stderr, flush=True)
 
     def finish(self, run: Run) -> None:
-        print(file=sys.stderr)
+        if self.bar is not None:
+            self.bar.close()
 
 
 # ----------------------------------------------------------------------------- guards

@@ -223,9 +223,14 @@ class CelSolver:
         else:
             trackers.append(C.PushEnd(landing.displacement_m))
         trackers.append(C.StepBudget(cfg.max_steps))
-        if cfg.progress == "on" or (cfg.progress == "auto" and sys.stderr.isatty() and not in_sweep()):
-            trackers.append(C.Progress())
+        if self.shows_progress():
+            trackers.append(C.Progress(self.expected_duration_s(), sys.stderr.isatty()))
         return trackers, zigzag
+
+    def shows_progress(self) -> bool:
+        """solver.progress: on, off, or auto — on outside sweeps (whose jobs would interleave)."""
+        progress = self.scene.solver.progress
+        return progress == "on" or (progress == "auto" and not in_sweep())
 
     def expected_duration_s(self) -> float:
         """How long the run is expected to last in simulated time (s)."""
@@ -272,8 +277,7 @@ class CelSolver:
 
     def solve(self, run_dir=None) -> SolveResult:
         cost = self.check_cost()
-        if self.scene.solver.progress == "on" or (self.scene.solver.progress == "auto" and sys.stderr.isatty()
-                                                  and not in_sweep()):
+        if self.shows_progress():
             print(f"  {cost['cells']:,.0f} cells, about {cost['steps']:,.0f} steps, {cost['memory_b'] / 2**20:,.0f} MiB, "
                   f"about {cost['wall_s']:,.0f} s", file=sys.stderr)
         state = self.initial_state()
