@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 import subprocess
+import sys
 import time
 from pathlib import Path
 from typing import Any, Iterable
@@ -194,11 +195,13 @@ class MlflowSweepCallback(Callback):
         (sweep_dir / PARENT_RUN_FILE).write_text(json.dumps({"run_id": run.info.run_id, "uri": client.tracking_uri}))
 
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
+        """Summarise the sweep, close its parent run, print the tally and exit with the code of its
+        worst job (:func:`sweep_exit_code`)."""
         sweep_dir = Path(str(config.hydra.sweep.dir))
         run_id = parent_run_id(sweep_dir)
         tracking = build_tracking(config)
         client = _client(tracking) if run_id is not None and tracking.enabled else None
-        status = "FAILED"
+        status, rows = "FAILED", []
         try:
             rows = summarize_sweep(sweep_dir)
             plot = sweep_plot(config, sweep_dir)
@@ -214,6 +217,24 @@ class MlflowSweepCallback(Callback):
         finally:  # the parent run never stays RUNNING
             if client is not None:
                 client.set_terminated(run_id, status)
+        tally, code = sweep_exit_code([r["status"] for r in rows])
+        print(f"dsmv: sweep done: {tally} — see {sweep_dir / SWEEP_SUMMARY_FILE}")
+        if code != 0:
+            sys.exit(code)
+
+
+def sweep_exit_code(statuses: list[str]) -> tuple[str, int]:
+    """A sweep's tally ('12 ok, 1 bearing_failure, 1 failed') and exit code: that of its worst job
+    (dsmv.results.EXIT_SEVERITY). Jobs that failed, were interrupted, went unstable or left the
+    domain make it non-zero; bearing failures are answers and leave it 0."""
+    from collections import Counter
+
+    from dsmv.results import EXIT_CODES, EXIT_SEVERITY
+
+    counts = Counter(statuses)
+    tally = ", ".join(f"{counts[s]} {s}" for s in reversed(EXIT_SEVERITY) if counts[s]) or "no jobs"
+    worst = next((s for s in EXIT_SEVERITY if counts[s]), "ok")
+    return tally, EXIT_CODES[worst]
 
 
 def sweep_plot(config: DictConfig, sweep_dir: Path) -> Path | None:

@@ -100,3 +100,12 @@ def test_the_estimate_is_kept_beside_the_wall_time(tmp_path):
     proc, result = dsmv(tmp_path)
     assert result["status"] == "ok" and result["units"]["estimated_wall_s"] == "s"
     assert 0.0 < result["metrics"]["estimated_wall_s"] < 3600.0
+
+
+def test_a_sweep_exits_with_its_worst_job():
+    from dsmv.tracking import sweep_exit_code
+
+    assert sweep_exit_code(["ok"] * 12 + ["bearing_failure", "failed"]) == ("12 ok, 1 bearing_failure, 1 failed", 1)
+    assert sweep_exit_code(["ok", "bearing_failure"]) == ("1 ok, 1 bearing_failure", 0)  # an answer
+    assert sweep_exit_code(["ok", "out_of_domain", "unstable"])[1] == EXIT_CODES["unstable"]
+    assert sweep_exit_code(["ok", "interrupted", "unstable"])[1] == EXIT_CODES["interrupted"]

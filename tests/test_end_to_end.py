@@ -174,6 +174,8 @@ def test_tracking_server_option_logs_to_a_local_server(run_cli, tmp_path):
 def test_a_wrong_job_in_a_sweep_is_recorded_and_the_others_run(run_cli, tmp_path):
     proc = run_cli("dsmv", "-m", "soil.su0_pa=4000,-1,6000")
     assert "soil.su0_pa = -1" in proc.stderr
+    assert proc.returncode == 1  # the sweep's worst job: failed
+    assert "dsmv: sweep done: 2 ok, 1 failed" in proc.stdout
     jobs = job_dirs(tmp_path)
     statuses = sorted(json.loads((j / "result.json").read_text())["status"] for j in jobs)
     assert statuses == ["failed", "ok", "ok"]
