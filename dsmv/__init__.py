@@ -12,3 +12,8 @@ try:
     __version__ = version("dsmv")
 except PackageNotFoundError:  # running from a source tree that was never installed
     __version__ = "0.0.0+unknown"
+
+# Before any CEL kernel is defined: Numba's cache goes to a directory keyed on the CEL sources.
+from dsmv.numba_cache import configure as _configure_numba_cache
+
+_configure_numba_cache()

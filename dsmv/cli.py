@@ -19,8 +19,22 @@ from dsmv import registry
 # does not expose to that walk: register ours by hand (a no-op when Hydra found it).
 Plugins.instance().register(CaseSweeper)
 
-#: the Hydra config tree of the source checkout (dsmv is installed editable)
-CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
+
+def find_config_dir() -> Path:
+    """The Hydra config tree: ``dsmv/conf`` in an installed wheel, else ``conf/`` of the source checkout.
+
+    pyproject.toml maps the checkout's top-level ``conf/`` into the wheel as the package data
+    ``dsmv/conf``; an editable install or a plain checkout reads ``conf/`` beside the package.
+    """
+    package = Path(__file__).resolve().parent
+    for candidate in (package / "conf", package.parent / "conf"):
+        if (candidate / "config.yaml").is_file():
+            return candidate
+    raise FileNotFoundError(f"no Hydra config tree (conf/config.yaml) in {package} or beside it")
+
+
+#: the Hydra config tree every entry point composes from
+CONFIG_DIR = str(find_config_dir())
 
 
 def check_group_choices(argv: list[str], program: str, config_dir: str = CONFIG_DIR) -> None:

@@ -17,6 +17,7 @@ process). Everything goes through ``MlflowClient`` with explicit run ids: no glo
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import time
@@ -80,10 +81,24 @@ def flatten(tree: Any, prefix: str = "") -> dict[str, str]:
     return {prefix[:-1]: str(tree)}
 
 
-def _git_sha() -> str | None:
+def _git_sha(package_dir: Path | None = None) -> str | None:
+    """The commit of the git checkout dsmv was imported from, whatever the working directory.
+
+    None when dsmv's package directory is not tracked by a git checkout: installed from a wheel,
+    including into a virtualenv that happens to sit inside some repository's work tree.
+    """
+    package_dir = Path(package_dir or Path(__file__).resolve().parent)
+    env = {k: v for k, v in os.environ.items() if k not in ("GIT_DIR", "GIT_WORK_TREE")}
+    git = ["git", "-C", str(package_dir)]
     try:
-        out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, timeout=5)
+        tracked = subprocess.run([*git, "ls-files", "--error-unmatch", "--", "__init__.py"],
+                                 capture_output=True, text=True, timeout=5, env=env)
+        if tracked.returncode != 0:
+            return None
+        out = subprocess.run([*git, "rev-parse", "HEAD"], capture_output=True, text=True, timeout=5, env=env)
     except (OSError, subprocess.SubprocessError):
+        return None
+    if out.returncode != 0:
         return None
     return out.stdout.strip() or None
 

@@ -131,3 +131,22 @@ def test_a_non_finite_history_never_leaves_silently():
                "velocity_m_s": np.zeros(2), "force_n": np.zeros(2)}
     with pytest.raises(ValueError, match="sinkage_m"):
         SolveResult("ok", "", {"max_sinkage_m": 0.1}, history=history)
+
+
+def test_the_estimate_takes_a_t_bar_the_solver_refuses(compose_cfg):
+    """The CEL solver sizes a T-bar's landing with the energy estimate: a strip of width D per metre
+    of bar (sc = 1). solver=analytic_energy itself still refuses a T-bar when the scene is composed."""
+    from dsmv.analytic.energy import energy_estimate
+    from dsmv.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=r"^geometry.kind = 'tbar': "):
+        build_scene(compose_cfg(["geometry=tbar"]))
+    scene = build_scene(compose_cfg(["geometry=tbar", "solver=cel2d"]))
+    estimate = energy_estimate(scene)
+    assert estimate.shape_factor == 1.0
+    assert estimate.resistance_area_m2 == pytest.approx((2 + math.pi) * 0.5 * 1.0)
+    # ½·Nc·A·ks·z² + (Nc·A·su0 − W)·z − ½·M·v² = 0 with A = D·1 m, W = m·g, M = m
+    a, b, c = 0.5 * (2 + math.pi) * 0.5 * 1500, (2 + math.pi) * 0.5 * 5000 - 4500 * G, -0.5 * 4500 * 1.5**2
+    assert estimate.solve().metrics["max_sinkage_m"] == pytest.approx((-b + math.sqrt(b * b - 4 * a * c)) / (2 * a))
+    with pytest.raises(ConfigError, match=r"^geometry.kind = 'cone': "):
+        energy_estimate(build_scene(compose_cfg(["geometry=fall_cone_30deg", "solver=cel2d"])))
