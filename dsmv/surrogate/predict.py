@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sys
 import time
 from dataclasses import dataclass
@@ -480,6 +481,9 @@ def predict(cfg: DictConfig) -> dict | None:
     from hydra.core.hydra_config import HydraConfig
 
     run_dir = Path(HydraConfig.get().runtime.output_dir) if HydraConfig.initialized() else None
+    # MLflow draws a progress bar on stderr for every artifact it downloads (the model, its
+    # calibration): a user mistake found after that would no longer be one line
+    os.environ.setdefault("MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR", "false")
     try:
         return run_predict(cfg, run_dir)
     except DsmvError as error:
