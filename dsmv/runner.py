@@ -153,6 +153,9 @@ def _answer(scene: Scene, result: SolveResult) -> str:
     if result.status != "ok" or sinkage is None:  # only an 'ok' run has an answer: say what happened
         return result.message
     if scene.landing.kind != "push":
+        if "max_sinkage_error_m" in result.metrics:  # solver.error_estimate: the mesh's share of doubt
+            return (f"max sinkage {sinkage:.4f} m; extrapolated {result.metrics['max_sinkage_extrapolated_m']:.4f} m "
+                    f"± {result.metrics['max_sinkage_error_m']:.4f} m (mesh)")
         return f"max sinkage {sinkage:.4f} m"
     factors = [f"{result.metrics[name]:.3f} at {label}" for name, label in
                (("nc_at_0p02B", "0.02 B"), ("nc_at_0p05B", "0.05 B"), ("nc_at_0p1B", "0.1 B"),

@@ -50,6 +50,8 @@ class CelConfig(Schema):
     core_margin_widths: Number = Field(gt=0, description="uniform core beyond the body, in B")
     history_samples: Count = Field(ge=10, description="samples in the time history (-)")
     max_steps: Count = Field(ge=1, description="steps before a run gives up (-)")
+    error_estimate: bool = Field(description=(
+        "true: run the scene on cells h, 2h and 4h too, and report the answer's mesh error (Richardson)"))
     max_wall_s: Number = Field(gt=0, description=(
         "refuse a run whose estimated wall time exceeds this (s); it never changes a result"))
     progress: Literal["auto", "on", "off"] = Field(description=(

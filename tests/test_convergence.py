@@ -1,0 +1,53 @@
+"""Richardson extrapolation with the observed order (dsmv.convergence), against exact series."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from dsmv.convergence import FALLBACK_FACTOR, observed_order, richardson
+
+
+@pytest.mark.parametrize("p", [0.7, 1.0, 2.0, 2.9])
+@pytest.mark.parametrize("h", [(0.01, 0.02, 0.04), (0.0375, 0.075, 0.15), (0.05, 0.1, 0.25)])
+def test_an_exact_power_law_is_extrapolated_exactly(h, p):
+    """z = z* + C·h^p on any three cell sizes: the order and the limit come back to round-off."""
+    z = tuple(0.15 - 0.4 * hi**p for hi in h)
+    estimate = richardson(h, z)
+    assert estimate.asymptotic and estimate.order == pytest.approx(p, rel=1e-9)
+    assert estimate.extrapolated == pytest.approx(0.15, rel=1e-9)
+    assert estimate.error == pytest.approx(0.4 * h[0] ** p, rel=1e-6)
+
+
+def test_outside_the_regime_first_order_and_a_safety_factor():
+    h = (0.01, 0.02, 0.04)
+    wobbly = (0.140, 0.134, 0.136)  # the differences change sign
+    assert math.isnan(observed_order(h, wobbly))
+    estimate = richardson(h, wobbly)
+    assert not estimate.asymptotic and estimate.order == 1.0
+    assert estimate.error == pytest.approx(FALLBACK_FACTOR * 0.006)
+    assert estimate.extrapolated == pytest.approx(0.140 + 0.006)
+    slow = tuple(1.0 - hi**0.2 for hi in h)  # order 0.2: below the range, so not trusted
+    assert not richardson(h, slow).asymptotic
+
+
+def test_every_answer_can_carry_its_mesh_error(compose_cfg):
+    """solver.error_estimate=true: the default landing on h, 2h and 4h, its extrapolated sinkage and
+    error (the interval holds the fine answer's distance to the limit by construction), and the same
+    for a push's bearing factors."""
+    from dsmv.cel.solver import Cel2DSolver
+    from dsmv.scene import build_scene
+
+    landing = Cel2DSolver(build_scene(compose_cfg(["solver=cel2d", "solver.progress=off",
+                                                   "solver.error_estimate=true"]))).solve()
+    m = landing.metrics
+    assert landing.status == "ok"
+    assert m["max_sinkage_error_m"] == pytest.approx(abs(m["max_sinkage_extrapolated_m"] - m["max_sinkage_m"]),
+                                                     rel=1e-12) or m["max_sinkage_order"] == 1.0
+    assert m["max_sinkage_error_m"] > 0.0 and landing.units["max_sinkage_error_m"] == "m"
+    push = Cel2DSolver(build_scene(compose_cfg(["experiment=verify_prandtl", "hydra.mode=RUN", "solver.progress=off",
+                                                "mesh.cell_size_m=0.1", "landing.displacement_m=0.06",
+                                                "solver.error_estimate=true"]))).solve()
+    assert push.status == "ok" and {"nc_at_0p05B_extrapolated", "nc_at_0p05B_error", "nc_at_0p05B_order"} <= set(
+        push.metrics)
