@@ -292,10 +292,11 @@ def test_hourglass_diagnostic_separates_the_zigzag_from_smooth_motion():
     xs, ys = np.meshgrid(np.linspace(0.0, 1.0, n + 1), np.linspace(0.0, 1.0, n + 1), indexing="ij")
     phi = np.ones((n, n))
     h = 1.0 / n
-    mesh = Mesh(xs[:, 0], ys[0], np.full((n, n), h * h), structured_corners((n, n)), (n + 1) ** 2)
+    mesh = Mesh(xs[:, 0], ys[0], np.full((n, n), h * h), structured_corners((n, n)), (n + 1) ** 2,
+                np.zeros((n, n), dtype=bool))
 
     def hourglass_modes(phi, vx, vy, full):
-        return modes(mesh, phi, np.stack([vx.ravel(), vy.ravel()]), full)
+        return modes(mesh.corner, phi, np.stack([vx.ravel(), vy.ravel()]), full)
 
     # rigid rotation plus a uniform strain rate: a (1/s) and b (1/s)
     vx, vy = -0.3 * ys + 0.2 * xs + 1.0, 0.3 * xs - 0.1 * ys

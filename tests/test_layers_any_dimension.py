@@ -38,7 +38,7 @@ def slab():
     cells = Cells(phi, np.zeros((8, *cell_shape)), np.zeros(cell_shape), np.ones(cell_shape),
                   np.zeros(cell_shape, dtype=bool), np.ones(cell_shape), np.zeros(cell_shape, dtype=bool),
                   np.full(cell_shape, np.nan))
-    mesh = Mesh(AXES[0], AXES[2], vol, structured_corners(cell_shape), N_NODES)
+    mesh = Mesh(AXES[0], AXES[2], vol, structured_corners(cell_shape), N_NODES, np.zeros(cell_shape, dtype=bool))
     nodes = Nodes(np.zeros((3, N_NODES)), np.zeros((3, N_NODES)), np.zeros(N_NODES), np.zeros((3, N_NODES)))
     return mesh, cells, nodes
 

@@ -32,7 +32,7 @@ from dsmv.cel import ledger
 from dsmv.cel.config import Cel2DConfig, CelConfig, Economies  # noqa: F401  (the solvers' config models)
 from dsmv.cel.contact import ContactRules, build_contact, touchdown_mass
 from dsmv.cel.layout import (
-    B_INFLOW, B_MAXDISP, B_TIME, B_VEL, N_BODY, NQ_BASE, Cells, Faces, Inflow, Mesh, Nodes, SoilLawKernel,
+    B_INFLOW, B_MAXDISP, B_TIME, B_VEL, N_BODY, NQ_BASE, Cells, Faces, Inflow, Mesh, Nodes, SoilLawKernel, split_cells,
 )
 from dsmv.cel.state import Elastic, geostatic_state, step_parameters
 from dsmv.errors import ConfigError
@@ -99,6 +99,7 @@ class State:
     elastic0: float        # elastic energy at the start (J, model)
     touchdown_loss: float  # kinetic energy lost at touchdown (J, model)
     kinetic_in: float      # the body's kinetic energy at touchdown (J, model)
+    stepper: object = None  # the compiled loop's machine code for these containers (Cel2DSolver.advance)
 
 
 class CelSolver:
@@ -528,7 +529,7 @@ class Cel2DSolver(CelSolver):
         initial_state = self.law.initial_state()
         q = np.concatenate([q, np.broadcast_to(initial_state[:, None, None], (len(initial_state), nx, ny))])
         mesh = Mesh(grid.x, grid.y, cell_volumes(grid.x, grid.y, self.axisym), body_contact.corner,
-                    (nx + 1) * (ny + 1))
+                    (nx + 1) * (ny + 1), split_cells(body_contact.corner))
         shared = np.full((nx, ny), np.nan)
         merge = body_contact.contact.merge
         shared[merge[:, 0], merge[:, 1]] = 0.0
@@ -579,17 +580,22 @@ class Cel2DSolver(CelSolver):
         v[1, contact.node[~full]] = v0 * normal[~full, 1] ** 2
 
     def advance(self, state: State, n: int) -> tuple[int, int]:
-        from dsmv.cel.stepper import run_steps
+        """``n`` steps of the compiled loop (its machine code found once, then called directly)."""
+        args = (state.mesh, state.cells, state.faces, state.nodes, state.contact, state.inflow, state.par, state.body,
+                state.energy, state.law)
+        if state.stepper is None:
+            from dsmv.cel.kernels.common import compiled_entry
+            from dsmv.cel.stepper import run_steps
 
-        return run_steps(n, state.mesh, state.cells, state.faces, state.nodes, state.contact, state.inflow, state.par,
-                         state.body, state.energy, state.law)
+            state.stepper = compiled_entry(run_steps, (n, *args))
+        return state.stepper(n, *args)
 
     # ------------------------------------------------------------------ reductions the trackers use
 
     def hourglass_modes(self, state: State) -> tuple[float, float]:
         from dsmv.cel.kernels.plane import hourglass_modes
 
-        return hourglass_modes(state.mesh, state.cells.phi, state.nodes.v, ZIGZAG_FULL_CELL)
+        return hourglass_modes(state.mesh.corner, state.cells.phi, state.nodes.v, ZIGZAG_FULL_CELL)
 
     def elastic_energy(self, state: State) -> float:
         from dsmv.cel.kernels.plane import elastic_energy

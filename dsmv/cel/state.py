@@ -89,7 +89,8 @@ def body_free_state(x, y, phi, q, vol):
     fixed_node, fixed_axis = fixed_velocities((nx + 1, ny + 1))
     open_cells = Openings.of_cells(np.zeros((nx, ny), dtype=bool))
     return (
-        Mesh(np.asarray(x, float), np.asarray(y, float), vol, structured_corners((nx, ny)), n_nodes),
+        Mesh(np.asarray(x, float), np.asarray(y, float), vol, structured_corners((nx, ny)), n_nodes,
+             np.zeros((nx, ny), dtype=np.bool_)),
         Cells(phi, q, np.zeros((nx, ny)), np.ones((nx, ny)), np.zeros((nx, ny), dtype=np.bool_), np.ones((nx, ny)),
               np.zeros((nx, ny), dtype=np.bool_), np.full((nx, ny), np.nan)),
         Faces(open_cells.aperture_x, open_cells.aperture_y, np.zeros((nx + 1, ny)), np.zeros((ny + 1, nx))),

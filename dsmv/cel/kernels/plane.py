@@ -117,12 +117,13 @@ def nodal_forces(mesh, cells, faces, nodes, par, v_body, work):
     through the open parts of the faces only (:func:`add_cut_forces`), the work-conjugate of
     :func:`cut_divergence`: the closed parts are the body's surface.
     """
-    x, y, corner, v = mesh.x, mesh.y, mesh.corner, nodes.v
+    x, y, corner, split, v = mesh.x, mesh.y, mesh.corner, mesh.split, nodes.v
     phi, q, open_frac, shared = cells.phi, cells.q, cells.open_frac, cells.shared_divergence
     fn = nodes.f
     fn[:] = 0.0
     rho, axisym, c_wave = par.density, par.axisymmetric, par.wave_speed
     nx, ny = phi.shape
+    ny1 = ny + 1
     hg_power = 0.0
     bv_power = 0.0
     arc_fy = 0.0
@@ -136,7 +137,11 @@ def nodal_forces(mesh, cells, faces, nodes, par, v_body, work):
             dy = y[j + 1] - y[j]
             area = dx * dy
             vol = area * r
-            n0, n1, n2, n3 = corner[i, j, 0], corner[i, j, 1], corner[i, j, 2], corner[i, j, 3]
+            if split[i, j]:  # a cell with a split node: the corner table says which
+                n0, n1, n2, n3 = corner[i, j, 0], corner[i, j, 1], corner[i, j, 2], corner[i, j, 3]
+            else:  # the structured numbering, the table's own for every other cell
+                n0 = i * ny1 + j
+                n1, n2, n3 = n0 + ny1, n0 + ny1 + 1, n0 + 1
             vel = (v[0, n0], v[0, n1], v[0, n2], v[0, n3], v[1, n0], v[1, n1], v[1, n2], v[1, n3])
             vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3 = vel
             div = (vx1 + vx2 - vx0 - vx3) / (2.0 * dx) + (vy2 + vy3 - vy0 - vy1) / (2.0 * dy)
@@ -196,7 +201,7 @@ def nodal_forces(mesh, cells, faces, nodes, par, v_body, work):
 
 
 @njit(**JIT)
-def hourglass_modes(mesh, phi, v, full):
+def hourglass_modes(corner, phi, v, full):
     """How much of the nodal velocity field is the Q4 hourglass mode (a zig-zag diagnostic).
 
     Each cell's four nodal velocities split into v̄ + b_ξ·ξ + b_η·η + a·Γ with ξ = (−1, 1, 1, −1),
@@ -211,7 +216,7 @@ def hourglass_modes(mesh, phi, v, full):
         for j in range(ny):
             if phi[i, j] < full:
                 continue
-            vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3 = cell_velocities(mesh.corner, v, i, j)
+            vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3 = cell_velocities(corner, v, i, j)
             ax, ay = vx0 - vx1 + vx2 - vx3, vy0 - vy1 + vy2 - vy3
             bxx, bxy = -vx0 + vx1 + vx2 - vx3, -vy0 + vy1 + vy2 - vy3
             byx, byy = -vx0 - vx1 + vx2 + vx3, -vy0 - vy1 + vy2 + vy3
@@ -356,10 +361,11 @@ def update_stress(mesh, cells, faces, nodes, par, v_body, law, out):
     holds the sliver of soil beside the gap the soil has opened at the face, which spread across
     the cell would bridge the gap. ``out[1]`` accumulates the elastic energy so released (J).
     """
-    x, y, corner, v = mesh.x, mesh.y, mesh.corner, nodes.v
+    x, y, corner, split, v = mesh.x, mesh.y, mesh.corner, mesh.split, nodes.v
     phi, q, su_cell, factor = cells.phi, cells.q, cells.su, cells.strength_factor
     open_frac, gap, shared = cells.open_frac, cells.gap, cells.shared_divergence
     nx, ny = phi.shape
+    ny1 = ny + 1
     n_state = q.shape[0] - NQ_BASE
     shear_mod, dt, axisym = par.shear, par.dt, par.axisymmetric
     lam = par.bulk - 2.0 * shear_mod / 3.0
@@ -384,7 +390,11 @@ def update_stress(mesh, cells, faces, nodes, par, v_body, law, out):
                 q[SZZ, i, j] = 0.0
                 su_cell[i, j] = 0.0
                 continue
-            n0, n1, n2, n3 = corner[i, j, 0], corner[i, j, 1], corner[i, j, 2], corner[i, j, 3]
+            if split[i, j]:  # a cell with a split node: the corner table says which
+                n0, n1, n2, n3 = corner[i, j, 0], corner[i, j, 1], corner[i, j, 2], corner[i, j, 3]
+            else:  # the structured numbering, the table's own for every other cell
+                n0 = i * ny1 + j
+                n1, n2, n3 = n0 + ny1, n0 + ny1 + 1, n0 + 1
             vel = (v[0, n0], v[0, n1], v[0, n2], v[0, n3], v[1, n0], v[1, n1], v[1, n2], v[1, n3])
             dxx, dyy, dxy, dzz, w = strain_increment(dt, dx, dy, r, axisym, vel)
             if not math.isnan(shared[i, j]) or open_ij < 1.0:
