@@ -385,7 +385,8 @@ class TravelLimit:
 
     def after_chunk(self, run: Run) -> Optional[Ending]:
         if run.sinkage_m > self.travel:
-            return Ending("out_of_domain", f"the body passed the travel the domain was sized for ({self.travel:.3g} m)")
+            return Ending("out_of_domain", f"the body passed the travel the domain was sized for ({self.travel:.3g} m); "
+                                           f"raise solver.initial_travel_m")
         return None
 
 
