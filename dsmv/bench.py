@@ -352,7 +352,19 @@ def main(argv: list[str] | None = None) -> None:
                                      "skipping of the CEL solver, as tables and a plot under --out.")
     parser.add_argument("--quick", action="store_true", help="a short version (under three minutes)")
     parser.add_argument("--out", default="runs/bench", help="output folder (default runs/bench)")
+    parser.add_argument("--regression", metavar="FILE", help="instead: every metric of the regression scenes "
+                        "(dsmv.regression) into FILE (JSON; scenes already there are kept)")
+    parser.add_argument("--against", metavar="REF", help="with --regression: compare with a file written before")
+    parser.add_argument("--scenes", nargs="*", help="with --regression: only these scenes")
     args = parser.parse_args(argv)
+    if args.regression:
+        from dsmv import regression
+
+        os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+        results = regression.write(Path(args.regression), args.scenes)
+        if args.against:
+            print("\n".join(regression.compare(json.loads(Path(args.against).read_text()), results)))
+        return
     plan = QUICK if args.quick else FULL
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

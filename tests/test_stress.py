@@ -25,6 +25,7 @@ import numpy as np
 import pytest
 
 from dsmv.cel.solver import ENERGY_ERROR_LIMIT
+from dsmv.regression import STRESS_SCENES
 from dsmv.results import EXIT_CODES, HISTORY_COLUMNS, HISTORY_FILE, RESULT_FILE
 
 BIN = Path(sys.executable).parent
@@ -187,22 +188,22 @@ class Scene:
 
 
 SCENES = [
-    Scene("su0_500_pa", ("soil.su0_pa=500",), "ok", _softer_soil_sinks_deeper, quick=True),
-    Scene("touchdown_10_m_s_10500_kg", ("landing.velocity_m_s=10", "landing.mass_kg=10500"), "ok",
+    Scene("su0_500_pa", STRESS_SCENES["su0_500_pa"], "ok", _softer_soil_sinks_deeper, quick=True),
+    Scene("touchdown_10_m_s_10500_kg", STRESS_SCENES["touchdown_10_m_s_10500_kg"], "ok",
           _fast_heavy_touchdown),
-    Scene("st_10_xi95_10", ("soil.law=einav_randolph", "soil.sensitivity=10", "soil.xi95=10"), "ok",
+    Scene("st_10_xi95_10", STRESS_SCENES["st_10_xi95_10"], "ok",
           _softening_sinks_deeper, quick=True),
-    Scene("eta_0p15_at_10_m_s", ("soil.law=einav_randolph", "soil.rate.eta=0.15", "landing.velocity_m_s=10"), "ok",
+    Scene("eta_0p15_at_10_m_s", STRESS_SCENES["eta_0p15_at_10_m_s"], "ok",
           _rate_effect_holds_up),
-    Scene("ks_0_too_heavy", ("soil.su0_pa=2000", "soil.ks_pa_per_m=0", "landing.mass_kg=10500"), "bearing_failure",
+    Scene("ks_0_too_heavy", STRESS_SCENES["ks_0_too_heavy"], "bearing_failure",
           _too_heavy, quick=True),
-    Scene("cfl_1_beyond_limit", ("solver.cfl=1.0",), "unstable", _cfl_beyond_limit),
-    Scene("cfl_0p7_near_limit", ("solver.cfl=0.7",), "ok", _cfl_near_limit, quick=True),
-    Scene("domain_too_short", ("solver.initial_travel_m=0.03",), "out_of_domain", _domain_too_short, quick=True),
-    Scene("rigid_boundaries_1_B_away", ("solver.domain_depth_widths=1", "solver.domain_half_width_widths=1"), "ok",
-          _rigid_boundaries_close),
-    Scene("zero_gravity", ("landing.gravity_m_s2=0",), "ok", _no_gravity, quick=True),
-    Scene("zero_gravity_cone_thrown_at_1_m_s", (*CONE_THROWN, "landing.gravity_m_s2=0"), "ok", _cone_without_gravity),
+    Scene("cfl_1_beyond_limit", STRESS_SCENES["cfl_1_beyond_limit"], "unstable", _cfl_beyond_limit),
+    Scene("cfl_0p7_near_limit", STRESS_SCENES["cfl_0p7_near_limit"], "ok", _cfl_near_limit, quick=True),
+    Scene("domain_too_short", STRESS_SCENES["domain_too_short"], "out_of_domain", _domain_too_short, quick=True),
+    Scene("rigid_boundaries_1_B_away", STRESS_SCENES["rigid_boundaries_1_B_away"], "ok", _rigid_boundaries_close),
+    Scene("zero_gravity", STRESS_SCENES["zero_gravity"], "ok", _no_gravity, quick=True),
+    Scene("zero_gravity_cone_thrown_at_1_m_s", STRESS_SCENES["zero_gravity_cone_thrown_at_1_m_s"], "ok",
+          _cone_without_gravity),
 ]
 
 
