@@ -3,8 +3,9 @@ PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.dsmv-installed
+DOCS_STAMP := $(VENV)/.dsmv-docs-installed
 
-.PHONY: install run test clean
+.PHONY: install run test docs clean
 
 install: $(STAMP)
 
@@ -19,6 +20,16 @@ run: install
 
 test: install
 	$(BIN)/python -m pytest $(PYTEST_ARGS)
+
+# The documentation site: installs the docs extra into .venv, builds docs/ into runs/site (strict:
+# a broken link or a page missing from mkdocs.yml's nav fails the build).
+docs: $(DOCS_STAMP)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict -d runs/site
+
+$(DOCS_STAMP): pyproject.toml
+	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet -e ".[docs]"
+	@touch $(DOCS_STAMP)
 
 clean:
 	rm -rf runs/outputs runs/multirun runs/mlflow.db runs/mlartifacts
