@@ -109,3 +109,28 @@ def test_a_sweep_exits_with_its_worst_job():
     assert sweep_exit_code(["ok", "bearing_failure"]) == ("1 ok, 1 bearing_failure", 0)  # an answer
     assert sweep_exit_code(["ok", "out_of_domain", "unstable"])[1] == EXIT_CODES["unstable"]
     assert sweep_exit_code(["ok", "interrupted", "unstable"])[1] == EXIT_CODES["interrupted"]
+
+
+# --------------------------------------------------------------------------- physically meaningful values
+
+
+def test_the_stress_suites_fast_scenes_stay_legal_and_the_limits_are_stated(compose_cfg):
+    """10 m/s on the default soil is 0.037 c (c = 267 m/s); the table 3 design's fastest, 8 m/s on su0 = 2 kPa,
+    is 0.047 c; a cone's cells are sized to its penetration, so the core-cell bound leaves it alone."""
+    from dsmv.errors import ConfigError
+    from dsmv.scene import build_scene, elastic_wave_speed_m_s
+
+    for overrides in (["landing.velocity_m_s=10", "landing.mass_kg=10500"],
+                      ["soil.law=einav_randolph", "soil.rate.eta=0.15", "landing.velocity_m_s=10"],
+                      ["soil.su0_pa=2000", "landing.velocity_m_s=8"],
+                      ["geometry=fall_cone_30deg", "landing.velocity_m_s=1"], ["mesh=coarse", "geometry=tbar"]):
+        build_scene(compose_cfg(["solver=cel2d", "tracking=disabled", *overrides]))
+    scene = build_scene(compose_cfg(["tracking=disabled"]))
+    assert elastic_wave_speed_m_s(scene.soil) == pytest.approx(267.04, abs=0.01)
+    with pytest.raises(ConfigError, match=r"landing.velocity_m_s = 27.0: must be at most 26.7 m/s"):
+        build_scene(compose_cfg(["tracking=disabled", "landing.velocity_m_s=27"]))
+    with pytest.raises(ConfigError, match=r"mesh.cell_size_m = 0.3: must be at most 0.25 m"):
+        build_scene(compose_cfg(["tracking=disabled", "solver=cel2d", "geometry=tbar", "mesh.cell_size_m=0.3"]))
+    # the energy method has no mesh: its cells are not judged
+    build_scene(compose_cfg(["tracking=disabled", "solver=analytic_energy", "mesh.cell_size_m=0.5"]))
+
