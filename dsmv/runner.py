@@ -51,18 +51,20 @@ def run_job(cfg: DictConfig) -> dict:
     if multirun and "joblib" in str(hydra_cfg.launcher.get("_target_", "")):
         pin_numba_threads(1)
 
+    names = str(cfg.get("solver", {}).get("name")), str(cfg.get("soil", {}).get("law"))
     try:
         scene = build_scene(cfg)
         parent = tracking.parent_run_id(Path(hydra_cfg.sweep.dir)) if multirun else None
         run_name = " ".join(hydra_cfg.overrides.task) or run_dir.name
         tracker = tracking.start_job(cfg, scene, run_dir, run_name, parent)
     except DsmvError as error:
-        if not multirun:
-            fail_user_error(error)
+        if not multirun:  # (dsmv.cli.check_command_line refuses most before Hydra makes the run dir)
+            print(f"dsmv: error: {error}", file=sys.stderr)
+            remove_unstarted_run_dir(run_dir, hydra_cfg, str(cfg.get("paths", {}).get("runs_dir", run_dir.parent)))
+            sys.exit(2)
         # in a sweep, one wrong job is recorded and counted; the others still run
         print(f"dsmv: error: {error}", file=sys.stderr)
-        write_result(run_dir, SolveResult("failed", str(error)), str(cfg.get("solver", {}).get("name")),
-                     str(cfg.get("soil", {}).get("law")), "")
+        write_result(run_dir, SolveResult("failed", str(error)), *names, "")
         return {"status": "failed", "metrics": {}}
 
     error_text, end_status = None, "FAILED"
@@ -100,6 +102,60 @@ def run_job(cfg: DictConfig) -> dict:
     if not multirun and EXIT_CODES[result.status] != 0:
         sys.exit(EXIT_CODES[result.status])
     return {"status": result.status, "metrics": result.metrics}
+
+
+#: what Hydra writes into a job's dir before the job starts
+HYDRA_JOB_FILES = {"config.yaml", "hydra.yaml", "overrides.yaml"}
+
+
+def remove_unstarted_run_dir(run_dir: Path, hydra_cfg, runs_dir: str | Path) -> bool:
+    """Remove the dir Hydra made for a run refused before it started, if it holds only what Hydra put
+    there (``.hydra/`` with its three files, the job's log): a refused run leaves nothing behind. Empty
+    parents (``outputs/<day>``) go too, up to the runs dir (which stays). Anything else in it: the dir stays."""
+    subdir = hydra_cfg.output_subdir
+    log_name = f"{hydra_cfg.job.name}.log"
+    try:
+        entries = {p.name: p for p in run_dir.iterdir()}
+        hydra_dir = run_dir / str(subdir) if subdir else None
+        if set(entries) - {log_name, str(subdir)}:
+            return False
+        if hydra_dir is not None and hydra_dir.exists():
+            if not hydra_dir.is_dir() or hydra_dir.is_symlink():
+                return False
+            if any(not p.is_file() or p.name not in HYDRA_JOB_FILES for p in hydra_dir.iterdir()):
+                return False
+        if log_name in entries and not entries[log_name].is_file():
+            return False
+        _close_log_handlers(run_dir)
+        for p in (list(hydra_dir.iterdir()) if hydra_dir is not None and hydra_dir.exists() else ()):
+            p.unlink()
+        if hydra_dir is not None and hydra_dir.exists():
+            hydra_dir.rmdir()
+        if log_name in entries:
+            entries[log_name].unlink()
+        run_dir.rmdir()
+    except OSError:
+        return False
+    stop = Path(runs_dir).resolve()
+    parent = run_dir.resolve().parent
+    while stop in parent.parents:  # strictly inside the runs dir, which stays
+        try:
+            parent.rmdir()  # only when empty
+        except OSError:
+            break
+        parent = parent.parent
+    return True
+
+
+def _close_log_handlers(run_dir: Path) -> None:
+    """Close and detach the root logger's file handlers writing into ``run_dir``."""
+    import logging
+
+    root = logging.getLogger()
+    for handler in list(root.handlers):
+        if isinstance(handler, logging.FileHandler) and Path(handler.baseFilename).parent == run_dir.resolve():
+            root.removeHandler(handler)
+            handler.close()
 
 
 @contextmanager

@@ -317,6 +317,12 @@ def _validate(model: type[BaseModel], data: Any, prefix: str) -> BaseModel:
         if err["type"] == "missing":
             value = None
         message = err["msg"].replace("Input should be", "must be").replace("Value error, ", "")
+        if err["type"] == "extra_forbidden" and len(err["loc"]) == 1:  # a typo: name the closest key
+            import difflib
+
+            close = difflib.get_close_matches(str(err["loc"][0]), list(model.model_fields), n=1, cutoff=0.6)
+            if close:
+                message += f"; did you mean {prefix}.{close[0]}?"
         raise ConfigError(path, value, message) from None
 
 

@@ -111,6 +111,117 @@ def test_a_sweep_exits_with_its_worst_job():
     assert sweep_exit_code(["ok", "interrupted", "unstable"])[1] == EXIT_CODES["interrupted"]
 
 
+# --------------------------------------------------------------------------- mistakes typed on the command line
+
+
+def _no_output_dirs(tmp_path: Path) -> bool:
+    """Nothing a refused run could have left: neither the run dir nor anything under the runs dir."""
+    return not (tmp_path / "run").exists() and not any((tmp_path / "runs").glob("*"))
+
+
+TYPED_MISTAKES = [  # (override, what the one line must say)
+    ("landing.mass_kg=-1", "dsmv: error: landing.mass_kg = -1: must be greater than 0"),
+    ("soil=nope", "dsmv: error: soil = 'nope': not a soil option; available: nodule_field, sample_I"),
+    ("landing.mass_kg=abc", "dsmv: error: landing.mass_kg = 'abc': must be a valid number"),
+    ("soil.poisson_ratio=0.5", "dsmv: error: soil.poisson_ratio = 0.5: must be less than 0.5"),
+    ("geometry.width_m=0", "dsmv: error: geometry.width_m = 0: must be greater than 0"),
+    ("soil.su0_pa=0", "dsmv: error: soil.su0_pa = 0: must be greater than 0"),
+    ("landing.mas_kg=1", "dsmv: error: landing.mas_kg = 1: no such config key; did you mean landing.mass_kg?"),
+    ("+landing.mas_kg=1", "dsmv: error: landing.mas_kg = 1: no such config key; did you mean landing.mass_kg?"),
+    ("mesh.cell_size_m=0.0005", "dsmv: error: solver.max_wall_s = 3600.0: "),
+    ("landing.velocity_m_s=1000", "dsmv: error: landing.velocity_m_s = 1000.0: must be at most 26.7 m/s, a tenth "
+                                  "of the soil's elastic wave speed c = √((K + 4G/3)/ρ) = 267 m/s"),
+    ("mesh.cell_size_m=0.5", "dsmv: error: mesh.cell_size_m = 0.5: must be at most 0.3 m, half the body's width"),
+    ("soil.su0_pa=4000,6000", "dsmv: error: soil.su0_pa = '4000,6000': a sweep needs -m (--multirun)"),
+    ("hydra/launcher=jobib", "dsmv: error: hydra/launcher = 'jobib': not a hydra/launcher option; available: basic"),
+    ("~landing.mas_kg", "dsmv: error: ~landing.mas_kg: no such config key to delete; did you mean landing.mass_kg?"),
+]
+
+
+@pytest.mark.parametrize("override, line", TYPED_MISTAKES, ids=[m[0] for m in TYPED_MISTAKES])
+def test_a_typed_mistake_is_one_line_exit_2_and_leaves_no_dir(tmp_path, override, line):
+    """Caught before Hydra composes the job or makes its dir: exactly one line on stderr, exit code 2,
+    nothing on stdout, no run dir (not even .hydra/ and an empty cli.log), nothing in the runs dir."""
+    proc, result = dsmv(tmp_path, override)
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    assert proc.stderr.splitlines() == [proc.stderr.strip()] and proc.stderr.startswith(line), proc.stderr
+    assert proc.stdout == "" and result is None
+    assert _no_output_dirs(tmp_path), sorted(str(p) for p in tmp_path.rglob("*"))
+
+
+def _unwritable_runs_dirs(tmp_path: Path) -> list[tuple[Path, str]]:
+    """A runs dir under a regular file, which no one can create; and, unless we are root (who writes
+    through chmod), a read-only directory (mode 0o555)."""
+    (tmp_path / "afile").write_text("not a directory\n")
+    cases = [(tmp_path / "afile" / "runs", f"cannot be created: {tmp_path / 'afile'} is not a directory")]
+    if os.geteuid() != 0:
+        read_only = tmp_path / "read_only"
+        read_only.mkdir(mode=0o555)
+        cases.append((read_only, "is not writable"))
+    return cases
+
+
+@pytest.mark.parametrize("tracking", ["disabled", "local"])
+def test_an_unwritable_runs_dir_is_one_line_naming_paths_runs_dir(tmp_path, tracking):
+    env = dict(os.environ, NUMBA_NUM_THREADS="1", HYDRA_FULL_ERROR="0")
+    cases = _unwritable_runs_dirs(tmp_path)
+    before = sorted(tmp_path.rglob("*"))
+    for runs_dir, reason in cases:
+        proc = subprocess.run([str(BIN / "dsmv"), *QUICK, f"tracking={tracking}", f"paths.runs_dir={runs_dir}"],
+                              cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
+        assert proc.returncode == 2, proc.stdout + proc.stderr
+        assert proc.stderr.splitlines() == [f"dsmv: error: paths.runs_dir = '{runs_dir}': {reason}"], proc.stderr
+        assert "Traceback" not in proc.stdout + proc.stderr
+    assert sorted(tmp_path.rglob("*")) == before  # nothing made anywhere
+
+
+def test_a_refused_run_leaves_no_day_dir_in_the_runs_dir(tmp_path):
+    """Without hydra.run.dir, Hydra would have made runs/outputs/<day>/<time>/ with .hydra/ and cli.log."""
+    env = dict(os.environ, NUMBA_NUM_THREADS="1", HYDRA_FULL_ERROR="0")
+    proc = subprocess.run([str(BIN / "dsmv"), *QUICK, "tracking=local", "landing.mass_kg=-1"], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_dir_refused_in_the_job_is_removed_only_when_hydra_alone_wrote_it(tmp_path):
+    """The job's own fallback, behind the command line's checks: a refused run's dir goes when it holds
+    only .hydra/ (its three files) and the job's log, with its empty parents inside the runs dir; a dir
+    holding anything else stays whole."""
+    from types import SimpleNamespace
+
+    from dsmv.runner import remove_unstarted_run_dir
+
+    hydra_cfg = SimpleNamespace(output_subdir=".hydra", job=SimpleNamespace(name="cli"))
+
+    def job_dir(name: str) -> Path:
+        run_dir = tmp_path / "runs" / "outputs" / "day" / name
+        (run_dir / ".hydra").mkdir(parents=True)
+        for file in ("config.yaml", "hydra.yaml", "overrides.yaml"):
+            (run_dir / ".hydra" / file).write_text("{}\n")
+        (run_dir / "cli.log").write_text("")
+        return run_dir
+
+    kept = job_dir("kept")
+    (kept / "notes.txt").write_text("mine\n")
+    assert not remove_unstarted_run_dir(kept, hydra_cfg, tmp_path / "runs")
+    assert (kept / "notes.txt").exists() and (kept / ".hydra" / "config.yaml").exists()
+    extra = job_dir("extra")
+    (extra / ".hydra" / "other.yaml").write_text("{}\n")
+    assert not remove_unstarted_run_dir(extra, hydra_cfg, tmp_path / "runs") and (extra / ".hydra").exists()
+
+    gone = job_dir("gone")
+    assert remove_unstarted_run_dir(gone, hydra_cfg, tmp_path / "runs")
+    assert not gone.exists() and kept.exists()  # the day dir stays: it is not empty
+    for path in (kept, extra):
+        import shutil
+
+        shutil.rmtree(path)
+    last = job_dir("last")
+    assert remove_unstarted_run_dir(last, hydra_cfg, tmp_path / "runs")
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["runs"]  # the runs dir itself stays
+
+
 # --------------------------------------------------------------------------- physically meaningful values
 
 
