@@ -75,8 +75,11 @@ def check_command_line(argv: list[str], program: str, config_name: str = "config
     (``scene=True``) a single run's whole scene, validated as the job would (dsmv.scene.build_scene,
     the solver's cost guard included); and ``paths.runs_dir`` and the run or sweep dir Hydra is about
     to create, which must be creatable. Flags that only show something (``--help``, ``--cfg``,
-    ``--info`` ...) and other config dirs or names are left to Hydra.
+    ``--info`` ...) and other config dirs or names are left to Hydra. Warnings and log records raised
+    meanwhile are kept for the job's log (:func:`dsmv.joblog.keep_early_output`), not printed.
     """
+    from dsmv.joblog import keep_early_output
+
     check_group_choices(argv, program, config_dir)
     if "--version" in argv:
         return
@@ -88,10 +91,11 @@ def check_command_line(argv: list[str], program: str, config_name: str = "config
         raise SystemExit(2)
     if any(getattr(args, flag) for flag in HYDRA_ONLY_FLAGS):
         return
-    try:
-        _check_overrides(args, program, config_name, scene, config_dir)
-    except Exception:  # not a mistake of the command line (a plugin's bug): the job meets and reports it
-        pass
+    with keep_early_output():
+        try:
+            _check_overrides(args, program, config_name, scene, config_dir)
+        except Exception:  # not a mistake of the command line (a plugin's bug): the job meets and reports it
+            pass
 
 
 def _one_line(exc: BaseException) -> str:
@@ -335,6 +339,10 @@ def _simulate_app(cfg: DictConfig) -> None:
 
 def simulate() -> None:
     """``dsmv``: run one scene, or a sweep with ``-m``."""
+    import os
+
+    # MLflow's messages go to the job's log (dsmv.joblog), not to a console handler of MLflow's own
+    os.environ.setdefault("MLFLOW_CONFIGURE_LOGGING", "false")
     check_command_line(sys.argv[1:], "dsmv", "config", scene=True)
     _simulate_app()
 

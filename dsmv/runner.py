@@ -22,6 +22,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from dsmv import registry, tracking
 from dsmv.errors import DsmvError
+from dsmv.joblog import job_output
 from dsmv.results import EXIT_CODES, SolveResult, write_history, write_result
 from dsmv.scene import Scene, build_scene
 
@@ -44,13 +45,19 @@ def fail_user_error(error: DsmvError, program: str = "dsmv") -> None:
 
 
 def run_job(cfg: DictConfig) -> dict:
-    """Run the scene of one Hydra job; return result.json's content."""
+    """Run the scene of one Hydra job; return result.json's content. What the job prints also goes to
+    its log (dsmv.joblog)."""
     hydra_cfg = HydraConfig.get()
     run_dir = Path(hydra_cfg.runtime.output_dir)
     multirun = hydra_cfg.mode == RunMode.MULTIRUN
     if multirun and "joblib" in str(hydra_cfg.launcher.get("_target_", "")):
         pin_numba_threads(1)
 
+    with job_output():
+        return _run(cfg, hydra_cfg, run_dir, multirun)
+
+
+def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, multirun: bool) -> dict:
     names = str(cfg.get("solver", {}).get("name")), str(cfg.get("soil", {}).get("law"))
     try:
         scene = build_scene(cfg)

@@ -245,3 +245,133 @@ def test_the_stress_suites_fast_scenes_stay_legal_and_the_limits_are_stated(comp
     # the energy method has no mesh: its cells are not judged
     build_scene(compose_cfg(["tracking=disabled", "solver=analytic_energy", "mesh.cell_size_m=0.5"]))
 
+
+# --------------------------------------------------------------------------- each job's log
+
+WARNING_SOLVER = '''
+import warnings
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict
+
+from dsmv.results import SolveResult
+
+
+class Config(BaseModel):
+    model_config = ConfigDict(extra="allow")
+    name: str
+
+
+class WarningSolver:
+    config_model = Config
+
+    def __init__(self, scene):
+        self.scene = scene
+
+    def solve(self, run_dir=None):
+        warnings.warn("a library grumbles", RuntimeWarning)
+        t = np.linspace(0.0, 0.1, 5)
+        history = {"time_s": t, "sinkage_m": t, "velocity_m_s": 1.0 - t, "force_n": 10.0 * t}
+        return SolveResult("ok", "came to rest", {"max_sinkage_m": 0.1}, {"max_sinkage_m": "m"}, history)
+'''
+
+
+def _job_logs(root: Path) -> list[Path]:
+    return sorted(root.glob("runs/**/cli.log"))
+
+
+def test_a_jobs_console_and_its_library_warnings_go_to_its_log(run_cli, tmp_path, install_plugin):
+    """cli.log holds what the job printed (the summary, the solver's estimate line) and the library
+    warnings (matplotlib's, for an unwritable MPLCONFIGDIR; a Python warning of the solver; MLflow's
+    messages); the console keeps the job's own lines and none of the libraries' ([HYDRA] or otherwise)."""
+    (tmp_path / "afile").write_text("")
+    install_plugin("warning_solver", WARNING_SOLVER, "dsmv.solvers", "warns", "WarningSolver")
+    for overrides in ([*QUICK[:2], "solver.progress=on"], ["solver.name=warns"]):
+        env_mpl = {"MPLCONFIGDIR": str(tmp_path / "afile" / "mpl")}
+        proc = _run_with_env(tmp_path, env_mpl, "dsmv", *overrides, "tracking=local")
+        assert proc.returncode == 0, proc.stderr
+        assert "dsmv: ok — max sinkage" in proc.stdout
+        console = proc.stdout + proc.stderr
+        for library in ("matplotlib", "Matplotlib", "grumbles", "mlflow.store", "alembic", "[HYDRA]", "WARNING",
+                        "INFO"):
+            assert library not in console, console
+    logs = _job_logs(tmp_path)
+    assert len(logs) == 2
+    cel, plugin = (log.read_text() for log in logs)
+    for text in (cel, plugin):
+        assert "[dsmv.stdout][INFO] - dsmv: ok — max sinkage" in text and "  outputs : " in text
+        assert "[matplotlib][WARNING] - " in text and "MPLCONFIGDIR" in text
+        assert "[mlflow.store.db.utils][INFO] - " in cel or "[mlflow" in plugin
+    assert "[dsmv.stderr][INFO] -   825 cells, about" in cel  # the CEL estimate, printed on stderr
+    assert "[py.warnings][WARNING] - " in plugin and "RuntimeWarning: a library grumbles" in plugin
+
+
+def _run_with_env(tmp_path: Path, extra: dict, program: str, *args: str) -> subprocess.CompletedProcess:
+    env = dict(os.environ, NUMBA_NUM_THREADS="1", HYDRA_FULL_ERROR="0", **extra)
+    return subprocess.run([str(BIN / program), *args], cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=300)
+
+
+@pytest.mark.parametrize("launcher", ["basic", "joblib"])
+def test_each_job_of_a_sweep_logs_its_lines_and_the_sweep_its_own(tmp_path, launcher):
+    (tmp_path / "afile").write_text("")
+    args = ["-m", "solver=analytic_energy", "landing.velocity_m_s=1,2", "tracking=local"]
+    if launcher == "joblib":
+        args += ["hydra/launcher=joblib", "hydra.launcher.n_jobs=2"]
+    proc = _run_with_env(tmp_path, {"MPLCONFIGDIR": str(tmp_path / "afile" / "mpl")}, "dsmv", *args)
+    assert proc.returncode == 0, proc.stderr
+    console = proc.stdout + proc.stderr
+    assert "matplotlib" not in console and "mlflow.store" not in console and "Traceback" not in console
+    assert "[0] ok: max sinkage" in proc.stdout and "[1] ok: max sinkage" in proc.stdout
+    logs = _job_logs(tmp_path)
+    assert [log.parent.name for log in logs] == ["0", "1"]
+    for n, log in enumerate(logs):
+        text = log.read_text()
+        assert f"[dsmv.stdout][INFO] - [{n}] ok: max sinkage" in text
+        if n == 0 or launcher == "joblib":  # matplotlib warns when imported: once per process
+            assert "[matplotlib][WARNING] - " in text
+        assert f"[{1 - n}] ok" not in text  # the other job's line is in its own log
+    sweep_log = (logs[0].parent.parent / "sweep.log").read_text()
+    assert "[mlflow.store.db.utils][INFO] - Creating initial MLflow database tables" in sweep_log
+    assert "[HYDRA]" not in sweep_log and "#0 : " in sweep_log  # Hydra's launcher lines, in the sweep's log too
+
+
+def test_a_progress_bar_on_a_terminal_is_logged_as_a_few_plain_lines(tmp_path):
+    """stderr on a terminal (a pseudo-terminal here): the console gets tqdm's bar, redrawn in place; the
+    log gets its first state and its last, as plain lines without carriage returns."""
+    import fcntl
+    import pty
+    import struct
+    import termios
+    import threading
+
+    master, slave = pty.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 120, 0, 0))  # tqdm draws nothing in 0 columns
+    env = dict(os.environ, NUMBA_NUM_THREADS="1", HYDRA_FULL_ERROR="0")
+    proc = subprocess.Popen([str(BIN / "dsmv"), *QUICK[:2], "output.plots=false", "solver.progress=on",
+                             "tracking=disabled", f"hydra.run.dir={tmp_path / 'run'}"], cwd=tmp_path, env=env,
+                            stdout=subprocess.PIPE, stderr=slave, text=True)
+    os.close(slave)
+    seen = bytearray()
+
+    def read():
+        while True:
+            try:
+                chunk = os.read(master, 4096)
+            except OSError:
+                return
+            if not chunk:
+                return
+            seen.extend(chunk)
+
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
+    out, _ = proc.communicate(timeout=300)
+    reader.join(timeout=10)
+    os.close(master)
+    assert proc.returncode == 0 and "dsmv: ok" in out
+    assert b"\r  simulated" in bytes(seen)  # the bar, on the terminal
+    log = (tmp_path / "run" / "cli.log").read_text()
+    bars = [line for line in log.splitlines() if "[dsmv.stderr]" in line and "simulated" in line]
+    assert 1 <= len(bars) <= 3 and "\r" not in log, log
+    assert bars[-1].split(" - ", 1)[1].startswith("  simulated")
