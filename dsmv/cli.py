@@ -343,8 +343,17 @@ def simulate() -> None:
 
     # MLflow's messages go to the job's log (dsmv.joblog), not to a console handler of MLflow's own
     os.environ.setdefault("MLFLOW_CONFIGURE_LOGGING", "false")
-    check_command_line(sys.argv[1:], "dsmv", "config", scene=True)
-    _simulate_app()
+    try:
+        check_command_line(sys.argv[1:], "dsmv", "config", scene=True)
+        _simulate_app()
+    except KeyboardInterrupt as exc:  # before a job started, or a sweep aborted by a second signal
+        from dsmv import tracking
+        from dsmv.results import EXIT_CODES
+
+        sweep_dir = tracking.abort_sweep(f"{exc or 'SIGINT'} again: the sweep was aborted")
+        print("dsmv: interrupted" + (f"; the sweep was aborted, its MLflow runs closed KILLED: {sweep_dir}"
+                                     if sweep_dir else ""), file=sys.stderr)
+        sys.exit(EXIT_CODES["interrupted"])
 
 
 @hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="train")

@@ -3,7 +3,8 @@
 Nothing is lost on failure: a solver that raises still leaves result.json (status
 ``failed``, the error as message), the resolved config, and a FAILED MLflow run; a run stopped by
 SIGINT or SIGTERM leaves result.json with status ``interrupted`` and a KILLED MLflow run. A
-single run exits with its status's code (:data:`dsmv.results.EXIT_CODES`).
+single run exits with its status's code (:data:`dsmv.results.EXIT_CODES`); how a sweep stops is in
+:mod:`dsmv.interrupts`. What a job prints also goes to its log (:mod:`dsmv.joblog`).
 """
 
 from __future__ import annotations
@@ -13,14 +14,14 @@ import signal
 import sys
 import threading
 import traceback
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
-from dsmv import registry, tracking
+from dsmv import interrupts, registry, tracking
 from dsmv.errors import DsmvError
 from dsmv.joblog import job_output
 from dsmv.results import EXIT_CODES, SolveResult, write_history, write_result
@@ -45,8 +46,10 @@ def fail_user_error(error: DsmvError, program: str = "dsmv") -> None:
 
 
 def run_job(cfg: DictConfig) -> dict:
-    """Run the scene of one Hydra job; return result.json's content. What the job prints also goes to
-    its log (dsmv.joblog)."""
+    """Run the scene of one Hydra job; return result.json's content.
+
+    What the job prints also goes to its log (dsmv.joblog); a job of a sweep takes SIGINT and SIGTERM
+    as dsmv.interrupts describes."""
     hydra_cfg = HydraConfig.get()
     run_dir = Path(hydra_cfg.runtime.output_dir)
     multirun = hydra_cfg.mode == RunMode.MULTIRUN
@@ -54,11 +57,21 @@ def run_job(cfg: DictConfig) -> dict:
         pin_numba_threads(1)
 
     with job_output():
-        return _run(cfg, hydra_cfg, run_dir, multirun)
+        if not multirun:
+            return _run(cfg, hydra_cfg, run_dir, None, {"signal": None})
+        sweep_dir = Path(hydra_cfg.sweep.dir)
+        with interrupts.sweep_job_signals(sweep_dir) as caught:
+            return _run(cfg, hydra_cfg, run_dir, sweep_dir, caught)
 
 
-def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, multirun: bool) -> dict:
+def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, sweep_dir: Path | None, caught: dict) -> dict:
+    multirun = sweep_dir is not None
     names = str(cfg.get("solver", {}).get("name")), str(cfg.get("soil", {}).get("law"))
+    if multirun and (reason := interrupts.interrupted(sweep_dir)):
+        result = SolveResult("interrupted", f"not started: the sweep was interrupted ({reason})")
+        write_result(run_dir, result, *names, "")
+        print(f"[{run_dir.name}] interrupted: {result.message}")
+        return {"status": result.status, "metrics": {}}
     try:
         scene = build_scene(cfg)
         parent = tracking.parent_run_id(Path(hydra_cfg.sweep.dir)) if multirun else None
@@ -76,15 +89,19 @@ def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, multirun: bool) -> dict:
 
     error_text, end_status = None, "FAILED"
     try:
-        with interrupts_as_keyboard_interrupt():
+        # a sweep's job only raises a flag on a signal (dsmv.interrupts); a single run stops where it is
+        with interrupts_as_keyboard_interrupt() if not multirun else nullcontext():
             (run_dir / RESOLVED_CONFIG_FILE).write_text(OmegaConf.to_yaml(cfg, resolve=True))
             try:
+                if caught["signal"] is not None:
+                    raise KeyboardInterrupt
                 solver = registry.load("solvers", scene.solver.name, "solver.name")(scene)
                 result = solver.solve(run_dir)
             except DsmvError as error:
                 result, error_text = SolveResult("failed", str(error)), str(error)
             except KeyboardInterrupt:  # outside the CEL controller, which stops a run itself
-                result = SolveResult("interrupted", "interrupted before the solver finished")
+                by = f" by {signal.Signals(caught['signal']).name}" if caught["signal"] is not None else ""
+                result = SolveResult("interrupted", f"interrupted{by} before the solver finished")
             except Exception as error:  # a bug: keep everything, report it, exit non-zero below
                 result = SolveResult("failed", f"{type(error).__name__}: {error}")
                 error_text = traceback.format_exc()
@@ -100,7 +117,9 @@ def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, multirun: bool) -> dict:
         if tracker is not None and end_status is not None:  # never leave a run RUNNING
             tracker.client.set_terminated(tracker.run_id, end_status)
 
-    if result.status == "interrupted":
+    if multirun and result.status == "interrupted":
+        interrupts.mark(sweep_dir, f"job {run_dir.name} {result.message}")
+    if result.status == "interrupted" and not multirun:
         print(f"dsmv: {result.message}; result.json written in {run_dir}", file=sys.stderr)
     else:
         print_summary(scene, result, run_dir, tracker, multirun)

@@ -192,13 +192,23 @@ def parent_run_id(sweep_dir: Path) -> str | None:
 #: messages), beside each job's <job>.log
 SWEEP_LOG_FILE = "sweep.log"
 
+#: the sweep running in this process, for :func:`abort_sweep`
+_active_sweep: dict = {}
+
+
 class MlflowSweepCallback(Callback):
-    """Hydra callback owning a multirun's parent MLflow run, its summary and its log (SWEEP_LOG_FILE)."""
+    """Hydra callback owning a multirun's parent MLflow run, its summary, its log (SWEEP_LOG_FILE) and
+    its signal handling (dsmv.interrupts)."""
 
     def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
+        from dsmv.interrupts import SweepSignals
+
         sweep_dir = Path(str(config.hydra.sweep.dir))
         sweep_dir.mkdir(parents=True, exist_ok=True)
+        self.signals = SweepSignals(sweep_dir)
+        self.signals.install()
         _sweep_log(sweep_dir)
+        _active_sweep.update(sweep_dir=sweep_dir, config=config)
         tracking = build_tracking(config)
         if not tracking.enabled:
             return
@@ -218,7 +228,12 @@ class MlflowSweepCallback(Callback):
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
         """Summarise the sweep, close its parent run, print the tally and exit with the code of its
         worst job (:func:`sweep_exit_code`)."""
+        from dsmv.interrupts import interrupted
+
         sweep_dir = Path(str(config.hydra.sweep.dir))
+        if getattr(self, "signals", None) is not None:
+            self.signals.uninstall()
+        _active_sweep.clear()
         _sweep_log(sweep_dir, config)  # jobs run in this process (the basic launcher) took the root logger over
         run_id = parent_run_id(sweep_dir)
         tracking = build_tracking(config)
@@ -235,7 +250,7 @@ class MlflowSweepCallback(Callback):
                 for path in (sweep_dir / SWEEP_SUMMARY_FILE, plot):
                     if path is not None and Path(path).exists():
                         client.log_artifact(run_id, str(path))
-            status = "FINISHED"
+            status = "KILLED" if interrupted(sweep_dir) else "FINISHED"
         finally:  # the parent run never stays RUNNING
             if client is not None:
                 client.set_terminated(run_id, status)
@@ -261,6 +276,35 @@ def _sweep_log(sweep_dir: Path | None, config: DictConfig | None = None) -> None
     logging.captureWarnings(sweep_dir is not None)
     if sweep_dir is not None:
         replay_early_output()  # what the command line's checks met (dsmv.cli.check_command_line)
+
+
+def abort_sweep(reason: str) -> Path | None:
+    """The sweep in this process was aborted (a second signal): close its parent MLflow run and its jobs'
+    runs still RUNNING as KILLED, mark it interrupted, summarise what finished. Returns its dir, or None."""
+    from dsmv.interrupts import mark
+
+    sweep_dir, config = _active_sweep.get("sweep_dir"), _active_sweep.get("config")
+    _active_sweep.clear()
+    if sweep_dir is None:
+        return None
+    mark(sweep_dir, reason)
+    try:
+        summarize_sweep(sweep_dir)
+    except Exception:
+        pass
+    run_id = parent_run_id(sweep_dir)
+    tracking = build_tracking(config)
+    if run_id is None or not tracking.enabled:
+        return sweep_dir
+    client = _client(tracking)
+    experiment_id = client.get_run(run_id).info.experiment_id
+    children = client.search_runs([experiment_id], f"tags.mlflow.parentRunId = '{run_id}' and "
+                                                   f"attributes.status = 'RUNNING'", max_results=10000)
+    for child in children:
+        client.set_tag(child.info.run_id, "dsmv.status", "interrupted")
+        client.set_terminated(child.info.run_id, "KILLED")
+    client.set_terminated(run_id, "KILLED")
+    return sweep_dir
 
 
 def sweep_exit_code(statuses: list[str]) -> tuple[str, int]:

@@ -336,6 +336,73 @@ def test_each_job_of_a_sweep_logs_its_lines_and_the_sweep_its_own(tmp_path, laun
     assert "[HYDRA]" not in sweep_log and "#0 : " in sweep_log  # Hydra's launcher lines, in the sweep's log too
 
 
+# --------------------------------------------------------------------------- interrupting a sweep
+
+#: four jobs: a quick one (0.08 m cells, a fraction of a second), then three of minutes (0.01 m cells)
+SLOW_SWEEP = ["-m", "mesh.cell_size_m=0.08,0.01,0.0101,0.0102", "solver=cel2d", "mesh=coarse", "output.plots=false",
+              "tracking=local"]
+
+
+def _sweep_runs(tmp_path: Path):
+    from mlflow.tracking import MlflowClient
+
+    client = MlflowClient(f"sqlite:///{tmp_path / 'runs' / 'mlflow.db'}")
+    runs = [r for e in client.search_experiments() for r in client.search_runs([e.experiment_id])]
+    parent = [r for r in runs if r.data.tags.get("dsmv.role") == "sweep"]
+    children = {r.data.params["mesh.cell_size_m"]: r for r in runs if "mlflow.parentRunId" in r.data.tags}
+    return parent, children
+
+
+@pytest.mark.parametrize("launcher, how", [("joblib", "SIGTERM to the sweep"), ("joblib", "Ctrl-C"),
+                                           ("basic", "Ctrl-C")])
+def test_interrupting_a_sweep_keeps_finished_jobs_and_closes_every_run(tmp_path, launcher, how):
+    """SIGTERM to the sweep's process alone (a scheduler, a timeout) or SIGINT to its process group (Ctrl-C
+    in a terminal), once jobs are stepping: the finished job keeps its result and FINISHED run, the
+    running ones end 'interrupted' (KILLED), the one not started is recorded 'interrupted' too; the
+    summary counts all four, the parent run is KILLED (never left RUNNING) and the sweep exits 130."""
+    args = [*SLOW_SWEEP]
+    if launcher == "joblib":
+        args += ["hydra/launcher=joblib", "hydra.launcher.n_jobs=2"]
+    env = dict(os.environ, NUMBA_NUM_THREADS="1", HYDRA_FULL_ERROR="0")
+    proc = subprocess.Popen([str(BIN / "dsmv"), *args], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+    running = 3 if launcher == "joblib" else 2  # job dirs that must have started (the second worker's too)
+    deadline = time.time() + 300
+    while time.time() < deadline and len(list(tmp_path.glob("runs/multirun/*/*/*/config_resolved.yaml"))) < running:
+        time.sleep(0.2)
+    time.sleep(4.0)  # compiled or loaded from the cache, stepping
+    if how.startswith("SIGTERM"):
+        proc.send_signal(signal.SIGTERM)
+    else:
+        os.killpg(proc.pid, signal.SIGINT)
+    sent = time.time()
+    out, err = proc.communicate(timeout=120)
+    assert time.time() - sent < 30.0, "the sweep did not stop promptly"
+    assert proc.returncode == EXIT_CODES["interrupted"], out + err
+    assert "Traceback" not in out + err
+
+    (sweep_dir,) = tmp_path.glob("runs/multirun/*/*")
+    results = {job: json.loads((sweep_dir / job / RESULT_FILE).read_text()) for job in "0123"}
+    assert results["0"]["status"] == "ok"
+    started = ["1", "2"] if launcher == "joblib" else ["1"]
+    for job in started:
+        assert results[job]["status"] == "interrupted" and results[job]["message"].startswith("interrupted by SIG")
+    for job in sorted(set("123") - set(started)):
+        assert results[job]["status"] == "interrupted" and results[job]["message"].startswith("not started")
+    assert "1 ok, 3 interrupted" in out
+    assert (sweep_dir / "sweep_summary.csv").read_text().count("\n") == 5
+
+    parent, children = _sweep_runs(tmp_path)
+    assert [p.info.status for p in parent] == ["KILLED"]
+    assert children["0.08"].info.status == "FINISHED" and children["0.08"].data.tags["dsmv.status"] == "ok"
+    cells = {"1": "0.01", "2": "0.0101"}
+    for job in started:
+        run = children[cells[job]]
+        assert run.info.status == "KILLED" and run.data.tags["dsmv.status"] == "interrupted"
+    assert len(children) == 1 + len(started)  # a job never started opened no MLflow run
+    assert all(r.info.status != "RUNNING" for r in [*parent, *children.values()])
+
+
 def test_a_progress_bar_on_a_terminal_is_logged_as_a_few_plain_lines(tmp_path):
     """stderr on a terminal (a pseudo-terminal here): the console gets tqdm's bar, redrawn in place; the
     log gets its first state and its last, as plain lines without carriage returns."""
