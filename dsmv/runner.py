@@ -3,7 +3,8 @@
 Nothing is lost on failure: a solver that raises still leaves result.json (status
 ``failed``, the error as message), the resolved config, and a FAILED MLflow run; a run stopped by
 SIGINT or SIGTERM leaves result.json with status ``interrupted`` and a KILLED MLflow run. A
-single run exits with its status's code (:data:`dsmv.results.EXIT_CODES`).
+single run exits with its status's code (:data:`dsmv.results.EXIT_CODES`); how a sweep stops is in
+:mod:`dsmv.interrupts`. What a job prints also goes to its log (:mod:`dsmv.joblog`).
 """
 
 from __future__ import annotations
@@ -13,15 +14,16 @@ import signal
 import sys
 import threading
 import traceback
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
-from dsmv import registry, tracking
+from dsmv import interrupts, registry, tracking
 from dsmv.errors import DsmvError
+from dsmv.joblog import job_output
 from dsmv.results import EXIT_CODES, SolveResult, write_history, write_result
 from dsmv.scene import Scene, build_scene
 
@@ -44,38 +46,62 @@ def fail_user_error(error: DsmvError, program: str = "dsmv") -> None:
 
 
 def run_job(cfg: DictConfig) -> dict:
-    """Run the scene of one Hydra job; return result.json's content."""
+    """Run the scene of one Hydra job; return result.json's content.
+
+    What the job prints also goes to its log (dsmv.joblog); a job of a sweep takes SIGINT and SIGTERM
+    as dsmv.interrupts describes."""
     hydra_cfg = HydraConfig.get()
     run_dir = Path(hydra_cfg.runtime.output_dir)
     multirun = hydra_cfg.mode == RunMode.MULTIRUN
     if multirun and "joblib" in str(hydra_cfg.launcher.get("_target_", "")):
         pin_numba_threads(1)
 
+    with job_output():
+        if not multirun:
+            return _run(cfg, hydra_cfg, run_dir, None, {"signal": None})
+        sweep_dir = Path(hydra_cfg.sweep.dir)
+        with interrupts.sweep_job_signals(sweep_dir) as caught:
+            return _run(cfg, hydra_cfg, run_dir, sweep_dir, caught)
+
+
+def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, sweep_dir: Path | None, caught: dict) -> dict:
+    multirun = sweep_dir is not None
+    names = str(cfg.get("solver", {}).get("name")), str(cfg.get("soil", {}).get("law"))
+    if multirun and (reason := interrupts.interrupted(sweep_dir)):
+        result = SolveResult("interrupted", f"not started: the sweep was interrupted ({reason})")
+        write_result(run_dir, result, *names, "")
+        print(f"[{run_dir.name}] interrupted: {result.message}")
+        return {"status": result.status, "metrics": {}}
     try:
         scene = build_scene(cfg)
         parent = tracking.parent_run_id(Path(hydra_cfg.sweep.dir)) if multirun else None
         run_name = " ".join(hydra_cfg.overrides.task) or run_dir.name
         tracker = tracking.start_job(cfg, scene, run_dir, run_name, parent)
     except DsmvError as error:
-        if not multirun:
-            fail_user_error(error)
+        if not multirun:  # (dsmv.cli.check_command_line refuses most before Hydra makes the run dir)
+            print(f"dsmv: error: {error}", file=sys.stderr)
+            remove_unstarted_run_dir(run_dir, hydra_cfg, str(cfg.get("paths", {}).get("runs_dir", run_dir.parent)))
+            sys.exit(2)
         # in a sweep, one wrong job is recorded and counted; the others still run
         print(f"dsmv: error: {error}", file=sys.stderr)
-        write_result(run_dir, SolveResult("failed", str(error)), str(cfg.get("solver", {}).get("name")),
-                     str(cfg.get("soil", {}).get("law")), "")
+        write_result(run_dir, SolveResult("failed", str(error)), *names, "")
         return {"status": "failed", "metrics": {}}
 
     error_text, end_status = None, "FAILED"
     try:
-        with interrupts_as_keyboard_interrupt():
+        # a sweep's job only raises a flag on a signal (dsmv.interrupts); a single run stops where it is
+        with interrupts_as_keyboard_interrupt() if not multirun else nullcontext():
             (run_dir / RESOLVED_CONFIG_FILE).write_text(OmegaConf.to_yaml(cfg, resolve=True))
             try:
+                if caught["signal"] is not None:
+                    raise KeyboardInterrupt
                 solver = registry.load("solvers", scene.solver.name, "solver.name")(scene)
                 result = solver.solve(run_dir)
             except DsmvError as error:
                 result, error_text = SolveResult("failed", str(error)), str(error)
             except KeyboardInterrupt:  # outside the CEL controller, which stops a run itself
-                result = SolveResult("interrupted", "interrupted before the solver finished")
+                by = f" by {signal.Signals(caught['signal']).name}" if caught["signal"] is not None else ""
+                result = SolveResult("interrupted", f"interrupted{by} before the solver finished")
             except Exception as error:  # a bug: keep everything, report it, exit non-zero below
                 result = SolveResult("failed", f"{type(error).__name__}: {error}")
                 error_text = traceback.format_exc()
@@ -91,7 +117,9 @@ def run_job(cfg: DictConfig) -> dict:
         if tracker is not None and end_status is not None:  # never leave a run RUNNING
             tracker.client.set_terminated(tracker.run_id, end_status)
 
-    if result.status == "interrupted":
+    if multirun and result.status == "interrupted":
+        interrupts.mark(sweep_dir, f"job {run_dir.name} {result.message}")
+    if result.status == "interrupted" and not multirun:
         print(f"dsmv: {result.message}; result.json written in {run_dir}", file=sys.stderr)
     else:
         print_summary(scene, result, run_dir, tracker, multirun)
@@ -100,6 +128,60 @@ def run_job(cfg: DictConfig) -> dict:
     if not multirun and EXIT_CODES[result.status] != 0:
         sys.exit(EXIT_CODES[result.status])
     return {"status": result.status, "metrics": result.metrics}
+
+
+#: what Hydra writes into a job's dir before the job starts
+HYDRA_JOB_FILES = {"config.yaml", "hydra.yaml", "overrides.yaml"}
+
+
+def remove_unstarted_run_dir(run_dir: Path, hydra_cfg, runs_dir: str | Path) -> bool:
+    """Remove the dir Hydra made for a run refused before it started, if it holds only what Hydra put
+    there (``.hydra/`` with its three files, the job's log): a refused run leaves nothing behind. Empty
+    parents (``outputs/<day>``) go too, up to the runs dir (which stays). Anything else in it: the dir stays."""
+    subdir = hydra_cfg.output_subdir
+    log_name = f"{hydra_cfg.job.name}.log"
+    try:
+        entries = {p.name: p for p in run_dir.iterdir()}
+        hydra_dir = run_dir / str(subdir) if subdir else None
+        if set(entries) - {log_name, str(subdir)}:
+            return False
+        if hydra_dir is not None and hydra_dir.exists():
+            if not hydra_dir.is_dir() or hydra_dir.is_symlink():
+                return False
+            if any(not p.is_file() or p.name not in HYDRA_JOB_FILES for p in hydra_dir.iterdir()):
+                return False
+        if log_name in entries and not entries[log_name].is_file():
+            return False
+        _close_log_handlers(run_dir)
+        for p in (list(hydra_dir.iterdir()) if hydra_dir is not None and hydra_dir.exists() else ()):
+            p.unlink()
+        if hydra_dir is not None and hydra_dir.exists():
+            hydra_dir.rmdir()
+        if log_name in entries:
+            entries[log_name].unlink()
+        run_dir.rmdir()
+    except OSError:
+        return False
+    stop = Path(runs_dir).resolve()
+    parent = run_dir.resolve().parent
+    while stop in parent.parents:  # strictly inside the runs dir, which stays
+        try:
+            parent.rmdir()  # only when empty
+        except OSError:
+            break
+        parent = parent.parent
+    return True
+
+
+def _close_log_handlers(run_dir: Path) -> None:
+    """Close and detach the root logger's file handlers writing into ``run_dir``."""
+    import logging
+
+    root = logging.getLogger()
+    for handler in list(root.handlers):
+        if isinstance(handler, logging.FileHandler) and Path(handler.baseFilename).parent == run_dir.resolve():
+            root.removeHandler(handler)
+            handler.close()
 
 
 @contextmanager

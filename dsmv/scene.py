@@ -317,6 +317,12 @@ def _validate(model: type[BaseModel], data: Any, prefix: str) -> BaseModel:
         if err["type"] == "missing":
             value = None
         message = err["msg"].replace("Input should be", "must be").replace("Value error, ", "")
+        if err["type"] == "extra_forbidden" and len(err["loc"]) == 1:  # a typo: name the closest key
+            import difflib
+
+            close = difflib.get_close_matches(str(err["loc"][0]), list(model.model_fields), n=1, cutoff=0.6)
+            if close:
+                message += f"; did you mean {prefix}.{close[0]}?"
         raise ConfigError(path, value, message) from None
 
 
@@ -356,10 +362,53 @@ def build_scene(cfg: DictConfig | dict) -> Scene:
 
     build_tracking(cfg)  # not part of the scene, but a wrong store fails here too
     scene = Scene(study, soil, geometry, landing, mesh, solver, output)
+    check_touchdown_speed(scene)
+    if geometry.kind in getattr(solver_cls, "bodies", ()):  # a solver that meshes the body
+        check_core_cells(scene)
     check = getattr(solver_cls, "check_scene", None)
     if check is not None:  # what this solver cannot run fails here, not halfway through a run
         check(scene)
     return scene
+
+
+#: the fastest touchdown or push allowed, as a fraction of the soil's elastic wave speed
+MAX_SPEED_FRACTION = 0.1
+
+
+def elastic_wave_speed_m_s(soil: SoilConfig) -> float:
+    """The soil's elastic (P-) wave speed c = √((K + 4G/3)/ρ) (m/s), K = E/(3(1 − 2ν)), G = E/(2(1 + ν)),
+    ρ the soil's density as the model has it (``soil.density_kg_m3``)."""
+    E, nu = soil.youngs_modulus_pa, soil.poisson_ratio
+    bulk, shear = E / (3.0 * (1.0 - 2.0 * nu)), E / (2.0 * (1.0 + nu))
+    return math.sqrt((bulk + 4.0 * shear / 3.0) / soil.density_kg_m3)
+
+
+def check_touchdown_speed(scene: Scene) -> None:
+    """A body meeting the soil at a sizeable fraction of its wave speed drives a shock into it, which
+    neither the energy method nor the CEL soil model describes: refuse above MAX_SPEED_FRACTION · c."""
+    c = elastic_wave_speed_m_s(scene.soil)
+    limit = MAX_SPEED_FRACTION * c
+    if scene.landing.velocity_m_s > limit:
+        raise ConfigError("landing.velocity_m_s", scene.landing.velocity_m_s,
+                          f"must be at most {limit:.4g} m/s, a tenth of the soil's elastic wave speed "
+                          f"c = √((K + 4G/3)/ρ) = {c:.4g} m/s (from soil.youngs_modulus_pa, soil.poisson_ratio "
+                          f"and soil.density_kg_m3)")
+
+
+def check_core_cells(scene: Scene) -> None:
+    """Core cells of more than half the body's width cannot resolve it (a mesh solver would silently put
+    one cell across its half width). A cone is exempt: its cells are sized to its expected penetration."""
+    body = scene.geometry
+    if body.kind == "cone":
+        return
+    if getattr(body, "view", "cross_section") == "longitudinal":
+        key, width = "geometry.contact_length_m", body.contact_length_m
+    else:
+        key, width = "geometry.width_m", body.width_m
+    if scene.mesh.cell_size_m > 0.5 * width:
+        raise ConfigError("mesh.cell_size_m", scene.mesh.cell_size_m,
+                          f"must be at most {0.5 * width:.4g} m, half the body's width ({key} = {width:g} m): "
+                          f"coarser core cells cannot resolve the body")
 
 
 def build_tracking(cfg: DictConfig | dict) -> TrackingConfig:

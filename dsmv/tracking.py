@@ -17,6 +17,7 @@ process). Everything goes through ``MlflowClient`` with explicit run ids: no glo
 from __future__ import annotations
 
 import json
+import logging
 import os
 import subprocess
 import sys
@@ -187,15 +188,30 @@ def parent_run_id(sweep_dir: Path) -> str | None:
     return json.loads(path.read_text())["run_id"] if path.exists() else None
 
 
+#: the sweep's own log in its sweep dir: what the sweep's main process logs (library warnings, MLflow's
+#: messages), beside each job's <job>.log
+SWEEP_LOG_FILE = "sweep.log"
+
+#: the sweep running in this process, for :func:`abort_sweep`
+_active_sweep: dict = {}
+
+
 class MlflowSweepCallback(Callback):
-    """Hydra callback owning a multirun's parent MLflow run and its summary."""
+    """Hydra callback owning a multirun's parent MLflow run, its summary, its log (SWEEP_LOG_FILE) and
+    its signal handling (dsmv.interrupts)."""
 
     def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
+        from dsmv.interrupts import SweepSignals
+
+        sweep_dir = Path(str(config.hydra.sweep.dir))
+        sweep_dir.mkdir(parents=True, exist_ok=True)
+        self.signals = SweepSignals(sweep_dir)
+        self.signals.install()
+        _sweep_log(sweep_dir)
+        _active_sweep.update(sweep_dir=sweep_dir, config=config)
         tracking = build_tracking(config)
         if not tracking.enabled:
             return
-        sweep_dir = Path(str(config.hydra.sweep.dir))
-        sweep_dir.mkdir(parents=True, exist_ok=True)
         client = _client(tracking)  # creates the store here, before parallel jobs race for it
         study = str(config.get("study", "default"))
         experiment_id = _experiment_id(client, experiment_name(study), tracking.artifact_location)
@@ -212,7 +228,13 @@ class MlflowSweepCallback(Callback):
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
         """Summarise the sweep, close its parent run, print the tally and exit with the code of its
         worst job (:func:`sweep_exit_code`)."""
+        from dsmv.interrupts import interrupted
+
         sweep_dir = Path(str(config.hydra.sweep.dir))
+        if getattr(self, "signals", None) is not None:
+            self.signals.uninstall()
+        _active_sweep.clear()
+        _sweep_log(sweep_dir, config)  # jobs run in this process (the basic launcher) took the root logger over
         run_id = parent_run_id(sweep_dir)
         tracking = build_tracking(config)
         client = _client(tracking) if run_id is not None and tracking.enabled else None
@@ -228,14 +250,61 @@ class MlflowSweepCallback(Callback):
                 for path in (sweep_dir / SWEEP_SUMMARY_FILE, plot):
                     if path is not None and Path(path).exists():
                         client.log_artifact(run_id, str(path))
-            status = "FINISHED"
+            status = "KILLED" if interrupted(sweep_dir) else "FINISHED"
         finally:  # the parent run never stays RUNNING
             if client is not None:
                 client.set_terminated(run_id, status)
         tally, code = sweep_exit_code([r["status"] for r in rows])
-        print(f"dsmv: sweep done: {tally} — see {sweep_dir / SWEEP_SUMMARY_FILE}")
+        line = f"dsmv: sweep done: {tally} — see {sweep_dir / SWEEP_SUMMARY_FILE}"
+        print(line)
+        logging.getLogger("dsmv.sweep").info(line)
         if code != 0:
             sys.exit(code)
+
+
+def _sweep_log(sweep_dir: Path | None, config: DictConfig | None = None) -> None:
+    """Log the sweep's main process into SWEEP_LOG_FILE (dsmv.joblog.SweepLogHandler), Python warnings
+    included; with ``config``, first give the process Hydra's logging back (jobs the basic launcher ran
+    here reconfigured it for theirs)."""
+    from dsmv.joblog import log_sweep_to, replay_early_output
+
+    if config is not None:
+        from hydra.core.utils import configure_log
+
+        configure_log(config.hydra.hydra_logging, config.hydra.verbose)
+    log_sweep_to(Path(sweep_dir) / SWEEP_LOG_FILE if sweep_dir is not None else None)
+    logging.captureWarnings(sweep_dir is not None)
+    if sweep_dir is not None:
+        replay_early_output()  # what the command line's checks met (dsmv.cli.check_command_line)
+
+
+def abort_sweep(reason: str) -> Path | None:
+    """The sweep in this process was aborted (a second signal): close its parent MLflow run and its jobs'
+    runs still RUNNING as KILLED, mark it interrupted, summarise what finished. Returns its dir, or None."""
+    from dsmv.interrupts import mark
+
+    sweep_dir, config = _active_sweep.get("sweep_dir"), _active_sweep.get("config")
+    _active_sweep.clear()
+    if sweep_dir is None:
+        return None
+    mark(sweep_dir, reason)
+    try:
+        summarize_sweep(sweep_dir)
+    except Exception:
+        pass
+    run_id = parent_run_id(sweep_dir)
+    tracking = build_tracking(config)
+    if run_id is None or not tracking.enabled:
+        return sweep_dir
+    client = _client(tracking)
+    experiment_id = client.get_run(run_id).info.experiment_id
+    children = client.search_runs([experiment_id], f"tags.mlflow.parentRunId = '{run_id}' and "
+                                                   f"attributes.status = 'RUNNING'", max_results=10000)
+    for child in children:
+        client.set_tag(child.info.run_id, "dsmv.status", "interrupted")
+        client.set_terminated(child.info.run_id, "KILLED")
+    client.set_terminated(run_id, "KILLED")
+    return sweep_dir
 
 
 def sweep_exit_code(statuses: list[str]) -> tuple[str, int]:

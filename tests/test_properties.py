@@ -235,6 +235,10 @@ def legal_scene(draw):
     """A random legal scene within (and a little beyond) the study's Table 3 ranges:
     (geometry option, {config path: value})."""
     su0 = draw(st.floats(500, 20000))
+    density, poisson = draw(st.floats(300, 1000)), draw(st.floats(0, 0.49))
+    # legal touchdowns stay below a tenth of the soil's elastic wave speed (dsmv.scene.check_touchdown_speed)
+    bulk, shear = 500 * su0 / (3 * (1 - 2 * poisson)), 500 * su0 / (2 * (1 + poisson))
+    fastest = min(5.0, 0.1 * ((bulk + 4 * shear / 3) / density) ** 0.5)
     values = {
         "soil.law": draw(st.sampled_from(["tresca", "einav_randolph"])),
         "soil.su0_pa": su0,
@@ -244,11 +248,11 @@ def legal_scene(draw):
         "soil.xi95": draw(st.floats(1, 50)),
         "soil.rate.eta": draw(st.floats(0, 0.15)),
         "soil.rate.law": draw(st.sampled_from(["power", "log"])),
-        "soil.density_kg_m3": draw(st.floats(300, 1000)),
-        "soil.poisson_ratio": draw(st.floats(0, 0.49)),
+        "soil.density_kg_m3": density,
+        "soil.poisson_ratio": poisson,
         "geometry.roughness": draw(st.sampled_from(["rough", "smooth"])),
         "landing.mass_kg": draw(st.floats(500, 12000)),
-        "landing.velocity_m_s": draw(st.floats(0, 5)),
+        "landing.velocity_m_s": draw(st.floats(0, fastest)),
         "landing.gravity_m_s2": draw(st.sampled_from([0.0, 9.81])),
     }
     return draw(st.sampled_from(["track_pioneer_i", "strip"])), values
