@@ -36,14 +36,15 @@ from pathlib import Path
 
 import numpy as np
 
+from dsmv import canonical
 from dsmv.analytic.bearing import PRANDTL_NC
 
 #: the Prandtl case: the canonical verification scene (conf/experiment/verify_prandtl.yaml: a rough
 #: strip B = 1 m on weightless Tresca soil, su 10 kPa, E = 500·su, the soil free to part from its
 #: walls) as one run, pushed quasi-statically just past s = 0.05·B
-PRANDTL = ["experiment=verify_prandtl", "hydra.mode=RUN", "landing.displacement_m=0.065"]
+PRANDTL = [*canonical.PRANDTL, "landing.displacement_m=0.065"]
 #: the default landing on the CEL solver
-LANDING = ["solver=cel2d"]
+LANDING = list(canonical.LANDING)
 COMMON = ["tracking=disabled", "output.plots=false", "solver.progress=off"]
 #: economies are timed on/off interleaved at least this often: their gains can be a few per cent
 ECONOMY_REPEATS = 5

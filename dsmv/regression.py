@@ -19,6 +19,8 @@ import json
 import math
 from pathlib import Path
 
+from dsmv import canonical
+
 #: the stress suite's scenes: extreme but legal (tests/test_stress.py holds each to its physics)
 STRESS_SCENES = {
     "su0_500_pa": ("soil.su0_pa=500",),
@@ -34,9 +36,9 @@ STRESS_SCENES = {
     "zero_gravity_cone_thrown_at_1_m_s": ("geometry=fall_cone_30deg", "landing.velocity_m_s=1", "landing.gravity_m_s2=0"),
 }
 
-_PRANDTL = ["experiment=verify_prandtl", "hydra.mode=RUN", "landing.displacement_m=0.065"]
-_BONDED = [*_PRANDTL, "solver.contact_separation=false", "mesh.cell_size_m=0.05"]
-_TBAR = ["experiment=verify_tbar", "hydra.mode=RUN", "landing.displacement_m=0.1"]
+_PRANDTL = [*canonical.PRANDTL, "landing.displacement_m=0.065"]
+_BONDED = [*canonical.PRANDTL_BONDED, "landing.displacement_m=0.065", "mesh.cell_size_m=0.05"]
+_TBAR = [*canonical.TBAR, "landing.displacement_m=0.1"]
 
 
 def _scenes() -> dict[str, list[str]]:
@@ -59,7 +61,7 @@ def _scenes() -> dict[str, list[str]]:
                                      "solver.remap=false"],
         "circular_plate_rough_B20_remap": [*_BONDED, "landing.displacement_m=0.11", "solver.mode=axisymmetric"],
         "fall_cone": ["solver=cel2d", "geometry=fall_cone_30deg"],
-        "default_landing": ["solver=cel2d"],
+        "default_landing": list(canonical.LANDING),
         "default_landing_coarse": ["solver=cel2d", "mesh=coarse"],
         "landing_einav_randolph": ["solver=cel2d", "soil.law=einav_randolph"],
         "landing_separation": ["solver=cel2d", "solver.contact_separation=true"],

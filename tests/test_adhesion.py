@@ -11,13 +11,14 @@ from __future__ import annotations
 
 import pytest
 
+from dsmv import canonical
 from dsmv.cel.solver import Cel2DSolver
 from dsmv.errors import ConfigError
 from dsmv.scene import build_scene
 
-STRIP = ["solver=cel2d", "geometry=strip", "landing=push", "landing.velocity_m_s=0.1", "landing.gravity_m_s2=0",
-         "soil.su0_pa=10000", "soil.ks_pa_per_m=0", "solver.progress=off", "solver.remap=false",
-         "solver.initial_travel_m=0.1", "mesh.cell_size_m=0.1"]
+#: Prandtl's strip with the soil tied to its walls (dsmv.canonical), small strain on B/10 cells
+STRIP = [*canonical.PRANDTL_BONDED, "solver.progress=off", "solver.remap=false", "solver.initial_travel_m=0.1",
+         "mesh.cell_size_m=0.1"]
 
 
 @pytest.fixture

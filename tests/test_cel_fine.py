@@ -2,6 +2,7 @@
 
 import pytest
 
+from dsmv import canonical
 from dsmv.cel.solver import Cel2DSolver
 from dsmv.scene import build_scene
 from dsmv.analytic.bearing import NOTCHED_STRIP_LOWER_BOUND_AT_0P05B, STRIP_LOWER_BOUND_AT_0P05B, TBAR_NC
@@ -47,10 +48,7 @@ def test_tied_strip_reads_inside_its_bracket(compose_cfg):
 @pytest.mark.parametrize("roughness, exact",
                          list(TBAR_NC.items()))
 def test_tbar_at_d20_within_6_percent(compose_cfg, roughness, exact):
-    r = run(compose_cfg, ["solver=cel2d", "geometry=tbar", "landing=push", "landing.velocity_m_s=0.1",
-                          "landing.displacement_m=1.0", "landing.initial_depth_m=1.5", "landing.gravity_m_s2=0",
-                          "soil.su0_pa=10000", "soil.ks_pa_per_m=0", "mesh.cell_size_m=0.025", "solver.progress=off",
-                          f"geometry.roughness={roughness}"])
+    r = run(compose_cfg, [*canonical.TBAR, "solver.progress=off", f"geometry.roughness={roughness}"])
     assert r.metrics["nc_deep"] == pytest.approx(exact, rel=0.06)
 
 

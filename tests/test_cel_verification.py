@@ -11,6 +11,7 @@ import inspect
 import numpy as np
 import pytest
 
+from dsmv import canonical
 from dsmv.analytic.bearing import (NOTCHED_STRIP_LOWER_BOUND_AT_0P05B, NOTCHED_STRIP_UPPER_BOUND_AT_0P05B, PRANDTL_NC,
                                    TBAR_NC, embedded_strip_upper_bound)
 from dsmv.cel.checks import Cel2DCheckSolver
@@ -18,8 +19,8 @@ from dsmv.cel.solver import Cel2DSolver
 from dsmv.scene import build_scene
 
 PRANDTL = PRANDTL_NC
-STRIP = ["solver=cel2d", "geometry=strip", "landing=push", "landing.velocity_m_s=0.1", "landing.gravity_m_s2=0",
-         "soil.su0_pa=10000", "soil.ks_pa_per_m=0", "solver.progress=off"]
+#: Prandtl's strip with the soil tied to its walls (dsmv.canonical), on B/25 cells unless a test says
+STRIP = [*canonical.PRANDTL_BONDED, "mesh.cell_size_m=0.04", "solver.progress=off"]
 
 
 def solve(compose_cfg, solver_cls, overrides):
@@ -153,9 +154,8 @@ def test_energy_audit_closes_and_fails_when_a_term_is_dropped(compose_cfg):
         assert abs(sum(inputs.values()) - rest) / delivered > 0.02, dropped
 
 
-TBAR = ["solver=cel2d", "geometry=tbar", "landing=push", "landing.velocity_m_s=0.1", "landing.displacement_m=0.2",
-        "landing.initial_depth_m=1.5", "landing.gravity_m_s2=0", "soil.su0_pa=10000", "soil.ks_pa_per_m=0",
-        "mesh.cell_size_m=0.05", "solver.progress=off"]
+#: the canonical T-bar (dsmv.canonical) on D/10 cells, pushed 0.4 D
+TBAR = [*canonical.TBAR, "landing.displacement_m=0.2", "mesh.cell_size_m=0.05", "solver.progress=off"]
 
 
 def test_rough_tbar_approaches_the_exact_deep_factor(compose_cfg):
