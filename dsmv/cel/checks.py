@@ -146,9 +146,8 @@ class Cel2DCheckSolver:
 
     def _geostatic(self) -> SolveResult:
         from dsmv.cel.grid import build_grid
-        from dsmv.cel.kernels.plane import cell_volumes
+        from dsmv.cel.kernels import for_dimension
         from dsmv.cel.ledger import N_ENERGY
-        from dsmv.cel.stepper import run_steps
 
         scene, cfg = self.scene, self.scene.solver
         soil, mesh_cfg = scene.soil, scene.mesh
@@ -160,7 +159,8 @@ class Cel2DCheckSolver:
         elastic = Elastic.of(soil)
         dt = cfg.cfl * h / elastic.wave_speed_m_s
         phi, q = geostatic_state(grid, rho, grav, elastic.k0, mudline=0.0)
-        vol = cell_volumes(x, y, False)
+        kernels = for_dimension(2)
+        vol = kernels.cell_volumes(x, y, False)
         # the CEL solver's default numerics (its YAML), no body, closed base
         from dsmv.cel.config import solver_defaults
 
@@ -183,7 +183,7 @@ class Cel2DCheckSolver:
         done = 0
         while done < n_steps:
             chunk = min(max(1, n_steps // samples), n_steps - done)
-            run_steps(chunk, *state, body, energy, law)
+            kernels.run_steps(chunk, *state, body, energy, law)
             done += chunk
             times.append(body[B_TIME])
             speeds.append(float(np.sqrt((v * v).sum(axis=0)).max()))

@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 import sys
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -31,6 +32,7 @@ from dsmv.cel import controller as C
 from dsmv.cel import ledger
 from dsmv.cel.config import Cel2DConfig, CelConfig, Economies  # noqa: F401  (the solvers' config models)
 from dsmv.cel.contact import ContactRules, build_contact, touchdown_mass
+from dsmv.cel.kernels import DimensionKernels, for_dimension
 from dsmv.cel.layout import (
     B_INFLOW, B_MAXDISP, B_TIME, B_VEL, N_BODY, NQ_BASE, Cells, Faces, Inflow, Mesh, Nodes, SoilLawKernel, split_cells,
 )
@@ -111,6 +113,12 @@ class CelSolver:
     name = ""
     config_model: type = CelConfig
     bodies: tuple[str, ...] = ()
+    dim = 0  # axes of the grid, which pick the element kernels
+
+    @cached_property
+    def kernels(self) -> DimensionKernels:
+        """The element kernels and compiled loop of this solver's dimension (:func:`for_dimension`)."""
+        return for_dimension(self.dim)
 
     @classmethod
     def check_scene(cls, scene: Scene) -> None:
@@ -443,6 +451,7 @@ class Cel2DSolver(CelSolver):
     """Solver plugin ``cel2d``."""
 
     name = "cel2d"
+    dim = 2
     config_model = Cel2DConfig
     bodies = ("strip", "track", "tbar", "cone")
 
@@ -514,7 +523,6 @@ class Cel2DSolver(CelSolver):
     def initial_state(self) -> State:
         """Grid, body and contact, the geostatic soil, the step's parameters, and the touchdown."""
         from dsmv.cel.kernels.nodes import nodal_mass
-        from dsmv.cel.kernels.plane import cell_volumes, elastic_energy
 
         scene, cfg = self.scene, self.scene.solver
         soil, landing = scene.soil, scene.landing
@@ -528,7 +536,7 @@ class Cel2DSolver(CelSolver):
         # the soil law's state variables ride with the material, as ξ and z0 do
         initial_state = self.law.initial_state()
         q = np.concatenate([q, np.broadcast_to(initial_state[:, None, None], (len(initial_state), nx, ny))])
-        mesh = Mesh(grid.x, grid.y, cell_volumes(grid.x, grid.y, self.axisym), body_contact.corner,
+        mesh = Mesh(grid.x, grid.y, self.kernels.cell_volumes(grid.x, grid.y, self.axisym), body_contact.corner,
                     (nx + 1) * (ny + 1), split_cells(body_contact.corner))
         shared = np.full((nx, ny), np.nan)
         merge = body_contact.contact.merge
@@ -559,7 +567,8 @@ class Cel2DSolver(CelSolver):
         body = np.zeros(N_BODY)
         state = State(grid, mesh, cells, faces, nodes, body_contact.contact, inflow, par, body, np.zeros(ledger.N_ENERGY),
                       SoilLawKernel(self.law.compiled(), self.law.packed(), self.law.compiled_evolve()), scale,
-                      float(rho * (phi * mesh.vol).sum()), elastic_energy(phi, q, mesh.vol, par.shear, par.bulk),
+                      float(rho * (phi * mesh.vol).sum()),
+                      self.kernels.elastic_energy(phi, q, mesh.vol, par.shear, par.bulk),
                       0.0, 0.5 * par.body_mass * landing.velocity_m_s**2 if drop else 0.0)
         self.touchdown(state)
         return state
@@ -585,22 +594,18 @@ class Cel2DSolver(CelSolver):
                 state.energy, state.law)
         if state.stepper is None:
             from dsmv.cel.kernels.common import compiled_entry
-            from dsmv.cel.stepper import run_steps
 
-            state.stepper = compiled_entry(run_steps, (n, *args))
+            state.stepper = compiled_entry(self.kernels.run_steps, (n, *args))
         return state.stepper(n, *args)
 
     # ------------------------------------------------------------------ reductions the trackers use
 
     def hourglass_modes(self, state: State) -> tuple[float, float]:
-        from dsmv.cel.kernels.plane import hourglass_modes
-
-        return hourglass_modes(state.mesh.corner, state.cells.phi, state.nodes.v, ZIGZAG_FULL_CELL)
+        return self.kernels.hourglass_modes(state.mesh.corner, state.cells.phi, state.nodes.v, ZIGZAG_FULL_CELL)
 
     def elastic_energy(self, state: State) -> float:
-        from dsmv.cel.kernels.plane import elastic_energy
-
-        return elastic_energy(state.cells.phi, state.cells.q, state.mesh.vol, state.par.shear, state.par.bulk)
+        cells, par = state.cells, state.par
+        return self.kernels.elastic_energy(cells.phi, cells.q, state.mesh.vol, par.shear, par.bulk)
 
     @staticmethod
     def top_fill(state: State) -> float:
@@ -616,11 +621,9 @@ class Cel2DSolver(CelSolver):
         recorder.sample(0.0, 0.0, *self.snapshot(state))
         return recorder
 
-    @staticmethod
-    def snapshot(state: State) -> tuple:
+    def snapshot(self, state: State) -> tuple:
         """What a field frame copies: φ, the cell state, the kernels' strength and shear strain rate,
         and the velocities of all nodes."""
-        from dsmv.cel.kernels.plane import shear_strain_rates
-
-        rate = shear_strain_rates(state.mesh, state.cells, state.faces, state.nodes, state.par, state.body[B_VEL])
+        rate = self.kernels.shear_strain_rates(state.mesh, state.cells, state.faces, state.nodes, state.par,
+                                               state.body[B_VEL])
         return state.cells.phi, state.cells.q, state.cells.su, rate, state.nodes.v
