@@ -147,7 +147,8 @@ class Inflow(NamedTuple):
 
 class SoilLawKernel(NamedTuple):
     """A soil law as the kernels call it (dsmv.soil_law): its compiled strength factor, its packed
-    parameters and its compiled state update."""
+    parameters and its compiled state update. The kernels take None instead for a law that neither
+    changes the strength nor carries state."""
 
     factor: object
     params: np.ndarray

@@ -23,6 +23,7 @@ import math
 import sys
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Optional
 
 import numpy as np
 
@@ -34,7 +35,8 @@ from dsmv.cel.config import Cel2DConfig, CelConfig, Economies  # noqa: F401  (th
 from dsmv.cel.contact import ContactRules, build_contact, touchdown_mass
 from dsmv.cel.kernels import DimensionKernels, for_dimension
 from dsmv.cel.layout import (
-    B_INFLOW, B_MAXDISP, B_TIME, B_VEL, N_BODY, NQ_BASE, Cells, Faces, Inflow, Mesh, Nodes, SoilLawKernel, split_cells,
+    B_INFLOW, B_MAXDISP, B_TIME, B_VEL, N_BODY, NQ_BASE, Cells, Faces, Inflow, Mesh, Nodes, Params, SoilLawKernel,
+    split_cells,
 )
 from dsmv.cel.state import Elastic, geostatic_state, step_parameters
 from dsmv.errors import ConfigError
@@ -95,7 +97,7 @@ class State:
     par: object
     body: np.ndarray
     energy: np.ndarray
-    law: object            # the soil law's kernel (SoilLawKernel)
+    law: object            # the soil law's kernel (SoilLawKernel), None for a law without effect or state
     scale: float           # model quantities → per track
     mass0: float           # soil mass at the start (kg, model)
     elastic0: float        # elastic energy at the start (J, model)
@@ -566,12 +568,19 @@ class Cel2DSolver(CelSolver):
         inflow = Inflow(ghost, np.full(nx, self.mudline - (grid.y[0] - 0.5 * (grid.y[1] - grid.y[0]))))
         body = np.zeros(N_BODY)
         state = State(grid, mesh, cells, faces, nodes, body_contact.contact, inflow, par, body, np.zeros(ledger.N_ENERGY),
-                      SoilLawKernel(self.law.compiled(), self.law.packed(), self.law.compiled_evolve()), scale,
+                      self.law_kernel(par, len(initial_state)), scale,
                       float(rho * (phi * mesh.vol).sum()),
                       self.kernels.elastic_energy(phi, q, mesh.vol, par.shear, par.bulk),
                       0.0, 0.5 * par.body_mass * landing.velocity_m_s**2 if drop else 0.0)
         self.touchdown(state)
         return state
+
+    def law_kernel(self, par: Params, n_state: int) -> Optional[SoilLawKernel]:
+        """The soil law as the kernels call it, or None when it neither changes the strength (or is not
+        evaluated) nor carries state: the loop then compiles without the calls."""
+        if not (par.law_active or n_state):
+            return None
+        return SoilLawKernel(self.law.compiled(), self.law.packed(), self.law.compiled_evolve())
 
     def touchdown(self, state: State) -> None:
         """A drop's touchdown: the body and the soil nodes it meets share momentum (the kinetic energy

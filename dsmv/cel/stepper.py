@@ -146,7 +146,8 @@ def run_steps(n_steps, mesh, cells, faces, nodes, contact, inflow, par, body, en
 
     ``law`` is the soil law (:class:`~dsmv.cel.layout.SoilLawKernel`); its factor is called only
     when ``par.law_active``, its ``evolve`` updates the law's state variables, the rows of
-    ``cells.q`` (and ``inflow.ghost``) beyond NQ_BASE.
+    ``cells.q`` (and ``inflow.ghost``) beyond NQ_BASE. None for a law that does neither (Tresca):
+    the loop is then compiled without the calls.
     """
     swept = np.zeros((len(contact.split_node), 2))
     # nodal masses change only where soil moves through the grid: here and after each remap

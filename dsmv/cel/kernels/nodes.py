@@ -18,6 +18,7 @@ pushes nothing onto the body. Corners and staircase nodes (no normal) hold.
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 from dsmv.cel.kernels.common import INLINE, JIT
@@ -50,7 +51,7 @@ def nodal_mass(mesh, cells, density, mass):
         m = share * density * fill * vol[c]
         if m > 0.0:
             for k in range(n_corners):
-                mass[corner[c, k]] += m
+                mass[np.uint64(corner[c, k])] += m
 
 
 @njit(**JIT)
@@ -63,18 +64,17 @@ def update_velocities(nodes, gravity, dt, mass_floor):
     v, f, mass = nodes.v, nodes.f, nodes.mass
     dim, n = v.shape
     up = dim - 1
-    momentum_before = 0.0
-    for k in range(n):
-        momentum_before += mass[k] * v[up, k]
     for a in range(up):
         va, fa = v[a], f[a]
         for k in range(n):
             m = mass[k]
             va[k] = va[k] + dt * fa[k] / m if m > mass_floor else 0.0
     vu, fu = v[up], f[up]
+    momentum_before = 0.0
     momentum_after = 0.0
     for k in range(n):
         m = mass[k]
+        momentum_before += m * vu[k]
         vu[k] = vu[k] + dt * (fu[k] / m - gravity) if m > mass_floor else 0.0
         momentum_after += m * vu[k]
     return momentum_before, momentum_after
@@ -95,32 +95,30 @@ def apply_fixed(nodes, contact):
     return change
 
 
-@njit(**INLINE)
-def has_face(contact, k):
-    """Whether tie k lies on a face (has a normal), not at a corner or on a staircase."""
-    for a in range(contact.normal.shape[1]):
-        if contact.normal[k, a] != 0.0:
-            return True
-    return False
-
-
 @njit(**JIT)
 def ties_that_hold(contact, nodes, dt, gravity, mass_floor, v_body_next):
     """With contact separation: which ties hold this step (``contact.holding``), those whose free
-    velocity would carry the node into the body, not away from the face (no tension)."""
-    v, f, mass, normal = nodes.v, nodes.f, nodes.mass, contact.normal
-    up = v.shape[0] - 1
+    velocity would carry the node into the body, not away from the face (no tension). A tie with no
+    normal (a corner, a staircase) and an empty node hold."""
+    v, f, mass, normal, holding = nodes.v, nodes.f, nodes.mass, contact.normal, contact.holding
+    dim = v.shape[0]
+    up = dim - 1
     for k in range(len(contact.node)):
-        n = contact.node[k]
+        n = np.uint64(contact.node[k])  # unsigned: no wraparound check at each access
         m = mass[n]
-        if not has_face(contact, k) or m <= mass_floor:
-            contact.holding[k] = True
-            continue
-        vn_free = 0.0
-        for a in range(up):
-            vn_free += (v[a, n] + dt * f[a, n] / m) * normal[k, a]
-        vn_free += (v[up, n] + dt * (f[up, n] / m - gravity)) * normal[k, up]
-        contact.holding[k] = vn_free <= v_body_next * normal[k, up]
+        held = True
+        if m > mass_floor:
+            vn_free = 0.0  # the free velocity along the normal, from its nonzero components only
+            on_face = False
+            for a in range(dim):
+                nk = normal[k, a]
+                if nk != 0.0:
+                    on_face = True
+                    g = gravity if a == up else 0.0
+                    vn_free += (v[a, n] + dt * (f[a, n] / m - g)) * nk
+            if on_face:
+                held = vn_free <= v_body_next * normal[k, up]
+        holding[k] = held
 
 
 @njit(**JIT)
@@ -133,7 +131,7 @@ def tie_reactions(contact, nodes, gravity):
     for k in range(len(contact.node)):
         if not contact.holding[k]:
             continue
-        n = contact.node[k]
+        n = np.uint64(contact.node[k])  # unsigned: no wraparound check at each access
         m = mass[n]
         if contact.full[k]:
             force += f[up, n] - m * gravity
@@ -159,7 +157,7 @@ def apply_ties(contact, nodes, v_body):
     for k in range(len(contact.node)):
         if not contact.holding[k]:
             continue
-        n = contact.node[k]
+        n = np.uint64(contact.node[k])  # unsigned: no wraparound check at each access
         v_free = v[up, n]
         if contact.full[k]:
             for a in range(up):
@@ -214,7 +212,7 @@ def adhesion(contact, cells, nodes, v_body, dt, mass_floor, energy_slip):
     for k in range(len(contact.node)):
         if contact.full[k] or contact.cap[k] <= 0.0 or not contact.holding[k]:
             continue
-        n = contact.node[k]
+        n = np.uint64(contact.node[k])  # unsigned: no wraparound check at each access
         m = mass[n]
         if m <= mass_floor:
             continue

@@ -30,6 +30,8 @@ CUT_OPEN_FLOOR = 0.5
 #: cell in contact reads 1 ± a few per mille (compression, remap round-off); at 0.999 the stress
 #: flickered on and off (curve roughness 0.49 at B/20), 0.95 and 0.99 read the same factors
 GAP_CELL_FULL = 0.95
+#: an unsigned 1, for node index arithmetic (an int literal would turn a uint64 sum into a float)
+ONE = np.uint64(1)
 
 
 @njit(**JIT)
@@ -123,7 +125,7 @@ def nodal_forces(mesh, cells, faces, nodes, par, v_body, work):
     fn[:] = 0.0
     rho, axisym, c_wave = par.density, par.axisymmetric, par.wave_speed
     nx, ny = phi.shape
-    ny1 = ny + 1
+    ny1 = np.uint64(ny + 1)
     hg_power = 0.0
     bv_power = 0.0
     arc_fy = 0.0
@@ -137,11 +139,13 @@ def nodal_forces(mesh, cells, faces, nodes, par, v_body, work):
             dy = y[j + 1] - y[j]
             area = dx * dy
             vol = area * r
+            # unsigned node indices: Numba checks a signed index for wraparound at every access
             if split[i, j]:  # a cell with a split node: the corner table says which
-                n0, n1, n2, n3 = corner[i, j, 0], corner[i, j, 1], corner[i, j, 2], corner[i, j, 3]
+                n0, n1, n2, n3 = (np.uint64(corner[i, j, 0]), np.uint64(corner[i, j, 1]), np.uint64(corner[i, j, 2]),
+                                  np.uint64(corner[i, j, 3]))
             else:  # the structured numbering, the table's own for every other cell
-                n0 = i * ny1 + j
-                n1, n2, n3 = n0 + ny1, n0 + ny1 + 1, n0 + 1
+                n0 = np.uint64(i) * ny1 + np.uint64(j)
+                n1, n2, n3 = n0 + ny1, n0 + ny1 + ONE, n0 + ONE
             vel = (v[0, n0], v[0, n1], v[0, n2], v[0, n3], v[1, n0], v[1, n1], v[1, n2], v[1, n3])
             vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3 = vel
             div = (vx1 + vx2 - vx0 - vx3) / (2.0 * dx) + (vy2 + vy3 - vy0 - vy1) / (2.0 * dy)
@@ -348,8 +352,9 @@ def update_stress(mesh, cells, faces, nodes, par, v_body, law, out):
 
     su = (su0 + ks·z0)·f·law(ξ, γ̇, state) with z0 the depth where the soil started, f the cell's
     strength factor (α in a curved body's interface layer) and γ̇ = (Δε1 − Δε3)/Δt; the soil law
-    ``law`` (a compiled callback, see dsmv.soil_law) is called only when ``par.law_active``, so laws
-    without softening or rate cost nothing. The return is J2's radial return to √J2 ≤ su, or with
+    ``law`` (a compiled callback, see dsmv.soil_law) is called only when ``par.law_active``; a law that
+    neither changes the strength nor carries state (Tresca) comes as ``law=None``, and the kernel
+    compiles without the calls (the untaken call alone cost 8–16 % of the update). The return is J2's radial return to √J2 ≤ su, or with
     ``par.tresca`` the return to Tresca's hexagon s1 − s3 ≤ 2·su. Both are the same in plane strain;
     in axisymmetry only Tresca matches Tresca's exact solutions (J2 matched in shear is weaker in
     triaxial states by √3/2). Accumulates the plastic shear strain ξ += Δε1^p − Δε3^p (Δγ in simple
@@ -365,7 +370,7 @@ def update_stress(mesh, cells, faces, nodes, par, v_body, law, out):
     phi, q, su_cell, factor = cells.phi, cells.q, cells.su, cells.strength_factor
     open_frac, gap, shared = cells.open_frac, cells.gap, cells.shared_divergence
     nx, ny = phi.shape
-    ny1 = ny + 1
+    ny1 = np.uint64(ny + 1)
     n_state = q.shape[0] - NQ_BASE
     shear_mod, dt, axisym = par.shear, par.dt, par.axisymmetric
     lam = par.bulk - 2.0 * shear_mod / 3.0
@@ -390,11 +395,13 @@ def update_stress(mesh, cells, faces, nodes, par, v_body, law, out):
                 q[SZZ, i, j] = 0.0
                 su_cell[i, j] = 0.0
                 continue
+            # unsigned node indices: Numba checks a signed index for wraparound at every access
             if split[i, j]:  # a cell with a split node: the corner table says which
-                n0, n1, n2, n3 = corner[i, j, 0], corner[i, j, 1], corner[i, j, 2], corner[i, j, 3]
+                n0, n1, n2, n3 = (np.uint64(corner[i, j, 0]), np.uint64(corner[i, j, 1]), np.uint64(corner[i, j, 2]),
+                                  np.uint64(corner[i, j, 3]))
             else:  # the structured numbering, the table's own for every other cell
-                n0 = i * ny1 + j
-                n1, n2, n3 = n0 + ny1, n0 + ny1 + 1, n0 + 1
+                n0 = np.uint64(i) * ny1 + np.uint64(j)
+                n1, n2, n3 = n0 + ny1, n0 + ny1 + ONE, n0 + ONE
             vel = (v[0, n0], v[0, n1], v[0, n2], v[0, n3], v[1, n0], v[1, n1], v[1, n2], v[1, n3])
             dxx, dyy, dxy, dzz, w = strain_increment(dt, dx, dy, r, axisym, vel)
             if not math.isnan(shared[i, j]) or open_ij < 1.0:
@@ -406,7 +413,7 @@ def update_stress(mesh, cells, faces, nodes, par, v_body, law, out):
                 su = 0.0
             xi_before = q[XI, i, j]
             gamma_dot = 0.0
-            if par.law_active:
+            if law is not None and par.law_active:
                 gamma_dot = shear_rate(dxx, dyy, dxy, dzz, dt)
                 s0 = q[NQ_BASE, i, j] if n_state > 0 else 0.0
                 s1 = q[NQ_BASE + 1, i, j] if n_state > 1 else 0.0
@@ -427,7 +434,7 @@ def update_stress(mesh, cells, faces, nodes, par, v_body, law, out):
             q[SYY, i, j] = syy
             q[SZZ, i, j] = szz
             q[SXY, i, j] = sxy
-            if n_state > 0:
+            if law is not None and n_state > 0:
                 evolve_law_state(q, i, j, law, xi_before, gamma_dot, dt)
     out[0] += plastic
 
