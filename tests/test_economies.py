@@ -1,6 +1,7 @@
 """Each economy of the CEL solver leaves the result as it was (dsmv-bench times what it saves).
 
-Truths: skipping arithmetic that multiplies by exactly 1 changes nothing, bit for bit; running
+Truths: skipping arithmetic that multiplies by exactly 1 changes nothing (to the last few bits, where
+two compiled variants of the loop may round differently); running
 on after the body has come to rest cannot change the run up to that moment; the half
 model with a symmetry plane is the whole section's mirror image, to the asymmetry of the
 directionally split remap (tolerance 1e-3 relative).
@@ -33,9 +34,12 @@ def landing(landing_result):
 
 
 def test_skipping_an_inactive_law_changes_nothing(landing):
+    """Tresca's factor is exactly 1, so calling it changes no arithmetic. The loop that skips it is a
+    second compiled variant (law=None), whose fused multiply-adds the compiler may place otherwise:
+    measured 4.8e-16 (max sinkage) and 2.2e-16 (plastic work), relative — a few ulps."""
     on, off = landing(), landing("solver.economies.skip_inactive_law=false")
-    assert off["max_sinkage_m"] == on["max_sinkage_m"]
-    assert off["energy_plastic_j"] == on["energy_plastic_j"]
+    assert off["max_sinkage_m"] == pytest.approx(on["max_sinkage_m"], rel=5e-15, abs=0)
+    assert off["energy_plastic_j"] == pytest.approx(on["energy_plastic_j"], rel=5e-15, abs=0)
 
 
 def test_stopping_at_rest_keeps_the_max_sinkage_and_time_to_rest(landing_result):
