@@ -36,6 +36,12 @@ STRESS_SCENES = {
     "zero_gravity_cone_thrown_at_1_m_s": ("geometry=fall_cone_30deg", "landing.velocity_m_s=1", "landing.gravity_m_s2=0"),
 }
 
+def stress_scene(overrides) -> list[str]:
+    """A stress-suite scene: the default landing on Tresca soil unless the scene names its law."""
+    law = [] if any(o.startswith("soil.law=") for o in overrides) else ["soil.law=tresca"]
+    return ["solver=cel2d", *law, *overrides]
+
+
 _PRANDTL = [*canonical.PRANDTL, "landing.displacement_m=0.065"]
 _BONDED = [*canonical.PRANDTL_BONDED, "landing.displacement_m=0.065", "mesh.cell_size_m=0.05"]
 _TBAR = [*canonical.TBAR, "landing.displacement_m=0.1"]
@@ -63,6 +69,8 @@ def _scenes() -> dict[str, list[str]]:
         "fall_cone": ["solver=cel2d", "geometry=fall_cone_30deg"],
         "default_landing": list(canonical.LANDING),
         "default_landing_coarse": ["solver=cel2d", "mesh=coarse"],
+        "landing_tresca": ["solver=cel2d", "soil.law=tresca"],
+        "landing_tresca_bonded": ["solver=cel2d", "soil.law=tresca", "solver.contact_separation=false"],
         "landing_einav_randolph": ["solver=cel2d", "soil.law=einav_randolph"],
         "landing_separation": ["solver=cel2d", "solver.contact_separation=true"],
         "landing_smooth": ["solver=cel2d", "geometry.roughness=smooth"],
@@ -70,7 +78,7 @@ def _scenes() -> dict[str, list[str]]:
         "geostatic": ["experiment=verify_geostatic", "hydra.mode=RUN"],
         "advection": ["experiment=verify_advection", "hydra.mode=RUN"],
     }
-    scenes |= {f"stress_{name}": ["solver=cel2d", *overrides] for name, overrides in STRESS_SCENES.items()}
+    scenes |= {f"stress_{name}": stress_scene(overrides) for name, overrides in STRESS_SCENES.items()}
     checks = ("geostatic", "advection")  # cel2d_check has no progress setting
     return {name: o if name in checks else [*o, "solver.progress=off"] for name, o in scenes.items()}
 

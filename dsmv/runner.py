@@ -257,6 +257,9 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
              if scene.landing.kind == "push" else
              f"{scene.landing.kind} {scene.landing.mass_kg:g} kg at {scene.landing.velocity_m_s:g} m/s, ")
           + f"solver {scene.solver.name}")
+    assumed = registry.load("soil_laws", scene.soil.law, "soil.law")(scene.soil).assumptions()
+    if assumed:
+        print(f"  assumed : {', '.join(assumed)} (provisional: no published source)")
     print(f"  message : {result.message}")
     print(f"  outputs : {run_dir}")
     if tracker is not None:

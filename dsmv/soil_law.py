@@ -74,6 +74,11 @@ class SoilLaw:
     def rate_dependent(self) -> bool:
         return False
 
+    def assumptions(self) -> list[str]:
+        """The parameters this soil uses whose values have no published source, each as ``key = value``:
+        the run's summary lists them, so that an answer that rests on them says so."""
+        return []
+
     def state_variables(self) -> dict[str, float]:
         """The law's per-cell state variables, by name, with their initial values (at most N_STATE)."""
         return {}

@@ -291,7 +291,8 @@ def bearing_curves(sweep_dir: Path, path: Path) -> Path | None:
         body, soil = config.geometry, config.soil
         if config.landing.kind != "push" or body.kind not in ("strip", "tbar"):
             continue
-        separation = bool(OmegaConf.select(config, "solver.contact_separation", default=False))
+        # a push parts from the walls only when asked (auto: landings only; the key is newer than some runs)
+        separation = OmegaConf.select(config, "solver.contact_separation", default=False) is True
         if body.kind == "strip":
             separations.add(separation)
         scale = float(soil.su0_pa) * float(body.width_m) * float(body.contact_length_m)

@@ -40,6 +40,14 @@ class EinavRandolphLaw(SoilLaw):
         rate = self.soil.rate
         return rate.eta > 0.0 if rate.law == "power" else rate.mu > 0.0
 
+    def assumptions(self) -> list[str]:
+        """The power form's n and γ̇ref have no published source (docs: soil laws); the log form's
+        μ and the softening parameters are Table 3's or the literature's."""
+        rate = self.soil.rate
+        if rate.law != "power" or not self.rate_dependent:
+            return []
+        return [f"soil.rate.n = {rate.n:g}", f"soil.rate.gamma_dot_ref = {rate.gamma_dot_ref:g} 1/s"]
+
     def parameters(self) -> np.ndarray:
         soil, rate = self.soil, self.soil.rate
         return np.array([

@@ -95,3 +95,22 @@ def test_a_face_grips_a_partly_filled_cell_in_proportion_to_its_fill():
     assert grip() == pytest.approx(0.5 * (1.0 + 0.2) * su_pa)
     phi[1, 1] = 1.0
     assert grip() == pytest.approx(su_pa)  # fully in contact: su
+
+
+@pytest.mark.parametrize("overrides, parts", [
+    (["solver=cel2d"], True),                                             # the default landing: a track section
+    (["solver=cel2d", "geometry=strip"], True),                           # a strip landing
+    (["solver=cel2d", "geometry=tbar", "geometry.roughness=smooth"], True),  # a smooth cylinder's cut cells
+    (["solver=cel2d", "geometry=tbar"], False),                           # a rough cylinder: staircase, tied
+    (["solver=cel2d", "geometry=fall_cone_30deg"], False),                 # a staircase cone stays tied
+    (["solver=cel2d", "geometry.view=longitudinal"], False),              # plates and grousers: staircase
+    (["solver=cel2d", "solver.economies.symmetry=false"], False),         # the whole section models tied faces
+    ([*canonical.PRANDTL_BONDED[:-1], "solver.contact_separation=auto"], False),  # a push stays tied unless asked
+])
+def test_auto_separation_lets_go_in_landings_wherever_faces_can(compose_cfg, overrides, parts):
+    """solver.contact_separation=auto: real contact holds no tension, so a landing's soil may part from
+    the body wherever its faces can let go; the verification pushes keep their tied contact."""
+    from dsmv.cel.contact import ContactRules
+
+    scene = build_scene(compose_cfg(overrides))
+    assert ContactRules.of(scene, Cel2DSolver.is_axisymmetric(scene)).separation is parts

@@ -83,7 +83,7 @@ def test_the_cel_defaults_are_the_documented_numerics(compose_cfg):
         0.5, 0.05, 0.06, 1.2)
     assert (solver.advection_order, solver.remap_courant, solver.stress_cutoff, solver.remap) == (2, 0.05, 0.01, True)
     assert (solver.domain_depth_widths, solver.domain_half_width_widths, solver.core_margin_widths) == (5.0, 5.0, 1.0)
-    assert solver.economies.skip_void and solver.economies.symmetry and not solver.contact_separation
+    assert solver.economies.skip_void and solver.economies.symmetry and solver.contact_separation == "auto"
 
 
 def test_a_solver_yaml_missing_a_setting_fails_at_composition(compose_cfg):

@@ -8,7 +8,7 @@ what each key means and allows; the values, defaults included, live in one home,
 
 from __future__ import annotations
 
-from typing import Literal, Optional
+from typing import Literal, Optional, Union
 
 from pydantic import Field
 
@@ -38,9 +38,9 @@ class CelConfig(Schema):
         description="auto: von Mises (J2) in plane strain, where it equals Tresca; Tresca in axisymmetry")
     stress_cutoff: Number = Field(ge=0, lt=1, description="cells with less soil carry no stress (-)")
     remap: bool = Field(description="false: small-strain analysis on the undeformed grid (verification)")
-    contact_separation: bool = Field(description=(
-        "true: a face lets go of the soil that would pull away from it (no tension); "
-        "false: the soil stays tied to it"))
+    contact_separation: Union[bool, Literal["auto"]] = Field(description=(
+        "auto: on for a landing (landing=drop) wherever the faces can let go, else off; true: a face lets "
+        "go of the soil that would pull away from it (no tension); false: the soil stays tied to it"))
     # at most 0.25: next to the axis of an axisymmetric model a cell's volume Courant number is
     # about twice the travel over h
     remap_courant: Number = Field(ge=0, le=0.25, description=(

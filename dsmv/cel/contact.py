@@ -22,7 +22,7 @@ contact the body gets; ``check_scene`` refuses what it cannot do and the set-up
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -46,9 +46,16 @@ class ContactRules:
 
     @classmethod
     def of(cls, scene, axisymmetric: bool) -> "ContactRules":
-        body = scene.geometry
-        return cls(body.kind, getattr(body, "view", "cross_section") == "longitudinal", body.adhesion_factor,
-                   body.roughness, axisymmetric, scene.solver.contact_separation)
+        """The rules of a scene. ``solver.contact_separation=auto`` lets the soil part from the body in a
+        landing (real contact holds no tension) wherever the faces can let go and the half model runs;
+        a push (the verification cases) keeps the soil tied unless asked."""
+        body, asked = scene.geometry, scene.solver.contact_separation
+        rules = cls(body.kind, getattr(body, "view", "cross_section") == "longitudinal", body.adhesion_factor,
+                    body.roughness, axisymmetric, asked is True)
+        if asked == "auto":
+            landing = scene.landing.kind == "drop" and scene.solver.economies.symmetry
+            rules = replace(rules, separation=rules.separable and landing)
+        return rules
 
     @property
     def flat_faced(self) -> bool:

@@ -468,7 +468,7 @@ class Cel2DSolver(CelSolver):
         cfg, body = scene.solver, scene.geometry
         if not cfg.economies.symmetry and (body.kind == "cone" or cfg.mode == "axisymmetric"
                                            or body.roughness != "rough" or scene.output.fields
-                                           or cfg.contact_separation):
+                                           or ContactRules.of(scene, cls.is_axisymmetric(scene)).separation):
             raise ConfigError("solver.economies.symmetry", False, "the whole section runs plane strain bodies with "
                               "rough contact, no contact separation and no field output; it exists to measure what "
                               "the half model saves")
@@ -559,7 +559,7 @@ class Cel2DSolver(CelSolver):
             push_velocity=landing.velocity_m_s, remap_courant=cfg.remap_courant,
             axisymmetric=self.axisym, advection_order=cfg.advection_order, drop=drop, inflow=True, remap=cfg.remap,
             law_active=self.law.active or not cfg.economies.skip_inactive_law, skip_void=cfg.economies.skip_void,
-            separation=cfg.contact_separation,
+            separation=self.rules.separation,
             tresca=cfg.yield_surface == "tresca" or (cfg.yield_surface == "auto" and self.axisym),
         )
         nodal_mass(mesh, cells, rho, nodes.mass)
