@@ -37,12 +37,12 @@ def test_every_experiment_composes(compose_cfg, experiment):
 def test_default_scene_is_the_issue_contract(compose_cfg):
     scene = build_scene(compose_cfg())
     soil, body, landing = scene.soil, scene.geometry, scene.landing
-    assert (soil.name, soil.law, soil.su0_pa, soil.ks_pa_per_m) == ("nodule_field", "tresca", 5000.0, 1500.0)
+    assert (soil.name, soil.law, soil.su0_pa, soil.ks_pa_per_m) == ("nodule_field", "einav_randolph", 5000.0, 1500.0)
     assert (soil.sensitivity, soil.xi95, soil.rate.law, soil.rate.eta) == (3.0, 25.0, "power", 0.05)
     assert (soil.density_kg_m3, soil.youngs_modulus_pa, soil.poisson_ratio) == (600.0, 500 * 5000.0, 0.49)
     assert (body.name, body.width_m, body.contact_length_m, body.roughness) == ("track_pioneer_i", 0.6, 4.17, "rough")
     assert (landing.kind, landing.mass_kg, landing.velocity_m_s, landing.n_tracks) == ("drop", 4500.0, 1.5, 1)
-    assert scene.mesh.cell_size_m == 0.04
+    assert (scene.mesh.name, scene.mesh.cell_size_m) == ("standard", 0.02)
 
 
 def test_youngs_modulus_follows_su0_unless_given(compose_cfg):

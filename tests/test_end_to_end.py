@@ -21,7 +21,7 @@ def job_dirs(root: Path) -> list[Path]:
 def test_single_run_writes_the_contract_and_one_finished_mlflow_run(run_cli, tmp_path):
     proc = run_cli("dsmv")
     assert proc.returncode == 0, proc.stderr
-    assert "dsmv: ok — max sinkage 0.1259 m" in proc.stdout  # the default solver, cel2d (README)
+    assert "dsmv: ok — max sinkage 0.0645 m" in proc.stdout  # the default solver, cel2d (README)
     (job,) = job_dirs(tmp_path)
     result = json.loads((job / "result.json").read_text())
     assert set(result) == RESULT_KEYS
@@ -108,7 +108,7 @@ def test_a_solver_that_raises_leaves_result_json_and_a_failed_run(run_cli, tmp_p
 
 
 def test_bearing_failure_is_a_finished_run_with_its_status(run_cli, tmp_path):
-    proc = run_cli("dsmv", "soil.su0_pa=2000", "soil.ks_pa_per_m=0")
+    proc = run_cli("dsmv", "soil.law=tresca", "soil.su0_pa=2000", "soil.ks_pa_per_m=0")
     assert proc.returncode == 0, proc.stderr
     assert "bearing_failure" in proc.stdout
     (run,) = mlflow_runs(tmp_path)
