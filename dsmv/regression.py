@@ -37,9 +37,14 @@ STRESS_SCENES = {
 }
 
 def stress_scene(overrides) -> list[str]:
-    """A stress-suite scene: the default landing on Tresca soil unless the scene names its law."""
-    law = [] if any(o.startswith("soil.law=") for o in overrides) else ["soil.law=tresca"]
-    return ["solver=cel2d", *law, *overrides]
+    """A stress-suite scene: the default landing, on Tresca soil unless the scene names its law and on
+    the medium mesh (0.04 m) unless it names one: the suite's figures were measured so."""
+    def named(prefix):
+        return any(o.startswith(prefix) for o in overrides)
+
+    law = [] if named("soil.law=") else ["soil.law=tresca"]
+    mesh = [] if named("mesh=") or named("mesh.cell_size_m=") else ["mesh=medium"]
+    return ["solver=cel2d", *law, *mesh, *overrides]
 
 
 _PRANDTL = [*canonical.PRANDTL, "landing.displacement_m=0.065"]
@@ -66,14 +71,17 @@ def _scenes() -> dict[str, list[str]]:
         "circular_plate_rough_B20": [*_BONDED, "landing.displacement_m=0.11", "solver.mode=axisymmetric",
                                      "solver.remap=false"],
         "circular_plate_rough_B20_remap": [*_BONDED, "landing.displacement_m=0.11", "solver.mode=axisymmetric"],
-        "fall_cone": ["solver=cel2d", "geometry=fall_cone_30deg"],
+        "fall_cone": ["solver=cel2d", "geometry=fall_cone_30deg", "soil.law=tresca"],
         "default_landing": list(canonical.LANDING),
         "default_landing_coarse": ["solver=cel2d", "mesh=coarse"],
-        "landing_tresca": ["solver=cel2d", "soil.law=tresca"],
-        "landing_tresca_bonded": ["solver=cel2d", "soil.law=tresca", "solver.contact_separation=false"],
-        "landing_einav_randolph": ["solver=cel2d", "soil.law=einav_randolph"],
-        "landing_separation": ["solver=cel2d", "solver.contact_separation=true"],
-        "landing_smooth": ["solver=cel2d", "geometry.roughness=smooth"],
+        "landing_medium": ["solver=cel2d", "mesh=medium"],
+        # the former default landing: Tresca, the soil tied to the track, medium mesh (0.12586 m)
+        "landing_tresca_bonded_medium": ["solver=cel2d", "soil.law=tresca", "solver.contact_separation=false",
+                                         "mesh=medium"],
+        "landing_tresca_medium": ["solver=cel2d", "soil.law=tresca", "mesh=medium"],
+        "landing_einav_randolph_bonded_medium": ["solver=cel2d", "solver.contact_separation=false", "mesh=medium"],
+        "landing_smooth_medium": ["solver=cel2d", "soil.law=tresca", "solver.contact_separation=false",
+                                  "geometry.roughness=smooth", "mesh=medium"],
         "landing_longitudinal": ["solver=cel2d", "geometry.view=longitudinal", "mesh=coarse"],
         "geostatic": ["experiment=verify_geostatic", "hydra.mode=RUN"],
         "advection": ["experiment=verify_advection", "hydra.mode=RUN"],

@@ -38,6 +38,20 @@ def test_the_reference_landing_is_recomputed_when_the_solver_changes(tmp_path, m
     monkeypatch.setattr(bench, "solve", fake_solve)
     monkeypatch.setattr(bench, "solver_fingerprint", lambda overrides: "version-a")
     first = bench.landing_reference(bench.QUICK, tmp_path)
-    assert bench.landing_reference(bench.QUICK, tmp_path) == first and len(runs) == 1  # cached
+    assert bench.landing_reference(bench.QUICK, tmp_path) == first and len(runs) == 3  # cached (h, 2h, 4h)
     monkeypatch.setattr(bench, "solver_fingerprint", lambda overrides: "version-b")
-    assert bench.landing_reference(bench.QUICK, tmp_path) != first and len(runs) == 2  # stale: run again
+    assert bench.landing_reference(bench.QUICK, tmp_path) != first and len(runs) == 6  # stale: run again
+
+
+def test_the_reference_landing_is_the_extrapolated_answer(tmp_path, monkeypatch):
+    """A sinkage exactly first order in h, z = 0.2 − 0.5·h, extrapolates to its limit 0.2 m: the
+    Pareto front measures error against the answer at zero cell size, not against one finer mesh."""
+    from dsmv import bench
+
+    def first_order(overrides, repeats, run_dir=None):
+        h = float(next(o for o in overrides if o.startswith("mesh.cell_size_m=")).split("=")[1])
+        return {"max_sinkage_m": 0.2 - 0.5 * h, "wall_s": 1.0}, "ok", [1.0]
+
+    monkeypatch.setattr(bench, "solve", first_order)
+    monkeypatch.setattr(bench, "solver_fingerprint", lambda overrides: "version-a")
+    assert bench.landing_reference(bench.FULL, tmp_path) == pytest.approx(0.2, abs=1e-12)

@@ -25,7 +25,7 @@ def test_single_run_writes_the_contract_and_one_finished_mlflow_run(run_cli, tmp
     (job,) = job_dirs(tmp_path)
     result = json.loads((job / "result.json").read_text())
     assert set(result) == RESULT_KEYS
-    assert result["status"] == "ok" and result["soil_law"] == "tresca" and result["solver"] == "cel2d"
+    assert result["status"] == "ok" and result["soil_law"] == "einav_randolph" and result["solver"] == "cel2d"
     assert result["units"]["max_sinkage_m"] == "m"
     header = (job / "history.csv").read_text().splitlines()[0]
     assert header == ",".join(HISTORY_COLUMNS)
