@@ -104,8 +104,8 @@ def test_negative_depth_is_refused_with_what_is_allowed(capsys):
 def test_command_line_prints_a_bracket(capsys):
     main(["--depth", "0", "--roughness", "smooth", "--corner-size", "0.1", "--growth", "1.6", "--zone-size", "0.2"])
     header, *lines = capsys.readouterr().out.splitlines()
-    assert header.startswith("q/su of a strip whose base lies 0 B deep, smooth")
-    assert lines[0].startswith("lower bound  q/su = ") and lines[1].startswith("upper bound  q/su = ")
+    assert header.startswith("q/su0 of a strip whose base lies 0 B deep, smooth")
+    assert lines[0].startswith("lower bound  q/su0 = ") and lines[1].startswith("upper bound  q/su0 = ")
     lower, upper = (float(line.split("= ")[1].split()[0]) for line in lines)
     assert lower <= PRANDTL_NC <= upper
 
@@ -170,3 +170,32 @@ def test_lower_bound_field_keeps_every_traction_continuous_even_the_dropped_ones
             jump = np.hypot((sxx1 - sxx2) * nx + (txz1 - txz2) * nz, (txz1 - txz2) * nx + (szz1 - szz2) * nz)
             worst = max(worst, jump / np.hypot(nx, nz))
     assert violation < 1e-6 and worst < 1e-6
+
+
+#: Davis & Booker (1973), strength growing with depth: q/su0 = F·[(2 + π) + k·B/(4·su0)]. The smooth
+#: k·B/su0 = 4 case is the PLAXIS 2D validation manual's (3.2): 7.80
+DAVIS_BOOKER_SMOOTH_4 = 7.80
+
+
+def test_strength_gradient_zero_is_the_uniform_soil():
+    """k = 0 must give the uniform soil's bounds to the last digit (the same programme)."""
+    for bound in (strip_lower_bound, strip_upper_bound):
+        assert bound(0.0, False, strength_gradient=0.0, **COARSE).bearing_factor == \
+            bound(0.0, False, **COARSE).bearing_factor
+
+
+def test_bounds_bracket_davis_and_booker_for_strength_growing_with_depth():
+    """Smooth strip, k·B/su0 = 4: the bounds bracket Davis & Booker's 7.80 on a coarse mesh
+    (measured 7.620 and 8.076), and both rise above the uniform soil's, which the gradient only
+    strengthens."""
+    lower = strip_lower_bound(0.0, False, strength_gradient=4.0, **COARSE)
+    upper = strip_upper_bound(0.0, False, strength_gradient=4.0, **COARSE)
+    assert lower.bearing_factor <= DAVIS_BOOKER_SMOOTH_4 <= upper.bearing_factor
+    assert lower.bearing_factor > 0.97 * DAVIS_BOOKER_SMOOTH_4 and upper.bearing_factor < 1.04 * DAVIS_BOOKER_SMOOTH_4
+    assert lower.bearing_factor > strip_upper_bound(0.0, False, **COARSE).bearing_factor
+    assert lower.max_violation < 1e-6 and upper.max_violation < 1e-6
+
+
+def test_a_negative_strength_gradient_is_refused():
+    with pytest.raises(ValueError, match="k·B/su0"):
+        strip_lower_bound(0.0, True, strength_gradient=-1.0, **COARSE)

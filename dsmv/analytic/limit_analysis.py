@@ -281,21 +281,30 @@ class _ConeProgram:
         return x, violation, solve_s, str(solution.status)
 
 
+def corner_strength(mesh: Mesh, gradient: float) -> np.ndarray:
+    """su/su0 at every triangle corner, (n_tri, 3): su = su0 + k·z below the surface z = 0, with
+    ``gradient`` = k·B/su0 (lengths in B)."""
+    depth = np.maximum(-mesh.points[mesh.triangles][..., 1], 0.0)
+    return 1.0 + gradient * depth
+
+
 def strip_lower_bound(depth_over_width: float = 0.0, rough: bool = True, bonded: bool = False,
-                      **mesh_options) -> Bound:
-    """Lower bound on q/su of a strip, base at depth_over_width·B below the surface; `rough`: base
-    and walls take shear (up to su), else neither does; `bonded`: they take tension too.
-    mesh_options go to :func:`strip_mesh`."""
+                      strength_gradient: float = 0.0, **mesh_options) -> Bound:
+    """Lower bound on q/su0 of a strip, base at depth_over_width·B below the surface; `rough`: base
+    and walls take shear (up to su), else neither does; `bonded`: they take tension too;
+    `strength_gradient`: k·B/su0 of su = su0 + k·z. mesh_options go to :func:`strip_mesh`."""
     mesh = strip_mesh(_checked_depth(depth_over_width), **mesh_options)
-    program = _lower_bound_program(mesh, rough, bonded)
+    program = _lower_bound_program(mesh, rough, bonded, _checked_gradient(strength_gradient))
     # base: minimise Σ σzz (compression is negative); wall: maximise the soil's upward shear τ
     stress, violation, solve_s, status = program.solve()
     return Bound("lower", float(-program.objective @ stress), len(mesh.triangles), program.n_var, solve_s, violation,
                  status)
 
 
-def _lower_bound_program(mesh: Mesh, rough: bool, bonded: bool) -> _ConeProgram:
-    """The lower bound's cone programme on `mesh` (see the module's docstring)."""
+def _lower_bound_program(mesh: Mesh, rough: bool, bonded: bool, gradient: float = 0.0) -> _ConeProgram:
+    """The lower bound's cone programme on `mesh` (see the module's docstring); stresses in su0.
+    With su growing linearly with depth, Tresca holds at each corner with that corner's su: a linear
+    stress field under a convex yield function meets the linear su(z) everywhere in the triangle."""
     n_tri = len(mesh.triangles)
     sxx, szz, txz = 0, 1, 2
 
@@ -310,7 +319,7 @@ def _lower_bound_program(mesh: Mesh, rough: bool, bonded: bool) -> _ConeProgram:
     program.add("eq", [(var(tri, i, txz), dndx[:, i]) for i in range(3)] + [(var(tri, i, szz), dndz[:, i]) for i in range(3)])
     corner = np.arange(n_tri * 3)
     program.add_cones([(corner * 3 + sxx, 0.0)], [(corner * 3 + sxx, 1.0), (corner * 3 + szz, -1.0)],
-                      [(corner * 3 + txz, 2.0)], t_constant=2.0)
+                      [(corner * 3 + txz, 2.0)], t_constant=2.0 * corner_strength(mesh, gradient).ravel())
 
     relieved: set[int] = set()
     far_right: list[tuple[float, int]] = []  # (z, σxx variable) of the corners on x = L
@@ -353,7 +362,8 @@ def _lower_bound_program(mesh: Mesh, rough: bool, bonded: bool) -> _ConeProgram:
     # The far field's two constant states: one σxx = a along the right edge, one σzz = b along the
     # bottom, chained neighbour to neighbour (a shared variable would tie every boundary node
     # together and fill the solver's factor); then Tresca for them, |a| ≤ 2 and |a - b| ≤ 2,
-    # with a and b read at the bottom right corner.
+    # with a and b read at the bottom right corner (su ≥ su0 everywhere: with strength growing
+    # with depth these are conservative).
     for chain in (sorted(far_right), sorted(far_bottom)):
         for (_, first), (_, second) in zip(chain[:-1], chain[1:]):
             program.add("eq", [(first, 1.0), (second, -1.0)])
@@ -365,11 +375,12 @@ def _lower_bound_program(mesh: Mesh, rough: bool, bonded: bool) -> _ConeProgram:
 
 
 def strip_upper_bound(depth_over_width: float = 0.0, rough: bool = True, bonded: bool = False,
-                      **mesh_options) -> Bound:
-    """Upper bound on q/su of a strip, base at depth_over_width·B below the surface; `rough`: the
-    soil sticks to base and walls, else it slides along them; `bonded`: it cannot part from a wall.
-    mesh_options go to :func:`strip_mesh`."""
+                      strength_gradient: float = 0.0, **mesh_options) -> Bound:
+    """Upper bound on q/su0 of a strip, base at depth_over_width·B below the surface; `rough`: the
+    soil sticks to base and walls, else it slides along them; `bonded`: it cannot part from a wall;
+    `strength_gradient`: k·B/su0 of su = su0 + k·z. mesh_options go to :func:`strip_mesh`."""
     mesh = strip_mesh(_checked_depth(depth_over_width), **mesh_options)
+    gradient = _checked_gradient(strength_gradient)
     n_tri = len(mesh.triangles)
     edges = mesh.edges()
     midside = {key: len(mesh.points) + n for n, key in enumerate(edges)}  # the 6-node triangles' midside nodes
@@ -391,7 +402,12 @@ def strip_upper_bound(depth_over_width: float = 0.0, rough: bool = True, bonded:
     dissipation = n_velocity + np.arange(n_tri * 3)  # one variable per triangle corner: √(..)
     program = _ConeProgram(n_velocity + n_tri * 3)
     twice_area, dndx, dndz = mesh.gradients()
-    program.objective[dissipation] = np.repeat(0.5 * twice_area / 3.0, 3) / HALF_WIDTH  # su = 1, speed 1
+    # ∫ su·D over a triangle, D the dissipation rate per unit su (convex in a linear strain rate, so
+    # D ≤ Σ Lk·Dk) and su = Σ Lk·suk linear: ≤ Σ Dk·∫ su·Lk = Σ Dk·A·(Σ su + suk)/12 (su0 = 1,
+    # speed 1); for uniform su each corner weighs A/3
+    su = corner_strength(mesh, gradient)
+    weight = 0.5 * twice_area[:, None] * (su.sum(axis=1, keepdims=True) + su) / 12.0
+    program.objective[dissipation] = weight.ravel() / HALF_WIDTH
     for k in range(3):  # the strain rate at corner k: ∂N/∂x of the quadratic shape functions there
         grad_x, grad_z = np.zeros((n_tri, 6)), np.zeros((n_tri, 6))
         for i in range(3):  # corner i: N = L(2L - 1), ∂N/∂L = 4L - 1
@@ -437,6 +453,12 @@ def strip_upper_bound(depth_over_width: float = 0.0, rough: bool = True, bonded:
     return Bound("upper", float(program.objective @ x), n_tri, program.n_var, solve_s, violation, status)
 
 
+def _checked_gradient(gradient: float) -> float:
+    if not gradient >= 0.0:
+        raise ValueError(f"strength gradient k·B/su0 = {gradient}: must be ≥ 0 (strength that grows with depth)")
+    return float(gradient)
+
+
 def _checked_depth(depth_over_width: float) -> float:
     if not depth_over_width >= 0.0:
         raise ValueError(f"depth_over_width must be ≥ 0 (the base's depth over the strip's width), got {depth_over_width}")
@@ -451,6 +473,8 @@ def main(argv=None) -> None:
     parser.add_argument("--roughness", choices=("rough", "smooth"), default="rough",
                         help="rough: base and walls take shear up to su; smooth: none")
     parser.add_argument("--bonded", action="store_true", help="the soil cannot part from base and walls (as in dsmv's CEL)")
+    parser.add_argument("--gradient", type=float, default=0.0,
+                        help="k·B/su0: strength growing with depth, su = su0 + k·z (Davis & Booker 1973)")
     parser.add_argument("--corner-size", type=float, default=0.01, help="cells at the base corner, in B")
     parser.add_argument("--growth", type=float, default=1.2, help="size ratio of neighbouring cells")
     parser.add_argument("--zone-size", type=float, default=0.05, help="largest cells over the mechanism, in B")
@@ -460,25 +484,27 @@ def main(argv=None) -> None:
                         help="width at the surface of a wedge-shaped gap beside the wall, closed at the base corner, in B")
     args = parser.parse_args(argv)
     for name, value, allowed in (("--depth", args.depth, args.depth >= 0.0),
+                                 ("--gradient", args.gradient, args.gradient >= 0.0),
                                  ("--corner-size", args.corner_size, args.corner_size > 0.0),
                                  ("--growth", args.growth, args.growth >= 1.0),
                                  ("--zone-size", args.zone_size, args.zone_size >= args.corner_size),
                                  ("--gap", args.gap, args.gap >= 0.0),
                                  ("--notch", args.notch, notch_allowed(args.depth, args.gap, args.notch))):
         if not allowed:
-            parser.error(f"{name} {value}: allowed are a depth ≥ 0, a corner size > 0, a growth ≥ 1, "
+            parser.error(f"{name} {value}: allowed are a depth ≥ 0, a gradient ≥ 0, a corner size > 0, a growth ≥ 1, "
                          f"a zone size ≥ the corner size, a gap ≥ 0, and a notch in [0, {0.5 * NOTCH_BLEND:g}) "
                          "that needs a depth > 0 and no gap (lengths in B)")
     mesh_options = dict(corner_size=args.corner_size, growth=args.growth, zone_size=args.zone_size, gap=args.gap,
                         notch=args.notch)
-    print(f"q/su of a strip whose base lies {args.depth:g} B deep, {args.roughness}"
+    print(f"q/su0 of a strip whose base lies {args.depth:g} B deep, {args.roughness}"
+          + (f", su = su0 + k·z with k·B/su0 = {args.gradient:g}" if args.gradient > 0 else "")
           + (", soil bonded to base and walls" if args.bonded else "")
           + (f", a soil-free slot {args.gap:g} B wide beside the wall" if args.gap > 0 else "")
           + (f", a wedge-shaped gap {args.notch:g} B wide at the surface beside the wall" if args.notch > 0 else "")
           + f"; Prandtl's 2 + π = {PRANDTL_NC:.4f}", flush=True)
     for bound in (strip_lower_bound, strip_upper_bound):
-        result = bound(args.depth, args.roughness == "rough", args.bonded, **mesh_options)
-        print(f"{result.kind:5s} bound  q/su = {result.bearing_factor:.4f}   ({result.n_triangles} triangles, "
+        result = bound(args.depth, args.roughness == "rough", args.bonded, args.gradient, **mesh_options)
+        print(f"{result.kind:5s} bound  q/su0 = {result.bearing_factor:.4f}   ({result.n_triangles} triangles, "
               f"{result.solve_s:.1f} s, constraints met to {result.max_violation:.1e}, solver {result.solver_status})",
               flush=True)
 
