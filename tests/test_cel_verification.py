@@ -364,3 +364,22 @@ def test_slicing_chunks_for_interrupts_changes_no_bit(compose_cfg, monkeypatch):
         k: v for k, v in runs[1].metrics.items() if k not in timing}
     for name, column in runs[0].history.items():
         assert (column == runs[1].history[name]).all(), name
+
+
+def test_strength_growing_with_depth_converges_into_the_limit_analysis_bracket(compose_cfg):
+    """Davis & Booker's smooth strip, k·B/su0 = 4 (q/su0 = 7.80), small strain at 0.02 B: B/20 and
+    B/40 read 8.659 and 8.263 (+11 %, +6 %: first order with a large constant, the shallow mechanism
+    of a strong gradient is poorly resolved), and their first-order extrapolation, 7.866, lies in
+    limit analysis's rigorous bracket [7.7254, 7.8915] and within 1.5 % of Davis & Booker."""
+    from dsmv.analytic.bearing import DAVIS_BOOKER_NC, GRADIENT_STRIP_BRACKET
+
+    nc = {h: solve(compose_cfg, Cel2DSolver, [*canonical.PRANDTL, "soil.ks_pa_per_m=40000", "soil.youngs_modulus_pa=1e7",
+                                               "geometry.roughness=smooth", "solver.remap=false",
+                                               "landing.displacement_m=0.04", "solver.initial_travel_m=0.1",
+                                               "solver.progress=off", f"mesh.cell_size_m={h}"]).metrics["nc_at_0p02B"]
+          for h in (0.05, 0.025)}
+    extrapolated = 2 * nc[0.025] - nc[0.05]
+    lower, upper = GRADIENT_STRIP_BRACKET["smooth", 4]
+    assert nc[0.05] > nc[0.025] > upper  # from above
+    assert lower <= extrapolated <= upper, nc
+    assert extrapolated == pytest.approx(DAVIS_BOOKER_NC["smooth", 4], rel=0.015)

@@ -43,6 +43,15 @@ NOTCHED_STRIP_LOWER_BOUND_AT_0P05B = {"rough": 5.207, "smooth": 5.206}
 #: and upper bounds of the same notched strips, flat surface beyond the notch (the heave may raise
 #: the pushed strip's factor above them), the same mesh and command
 NOTCHED_STRIP_UPPER_BOUND_AT_0P05B = {"rough": 5.270, "smooth": 5.264}
+#: a surface strip on weightless Tresca soil whose strength grows with depth, su = su0 + k·z:
+#: Davis & Booker (1973), q/su0 = F·[(2 + π) + k·B/(4·su0)], read as q/su0 for (roughness, k·B/su0);
+#: the smooth k·B/su0 = 4 case is the PLAXIS 2D validation manual's (3.2), the rough ones are read
+#: off Davis & Booker's chart (about)
+DAVIS_BOOKER_NC = {("smooth", 4): 7.80, ("rough", 2): 7.57, ("rough", 4): 9.0, ("rough", 6): 10.5}
+#: rigorous brackets on the same (lower, upper): ``python -m dsmv.analytic.limit_analysis --roughness R
+#: --gradient G`` on its default mesh (8480 triangles, about 30 s each)
+GRADIENT_STRIP_BRACKET = {("smooth", 4): (7.7254, 7.8915), ("rough", 2): (7.5404, 7.6898),
+                          ("rough", 4): (8.9974, 9.2833), ("rough", 6): (10.2969, 10.6371)}
 #: the notch's width at the old mudline for a strip pushed 0.05 B (B): s/3
 NOTCH_AT_0P05B = 0.05 / 3.0
 
