@@ -75,7 +75,9 @@ def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, sweep_dir: Path | None, caug
     try:
         scene = build_scene(cfg)
         parent = tracking.parent_run_id(Path(hydra_cfg.sweep.dir)) if multirun else None
-        run_name = " ".join(hydra_cfg.overrides.task) or run_dir.name
+        # named from the scene; a sweep's job adds what it varies, so that no two of its runs read alike
+        swept = " ".join(hydra_cfg.overrides.task) if multirun else ""
+        run_name = scene_label(scene) + (f" [{swept}]" if swept else "")
         tracker = tracking.start_job(cfg, scene, run_dir, run_name, parent)
     except DsmvError as error:
         if not multirun:  # (dsmv.cli.check_command_line refuses most before Hydra makes the run dir)
@@ -107,7 +109,7 @@ def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, sweep_dir: Path | None, caug
                 error_text = traceback.format_exc()
             files = write_outputs(scene, result, run_dir)
             if tracker is not None:
-                tracker.finish(result, files, error_text)
+                tracker.finish(result, files, error_text, note=f"{result.status}: {_answer(scene, result)}")
             end_status = None
     except KeyboardInterrupt:  # a second signal while the outputs were being written
         end_status = "KILLED"
@@ -210,8 +212,7 @@ def write_outputs(scene: Scene, result: SolveResult, run_dir: Path) -> list[Path
         if scene.output.plots and len(result.history["time_s"]) > 1:
             from dsmv.plots import HISTORY_PLOT_FILE, plot_history
 
-            title = (f"{scene.solver.name}: {scene.soil.name} ({scene.soil.law}), {scene.geometry.name}, "
-                     f"{scene.landing.kind} — {result.status}")
+            title = f"{scene_label(scene)} — {scene.solver.name}: {result.status}"
             files.append(plot_history(result.history, run_dir / HISTORY_PLOT_FILE, title))
     if scene.output.fields:  # written by a solver that keeps fields (CEL); the others write none
         from dsmv import fields
@@ -245,6 +246,15 @@ def _answer(scene: Scene, result: SolveResult) -> str:
     return f"pushed to {sinkage:.4f} m" + (f"; q/su {', '.join(factors)}" if factors else "")
 
 
+def scene_label(scene: Scene) -> str:
+    """The scene in one phrase, with units: soil, law, body and landing (the summary, the history
+    plot's title and the MLflow run's name, so that two jobs of a sweep never read alike)."""
+    landing = scene.landing
+    motion = (f"push to {landing.displacement_m:g} m at {landing.velocity_m_s:g} m/s" if landing.kind == "push" else
+              f"{landing.kind} {landing.mass_kg:g} kg at {landing.velocity_m_s:g} m/s")
+    return f"{scene.soil.name} soil ({scene.soil.law}), {scene.geometry.name}, {motion}"
+
+
 def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, multirun: bool) -> None:
     """A short human summary: status, what the run found (with units), where outputs and MLflow are."""
     what = _answer(scene, result)
@@ -252,11 +262,7 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
         print(f"[{run_dir.name}] {result.status}: {what}")
         return
     print(f"\ndsmv: {result.status} — {what}")
-    print(f"  scene   : {scene.soil.name} soil ({scene.soil.law}), {scene.geometry.name}, "
-          + (f"push to {scene.landing.displacement_m:g} m at {scene.landing.velocity_m_s:g} m/s, "
-             if scene.landing.kind == "push" else
-             f"{scene.landing.kind} {scene.landing.mass_kg:g} kg at {scene.landing.velocity_m_s:g} m/s, ")
-          + f"solver {scene.solver.name}")
+    print(f"  scene   : {scene_label(scene)}, solver {scene.solver.name}")
     assumed = registry.load("soil_laws", scene.soil.law, "soil.law")(scene.soil).assumptions()
     if assumed:
         print(f"  assumed : {', '.join(assumed)} (provisional: no published source)")

@@ -125,8 +125,9 @@ class JobTracker:
             self.client.log_batch(self.run_id, params=chunk)
         self._tag = RunTag
 
-    def finish(self, result: SolveResult, files: list[Path], error: str | None = None) -> None:
-        """Log the outcome and close the run: FINISHED unless the code raised."""
+    def finish(self, result: SolveResult, files: list[Path], error: str | None = None, note: str = "") -> None:
+        """Log the outcome and close the run: FINISHED unless the code raised. ``note`` becomes the run's
+        description in the MLflow UI (the summary's answer line)."""
         from mlflow.entities import Metric, Param
 
         now = int(time.time() * 1000)
@@ -138,6 +139,8 @@ class JobTracker:
         tags = [self._tag("dsmv.status", result.status), self._tag("dsmv.message", result.message[:5000])]
         if error:
             tags.append(self._tag("dsmv.error", error[:5000]))
+        if note:
+            tags.append(self._tag("mlflow.note.content", note[:5000]))
         self.client.log_batch(self.run_id, params=[Param("status", result.status)], tags=tags)
         for path in files:
             self.client.log_artifact(self.run_id, str(path))

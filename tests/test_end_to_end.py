@@ -34,6 +34,9 @@ def test_single_run_writes_the_contract_and_one_finished_mlflow_run(run_cli, tmp
     (run,) = mlflow_runs(tmp_path)
     assert run.info.status == "FINISHED"
     assert run.data.tags["dsmv.status"] == "ok" and run.data.params["status"] == "ok"
+    # named from the scene, described by the summary's answer
+    assert run.data.tags["mlflow.runName"] == "nodule_field soil (einav_randolph), track_pioneer_i, drop 4500 kg at 1.5 m/s"
+    assert run.data.tags["mlflow.note.content"] == "ok: max sinkage 0.0645 m"
     assert run.data.params["soil.su0_pa"] == "5000.0"
     assert run.data.metrics["max_sinkage_m"] == pytest.approx(result["metrics"]["max_sinkage_m"])
     assert "history.sinkage_m" in run.data.metrics
