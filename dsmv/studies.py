@@ -208,7 +208,8 @@ def compare_analytic(sweep_dir: Path, path: Path) -> Path | None:
 
 
 def mesh_study(sweep_dir: Path, path: Path) -> Path | None:
-    """Resistance against depth per core cell size, relative error against the finest, wall times.
+    """Max sinkage against core cell size with its extrapolated value, resistance against depth per
+    core cell size, relative error against the finest, wall times.
 
     Writes ``mesh_study.csv``: per mesh the cell size, status, max sinkage and its error against
     the finest mesh, wall time, cells, and the mean and largest relative error of the energy
@@ -246,7 +247,8 @@ def mesh_study(sweep_dir: Path, path: Path) -> Path | None:
     _write_csv(Path(path).with_suffix(".csv"), rows)
 
     plt = _pyplot()
-    fig, (curve_ax, error_ax, time_ax) = plt.subplots(1, 3, figsize=(14, 4.2), constrained_layout=True)
+    fig, (sinkage_ax, curve_ax, error_ax, time_ax) = plt.subplots(1, 4, figsize=(18, 4.2), constrained_layout=True)
+    _plot_sinkage_against_cell_size(sinkage_ax, rows)
     for (size, job, depth, force), error in zip(curves, errors):
         curve_ax.plot(depth, force / 1e3, label=f"{size:g} m")
         error_ax.plot(depths, 100 * error, label=f"{size:g} m")
@@ -258,11 +260,30 @@ def mesh_study(sweep_dir: Path, path: Path) -> Path | None:
     time_ax.bar([f"{r['cell_size_m']:g}" for r in rows], [r["wall_s"] for r in rows], color="tab:green")
     time_ax.set_xlabel("core cell size (m)")
     time_ax.set_ylabel("wall time (s)")
-    for ax in (curve_ax, error_ax, time_ax):
+    for ax in (sinkage_ax, curve_ax, error_ax, time_ax):
         ax.grid(alpha=0.3)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return Path(path)
+
+
+def _plot_sinkage_against_cell_size(ax, rows: list[dict]) -> None:
+    """Max sinkage against core cell size, with its value extrapolated from the three finest meshes
+    (Richardson with the observed order, dsmv.convergence) and that estimate's error band."""
+    from dsmv.convergence import richardson
+
+    sizes = np.array([r["cell_size_m"] for r in rows])
+    sinkages = np.array([r["max_sinkage_m"] for r in rows])
+    ax.plot(sizes, sinkages, "o-", color="tab:blue", label="max sinkage")
+    if len(rows) >= 3:
+        estimate = richardson(tuple(sizes[:3]), tuple(sinkages[:3]))
+        ax.axhline(estimate.extrapolated, color="k", ls="--", lw=1,
+                   label=f"extrapolated {estimate.extrapolated:.4f} ± {estimate.error:.4f} m (order {estimate.order:.2f})")
+        ax.axhspan(estimate.extrapolated - estimate.error, estimate.extrapolated + estimate.error, color="k", alpha=0.08)
+    ax.set_xlim(left=0.0)
+    ax.set_xlabel("core cell size (m)")
+    ax.set_ylabel("max sinkage (m)")
+    ax.legend(fontsize=8)
 
 
 def bearing_curves(sweep_dir: Path, path: Path) -> Path | None:
