@@ -130,13 +130,16 @@ class CelSolver:
         cls(scene, checked=True).check_cost()
 
     @classmethod
-    def check_capabilities(cls, scene: Scene) -> None:
+    def check_capabilities(cls, scene: Scene) -> ContactRules:
+        """Refuse a body or contact this solver has not; return the scene's contact rules."""
         body = scene.geometry
         if body.kind not in cls.bodies:
             raise ConfigError("geometry.kind", body.kind, f"{cls.name} runs {', '.join(cls.bodies)} bodies")
-        refusal = ContactRules.of(scene, cls.is_axisymmetric(scene)).refusal()
+        rules = ContactRules.of(scene, cls.is_axisymmetric(scene))
+        refusal = rules.refusal()
         if refusal is not None:
             raise refusal
+        return rules
 
     @staticmethod
     def is_axisymmetric(scene: Scene) -> bool:
@@ -463,17 +466,17 @@ class Cel2DSolver(CelSolver):
         return mode == "axisymmetric" or (mode == "auto" and scene.geometry.kind == "cone")
 
     @classmethod
-    def check_capabilities(cls, scene: Scene) -> None:
-        super().check_capabilities(scene)
+    def check_capabilities(cls, scene: Scene) -> ContactRules:
+        rules = super().check_capabilities(scene)
         cfg, body = scene.solver, scene.geometry
         if not cfg.economies.symmetry and (body.kind == "cone" or cfg.mode == "axisymmetric"
-                                           or body.roughness != "rough" or scene.output.fields
-                                           or ContactRules.of(scene, cls.is_axisymmetric(scene)).separation):
+                                           or body.roughness != "rough" or scene.output.fields or rules.separation):
             raise ConfigError("solver.economies.symmetry", False, "the whole section runs plane strain bodies with "
                               "rough contact, no contact separation and no field output; it exists to measure what "
                               "the half model saves")
         if body.kind == "cone" and cfg.mode == "plane_strain":
             raise ConfigError("solver.mode", cfg.mode, "a cone is axisymmetric: 'auto' or 'axisymmetric'")
+        return rules
 
     def __init__(self, scene: Scene, checked: bool = False):
         super().__init__(scene, checked)

@@ -354,8 +354,8 @@ def update_stress(mesh, cells, faces, nodes, par, v_body, law, out):
     strength factor (α in a curved body's interface layer) and γ̇ = (Δε1 − Δε3)/Δt; the soil law
     ``law`` (a compiled callback, see dsmv.soil_law) is called only when ``par.law_active``; a law that
     neither changes the strength nor carries state (Tresca) comes as ``law=None``, and the kernel
-    compiles without the calls (the untaken call alone cost 8–16 % of the update). The return is J2's radial return to √J2 ≤ su, or with
-    ``par.tresca`` the return to Tresca's hexagon s1 − s3 ≤ 2·su. Both are the same in plane strain;
+    compiles without the calls (the untaken call alone cost 8–16 % of the update). The return is
+    J2's radial return to √J2 ≤ su, or with ``par.tresca`` the return to Tresca's hexagon s1 − s3 ≤ 2·su. Both are the same in plane strain;
     in axisymmetry only Tresca matches Tresca's exact solutions (J2 matched in shear is weaker in
     triaxial states by √3/2). Accumulates the plastic shear strain ξ += Δε1^p − Δε3^p (Δγ in simple
     shear); ``out[0]`` accumulates plastic work (J). A law's state variables, the rows of ``q``
