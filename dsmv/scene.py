@@ -181,8 +181,27 @@ class ConeGeometry(BodyConfig):
         return math.pi * self.width_m**2 / 4
 
 
+class RectangularPlateGeometry(BodyConfig):
+    """A rigid rectangular plate, width B (``width_m``) by length L (``contact_length_m``); B = L is a
+    square. A 3D body (``solver=cel3d``)."""
+
+    kind: Literal["rectangular_plate"]
+
+
+class CircularPlateGeometry(BodyConfig):
+    """A rigid circular plate of diameter B (``width_m``). A 3D body (``solver=cel3d``)."""
+
+    kind: Literal["circular_plate"]
+    contact_length_m: Optional[Number] = Field(None, description="not used by a circular plate")
+
+    @property
+    def contact_area_m2(self) -> float:
+        return math.pi * self.width_m**2 / 4
+
+
 GEOMETRY_KINDS: dict[str, type[BodyConfig]] = {
     "track": TrackGeometry, "strip": StripGeometry, "tbar": TbarGeometry, "cone": ConeGeometry,
+    "rectangular_plate": RectangularPlateGeometry, "circular_plate": CircularPlateGeometry,
 }
 
 # --------------------------------------------------------------------------- landing

@@ -13,8 +13,9 @@ SCENE_GROUPS = ["soil", "geometry", "landing", "mesh", "solver", "tracking"]
     "group,option", [(g, o) for g in SCENE_GROUPS for o in group_options(g)], ids=lambda v: str(v)
 )
 def test_every_group_option_builds_a_scene(compose_cfg, group, option):
-    # a T-bar is not a track: the energy method refuses it, the CEL solver runs it
-    extra = ["solver=cel2d"] if (group, option) == ("geometry", "tbar") else []
+    # a T-bar is not a track: the energy method refuses it, the CEL solver runs it; the 3D solver runs plates
+    extra = {("geometry", "tbar"): ["solver=cel2d"], ("solver", "cel3d"): ["geometry=rectangular_plate"]}.get(
+        (group, option), [])
     cfg = compose_cfg([f"{group}={option}", *extra])
     scene = build_scene(cfg)
     assert isinstance(scene, Scene)

@@ -37,6 +37,9 @@ from tests.conftest import BIN, group_options
 OUTCOMES = set(STATUSES) - {"failed"}
 QUICK = ["tracking=disabled", "output.plots=false"]
 SHORT_PUSH_M = 0.05
+PLATES = ("rectangular_plate", "circular_plate")
+#: a 3D body's quick core cells: a quarter of its width (B = 1 m), a few thousand cells
+QUICK_3D_CELL_M = 0.25
 
 
 def _compose(compose_cfg, overrides, quick_mesh=True, short_push=True):
@@ -44,10 +47,10 @@ def _compose(compose_cfg, overrides, quick_mesh=True, short_push=True):
     overrides = [*overrides, *QUICK]
     cfg = compose_cfg(overrides)
     extra = []
-    if cfg.solver.name == "cel2d":
+    if cfg.solver.name in ("cel2d", "cel3d"):
         extra.append("solver.progress=off")
-        if quick_mesh:
-            extra.append("mesh.cell_size_m=0.08")  # mesh=coarse's, also over an experiment's own
+        if quick_mesh:  # mesh=coarse's, also over an experiment's own
+            extra.append(f"mesh.cell_size_m={0.08 if cfg.solver.name == 'cel2d' else QUICK_3D_CELL_M}")
     if short_push and cfg.landing.kind == "push":
         extra.append(f"landing.displacement_m={min(SHORT_PUSH_M, cfg.landing.displacement_m)}")
     return compose_cfg(overrides + extra) if extra else cfg
@@ -76,7 +79,11 @@ def refused_key(geometry: str, landing: str, solver: str) -> str | None:
     if geometry == "fall_cone_30deg" and landing == "push":
         return "landing.velocity_m_s"  # the fall cone is released from rest: a push needs a speed
     if solver == "analytic_energy" and geometry in ("tbar", "fall_cone_30deg"):
-        return "geometry.kind"  # the energy method models tracks and strips
+        return "geometry.kind"  # the energy method models tracks, strips and plates
+    if solver == "cel2d" and geometry in PLATES:
+        return "geometry.kind"  # plates are 3D bodies
+    if solver == "cel3d" and geometry not in ("strip", *PLATES):
+        return "geometry.kind"  # the 3D solver runs strips (as slabs) and plates
     return None
 
 
@@ -121,7 +128,8 @@ def test_a_refused_combination_is_one_line_and_exit_2(tmp_path):
                           cwd=tmp_path, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2
     assert proc.stderr.strip().splitlines() == [
-        "dsmv: error: geometry.kind = 'tbar': the energy method models tracks and strips; use solver=cel2d for this body"
+        "dsmv: error: geometry.kind = 'tbar': the energy method models tracks, strips and plates; use solver=cel2d for "
+        "this body"
     ]
 
 

@@ -79,11 +79,11 @@ def sinkage_from_energy(weight_n, inertia_kg, velocity_m_s, resistance_area_m2, 
 
 
 #: bodies the energy method estimates for other solvers (domain sizing, features); a cone has Hansbo's
-ESTIMATED_KINDS = ("track", "strip", "tbar")
+ESTIMATED_KINDS = ("track", "strip", "tbar", "rectangular_plate", "circular_plate")
 
 
 def energy_estimate(scene: Scene) -> "AnalyticEnergySolver":
-    """The energy method with its default settings, as an estimate for any track, strip or T-bar scene.
+    """The energy method with its default settings, as an estimate for any track, strip, plate or T-bar scene.
 
     It sizes the CEL domain and the history sampling of a landing, and gives the surrogates'
     features. A T-bar, which ``solver=analytic_energy`` refuses, is estimated as a strip of width D
@@ -104,10 +104,10 @@ class AnalyticEnergySolver:
 
     @staticmethod
     def check_scene(scene: Scene) -> None:
-        """The energy method bears a track or a strip on its base; anything else needs solver=cel2d."""
-        if scene.geometry.kind not in ("track", "strip"):
+        """The energy method bears a flat base (a track, a strip, a plate); anything else needs solver=cel2d."""
+        if scene.geometry.kind not in ("track", "strip", "rectangular_plate", "circular_plate"):
             raise ConfigError("geometry.kind", scene.geometry.kind,
-                              "the energy method models tracks and strips; use solver=cel2d for this body")
+                              "the energy method models tracks, strips and plates; use solver=cel2d for this body")
 
     def __init__(self, scene: Scene, config: AnalyticEnergyConfig | None = None, check: bool = True):
         if check:  # off only for energy_estimate
@@ -119,6 +119,8 @@ class AnalyticEnergySolver:
             self.shape_factor = cfg.shape_factor
         elif body.kind in ("strip", "tbar"):  # plane strain (contact_length_m is per metre run)
             self.shape_factor = 1.0
+        elif body.kind == "circular_plate":  # Skempton (1951): a circle as a square
+            self.shape_factor = 1.2
         else:
             self.shape_factor = 1.0 + 0.2 * body.width_m / body.contact_length_m
         law = registry.load("soil_laws", soil.law, "soil.law")(soil)

@@ -91,6 +91,29 @@ class TrackSideView:
         solid[np.ix_(columns, np.nonzero(rows)[0])] = True
 
 
+@dataclass(frozen=True)
+class Box:
+    """A rectangular plate in 3D (a strip slab when ``half_length`` is infinite): base at z = 0,
+    |x| ≤ B/2 across, |y| ≤ L/2 along."""
+
+    half_width: float
+    half_length: float
+
+    def inside(self, x, y, z):
+        return ((np.abs(x) <= self.half_width * (1 + ON_BOUNDARY)) & (np.abs(y) <= self.half_length * (1 + ON_BOUNDARY))
+                & (z >= -ON_BOUNDARY))
+
+
+@dataclass(frozen=True)
+class Disc:
+    """A circular plate in 3D: base at z = 0, radius R in plan; the staircase of cells inscribed in it."""
+
+    radius: float
+
+    def inside(self, x, y, z):
+        return (x * x + y * y <= self.radius**2 * (1 + ON_BOUNDARY)) & (z >= -ON_BOUNDARY)
+
+
 def inside_nodes(shape, grid) -> np.ndarray:
     """Which grid nodes lie inside the shape: an array of the node shape, any number of axes."""
     inside = shape.inside(*np.meshgrid(*grid.axes, indexing="ij", sparse=True))

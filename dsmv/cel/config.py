@@ -68,6 +68,23 @@ class Cel2DConfig(CelConfig):
     mode: Literal["auto", "plane_strain", "axisymmetric"] = Field(description="auto: from the geometry")
 
 
+class SolidEconomies(Economies):
+    """A 3D solver's economies: the symmetry planes it models."""
+
+    symmetry: Literal["quarter"] = Field(description=(
+        "quarter: a quarter of the body, two vertical symmetry planes through its axes (a strip slab: "
+        "half, one plane, between two plane-strain planes)"))
+
+
+class Cel3DConfig(CelConfig):
+    """Config of ``solver=cel3d``."""
+
+    name: Literal["cel3d"]
+    threads: Optional[Count] = Field(ge=1, description=(
+        "threads of the per-cell kernels; null: all cores outside sweeps, 1 in a sweep's job (-)"))
+    economies: SolidEconomies
+
+
 def solver_defaults(name: str) -> dict:
     """The settings of ``conf/solver/<name>.yaml``, the one home of a solver's defaults."""
     from pathlib import Path

@@ -29,7 +29,7 @@ import numpy as np
 from dsmv.cel.body import Cone, Cylinder, FlatBody, TrackSideView, nodes_touching, soil_cells_touching, solid_cells
 from dsmv.cel.grid import Grid, Openings
 from dsmv.cel.kernels.plane import CUT_OPEN_FLOOR
-from dsmv.cel.layout import Contact, structured_corners
+from dsmv.cel.layout import Contact, corner_offsets, structured_corners
 from dsmv.errors import ConfigError
 
 
@@ -328,3 +328,69 @@ def touchdown_mass(contact: Contact, mass: np.ndarray) -> float:
     share = np.where(contact.full, 1.0, contact.normal[:, up] ** 2)
     return float((mass[contact.node] * share).sum())
 
+
+
+def build_plate_contact(shape, grid, k_base: int, alpha: float) -> BodyContact:
+    """The contact of a flat-based body on a 3D grid (a plate, a strip slab), from the same ideas as
+    the flat faces of 2D (:func:`build_contact`):
+
+    - the base's nodes inside its footprint are tied along the base's normal (smooth, α = 0) or
+      wholly (rough, α = 1: a full tie, without 2D's capped adhesive pull);
+    - the nodes on the footprint's edge are tied wholly for the cells under the base, and split:
+      the soil cells beyond the edge (below the base and beside the wall's first layer) see their
+      own copy (:func:`split_corners`' idea, along a line of nodes), tied along the wall's normal
+      in plan, which with contact separation lets go of soil that pulls away. At a corner of the
+      footprint the copy's normal is the bisector; on a symmetry plane it lies in that plane, and
+      the copy keeps its parent's rollers;
+    - the body's other nodes move with it.
+
+    ``shape`` is in the grid frame (x = y = 0 on the symmetry planes, z = 0 at the base)."""
+    solid = solid_cells(shape, grid)
+    nx, ny, nz = solid.shape
+    node_shape = (nx + 1, ny + 1, nz + 1)
+    n_grid = int(np.prod(node_shape))
+    footprint = solid[:, :, k_base] if k_base < nz else np.zeros((nx, ny), dtype=bool)
+    touching = nodes_touching(solid)
+    tie_i, tie_j, tie_k = np.nonzero(touching)
+    full = np.ones(len(tie_i), dtype=np.bool_)
+    normal = np.zeros((len(tie_i), 3))
+    corner = structured_corners(solid.shape)
+    offsets = [tuple(o) for o in corner_offsets(3)]
+    split_node, split_parent, split_normal, split_fixed = [], [], [], []
+    for t in np.nonzero(tie_k == k_base)[0]:
+        i, j = tie_i[t], tie_j[t]
+        columns = [(ci, cj) for ci in (i - 1, i) for cj in (j - 1, j) if 0 <= ci < nx and 0 <= cj < ny]
+        outside = [(ci, cj) for ci, cj in columns if not footprint[ci, cj]]
+        if not outside:  # inside the footprint (or on a symmetry plane through it)
+            if alpha == 0.0:
+                full[t], normal[t, 2] = False, -1.0
+            continue
+        # on the footprint's edge: the copy's normal points out of the footprint, in plan
+        n_out = np.array([sum(ci + 0.5 - i for ci, _ in outside), sum(cj + 0.5 - j for _, cj in outside), 0.0])
+        n_out[0] *= 0 < i < nx  # on a roller plane (symmetry, plane strain) the normal lies in it
+        n_out[1] *= 0 < j < ny
+        n_out /= max(np.linalg.norm(n_out), 1e-300)
+        copy = n_grid + len(split_node)
+        for ci, cj in outside:
+            for ck in (k_base - 1, k_base):
+                if 0 <= ck < nz and not solid[ci, cj, ck]:
+                    corner[ci, cj, ck, offsets.index((i - ci, j - cj, k_base - ck))] = copy
+        parent = np.ravel_multi_index((i, j, k_base), node_shape)
+        split_node.append(copy), split_parent.append(parent), split_normal.append(n_out)
+        split_fixed += [(copy, a) for a, index in ((0, i), (1, j)) if index in (0, node_shape[a] - 1)]
+    fixed_node, fixed_axis = fixed_velocities(node_shape)
+    n_split = len(split_node)
+    extra = np.array(split_fixed, dtype=np.int64).reshape(-1, 2)
+    contact = Contact(
+        node=np.concatenate([np.ravel_multi_index((tie_i, tie_j, tie_k), node_shape), split_node]).astype(np.int64),
+        full=np.concatenate([full, np.zeros(n_split, dtype=np.bool_)]),
+        normal=np.ascontiguousarray(np.concatenate([normal, np.array(split_normal).reshape(-1, 3)])),
+        cap=np.zeros(len(tie_i) + n_split),
+        grip_start=np.zeros(len(tie_i) + n_split + 1, dtype=np.int64), grip_cell=np.zeros((0, 3), dtype=np.int64),
+        holding=np.ones(len(tie_i) + n_split, dtype=np.bool_),
+        split_node=np.array(split_node, dtype=np.int64), split_parent=np.array(split_parent, dtype=np.int64),
+        fixed_node=np.concatenate([fixed_node, extra[:, 0]]), fixed_axis=np.concatenate([fixed_axis, extra[:, 1]]),
+        merge=np.zeros((0, 6), dtype=np.int64),
+    )
+    return BodyContact(solid, Openings(1.0 - solid, np.zeros(0), np.zeros(0)), contact, corner, n_grid + n_split,
+                       np.ones(solid.shape), np.zeros(solid.shape, dtype=bool))

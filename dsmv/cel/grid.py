@@ -104,6 +104,41 @@ def build_grid(
 
 
 @dataclass(frozen=True)
+class SolidGrid:
+    """A 3D rectilinear grid: node coordinates ``x`` across the body, ``y`` along it and ``z`` up (m),
+    x = y = 0 on the body's two symmetry planes, z = 0 at its base; core cell size h (m)."""
+
+    x: np.ndarray
+    y: np.ndarray
+    z: np.ndarray
+    h: float
+
+    @property
+    def axes(self) -> tuple[np.ndarray, ...]:
+        return (self.x, self.y, self.z)
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """Cells along x, y and z."""
+        return len(self.x) - 1, len(self.y) - 1, len(self.z) - 1
+
+    def row_of(self, z_value: float) -> int:
+        """Index of the node layer at ``z_value`` (which must lie on one)."""
+        return Grid(self.x, self.z, self.h).row_of(z_value)
+
+
+def build_solid_grid(h: float, core: tuple[float, float], far: tuple[float, float], core_depth: float, depth: float,
+                     void_height: float, ratio: float, h_max: float, slab: bool = False) -> SolidGrid:
+    """A 3D grid, uniform h over [0, core[0]] × [0, core[1]] × [−core_depth, void_height], graded
+    outwards to ``far`` across and along and to ``depth`` below, as :func:`build_grid` in each
+    direction. ``slab``: one cell of h along y (a plane-strain slice between two roller planes)."""
+    section = build_grid(h=h, core_half_width=core[0], half_width=far[0], core_depth=core_depth, depth=depth,
+                         void_height=void_height, ratio=ratio, h_max=h_max)
+    y = np.array([0.0, h]) if slab else graded_coordinates(0.0, core[1], far[1], h, ratio, h_max)
+    return SolidGrid(section.x, y, section.y, h)
+
+
+@dataclass(frozen=True)
 class Openings:
     """How much of the grid the body leaves to the soil, for the remap.
 

@@ -74,6 +74,20 @@ class Mesh(NamedTuple):
     split: np.ndarray
 
 
+class SolidMesh(NamedTuple):
+    """A 3D grid's geometry, as :class:`Mesh` with the third axis: node coordinates x (across the
+    body), y (along it) and z (up) in m, cell volumes (m³), the corner table (cells × 8), the
+    structured node count and the cells that use a split node."""
+
+    x: np.ndarray
+    y: np.ndarray
+    z: np.ndarray
+    vol: np.ndarray
+    corner: np.ndarray
+    n_grid: int
+    split: np.ndarray
+
+
 class Cells(NamedTuple):
     """Cell state: volume fraction φ, transported state q (:class:`CellRows`), current strength su
     (Pa, written by the stress update), the strength factor (α in a curved body's interface

@@ -116,6 +116,8 @@ class CelSolver:
     config_model: type = CelConfig
     bodies: tuple[str, ...] = ()
     dim = 0  # axes of the grid, which pick the element kernels
+    cell_updates_per_s = CELL_UPDATES_PER_S  # what the cost estimate assumes
+    bytes_per_cell = BYTES_PER_CELL
 
     @cached_property
     def kernels(self) -> DimensionKernels:
@@ -263,7 +265,7 @@ class CelSolver:
 
     def cost(self) -> dict[str, float]:
         """What the run will take, estimated before any state is allocated: cells, steps (the expected
-        duration over the CFL step), memory (B) and wall time (s, at :data:`CELL_UPDATES_PER_S`)."""
+        duration over the CFL step), memory (B) and wall time (s, at the solver's ``cell_updates_per_s``)."""
         from dsmv.cel.state import Elastic
 
         grid = self.build()
@@ -271,8 +273,8 @@ class CelSolver:
         dt = self.scene.solver.cfl * self.h / Elastic.of(self.scene.soil).wave_speed_m_s
         steps = min(self.expected_duration_s() / dt, self.scene.solver.max_steps)
         frames = 2 * self.scene.output.field_frames + 2 if self.scene.output.fields else 0
-        return {"cells": cells, "steps": steps, "memory_b": cells * (BYTES_PER_CELL + frames * BYTES_PER_FRAME_CELL),
-                "wall_s": cells * steps / CELL_UPDATES_PER_S}
+        return {"cells": cells, "steps": steps, "memory_b": cells * (self.bytes_per_cell + frames * BYTES_PER_FRAME_CELL),
+                "wall_s": cells * steps / self.cell_updates_per_s}
 
     def check_cost(self) -> dict[str, float]:
         """Refuse, as a config error, a run estimated to outlast ``solver.max_wall_s`` or to outgrow the
@@ -433,6 +435,50 @@ class CelSolver:
         metrics["max_force_n"] = float(history["force_n"].max())
         units["max_force_n"] = "N"
 
+    # ------------------------------------------------------------------ the compiled loop
+
+    def law_kernel(self, par: Params, n_state: int) -> Optional[SoilLawKernel]:
+        """The soil law as the kernels call it, or None when it neither changes the strength (or is not
+        evaluated) nor carries state: the loop then compiles without the calls."""
+        if not (par.law_active or n_state):
+            return None
+        return SoilLawKernel(self.law.compiled(), self.law.packed(), self.law.compiled_evolve())
+
+    def touchdown(self, state: State) -> None:
+        """A drop's touchdown: the body and the soil nodes it meets share momentum (the kinetic energy
+        lost is the touchdown's); the tied nodes start with the body's velocity."""
+        landing, contact, par = self.scene.landing, state.contact, state.par
+        v0 = -landing.velocity_m_s
+        if par.drop:
+            tied_mass = touchdown_mass(contact, state.nodes.mass)
+            v0 = par.body_mass * v0 / (par.body_mass + tied_mass)
+            state.touchdown_loss = 0.5 * par.body_mass * landing.velocity_m_s**2 - 0.5 * (par.body_mass + tied_mass) * v0**2
+        state.body[B_VEL] = v0
+        v, full, normal = state.nodes.v, contact.full, contact.normal
+        up = v.shape[0] - 1
+        v[up, contact.node[full]] = v0
+        v[:, contact.node[~full]] = v0 * normal[~full, up] * normal[~full].T
+
+    def hourglass_modes(self, state: State) -> tuple[float, float]:
+        return self.kernels.hourglass_modes(state.mesh.corner, state.cells.phi, state.nodes.v, ZIGZAG_FULL_CELL)
+
+    def elastic_energy(self, state: State) -> float:
+        cells, par = state.cells, state.par
+        return self.kernels.elastic_energy(cells.phi, cells.q, state.mesh.vol, par.shear, par.bulk)
+
+    def loop_arguments(self, state: State) -> tuple:
+        """What the compiled loop takes after the step count."""
+        raise NotImplementedError
+
+    def advance(self, state: State, n: int) -> tuple[int, int]:
+        """``n`` steps of the compiled loop (its machine code found once, then called directly)."""
+        args = self.loop_arguments(state)
+        if state.stepper is None:
+            from dsmv.cel.kernels.common import compiled_entry
+
+            state.stepper = compiled_entry(self.kernels.run_steps, (n, *args))
+        return state.stepper(n, *args)
+
     # ------------------------------------------------------------------ state reductions
 
     @staticmethod
@@ -578,46 +624,9 @@ class Cel2DSolver(CelSolver):
         self.touchdown(state)
         return state
 
-    def law_kernel(self, par: Params, n_state: int) -> Optional[SoilLawKernel]:
-        """The soil law as the kernels call it, or None when it neither changes the strength (or is not
-        evaluated) nor carries state: the loop then compiles without the calls."""
-        if not (par.law_active or n_state):
-            return None
-        return SoilLawKernel(self.law.compiled(), self.law.packed(), self.law.compiled_evolve())
-
-    def touchdown(self, state: State) -> None:
-        """A drop's touchdown: the body and the soil nodes it meets share momentum (the kinetic energy
-        lost is the touchdown's); the tied nodes start with the body's velocity."""
-        landing, contact, par = self.scene.landing, state.contact, state.par
-        v0 = -landing.velocity_m_s
-        if par.drop:
-            tied_mass = touchdown_mass(contact, state.nodes.mass)
-            v0 = par.body_mass * v0 / (par.body_mass + tied_mass)
-            state.touchdown_loss = 0.5 * par.body_mass * landing.velocity_m_s**2 - 0.5 * (par.body_mass + tied_mass) * v0**2
-        state.body[B_VEL] = v0
-        v, full, normal = state.nodes.v, contact.full, contact.normal
-        v[1, contact.node[full]] = v0
-        v[0, contact.node[~full]] = v0 * normal[~full, 1] * normal[~full, 0]
-        v[1, contact.node[~full]] = v0 * normal[~full, 1] ** 2
-
-    def advance(self, state: State, n: int) -> tuple[int, int]:
-        """``n`` steps of the compiled loop (its machine code found once, then called directly)."""
-        args = (state.mesh, state.cells, state.faces, state.nodes, state.contact, state.inflow, state.par, state.body,
+    def loop_arguments(self, state: State) -> tuple:
+        return (state.mesh, state.cells, state.faces, state.nodes, state.contact, state.inflow, state.par, state.body,
                 state.energy, state.law)
-        if state.stepper is None:
-            from dsmv.cel.kernels.common import compiled_entry
-
-            state.stepper = compiled_entry(self.kernels.run_steps, (n, *args))
-        return state.stepper(n, *args)
-
-    # ------------------------------------------------------------------ reductions the trackers use
-
-    def hourglass_modes(self, state: State) -> tuple[float, float]:
-        return self.kernels.hourglass_modes(state.mesh.corner, state.cells.phi, state.nodes.v, ZIGZAG_FULL_CELL)
-
-    def elastic_energy(self, state: State) -> float:
-        cells, par = state.cells, state.par
-        return self.kernels.elastic_energy(cells.phi, cells.q, state.mesh.vol, par.shear, par.bulk)
 
     @staticmethod
     def top_fill(state: State) -> float:

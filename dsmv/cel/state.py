@@ -31,6 +31,15 @@ class Elastic:
         return cls(shear, bulk, math.sqrt((bulk + 4 * shear / 3) / rho), nu / (1 - nu))
 
 
+def layers_below(up: np.ndarray, mudline: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per layer of cells between the node coordinates ``up`` (m, upwards): the fraction below the
+    mudline (one the mudline crosses is filled in part) and the depth of that soil's centroid (m)."""
+    size = np.diff(up)
+    fill = np.clip((mudline - up[:-1]) / size, 0.0, 1.0)
+    depth = np.where(fill >= 1.0, mudline - 0.5 * (up[1:] + up[:-1]), 0.5 * fill * size)
+    return fill, depth
+
+
 def geostatic_state(grid: Grid, density: float, gravity: float, k0: float, mudline: float, open_frac=None):
     """Soil below the mudline (y = ``mudline``) and outside the body, at rest under its weight.
 
@@ -40,10 +49,7 @@ def geostatic_state(grid: Grid, density: float, gravity: float, k0: float, mudli
     Returns φ (nx, ny) and the transported state q (NQ_BASE, nx, ny): σyy = −ρ'·g·depth,
     σxx = σzz = K0·σyy, z0 = depth (m), ξ = 0.
     """
-    # the fraction of each row below the mudline (a mudline inside a graded cell fills it in part)
-    fill = np.clip((mudline - grid.y[:-1]) / grid.dy, 0.0, 1.0)
-    # the depth of the soil's own centroid in each row
-    depth = np.where(fill >= 1.0, mudline - grid.yc, 0.5 * fill * grid.dy)
+    fill, depth = layers_below(grid.y, mudline)
     phi = np.tile(fill, (grid.nx, 1))
     if open_frac is not None:
         phi = phi * open_frac

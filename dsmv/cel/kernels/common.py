@@ -17,6 +17,9 @@ JIT = dict(cache=True, error_model="numpy", fastmath=FAST)
 #: container would otherwise count references on each of its arrays. Per-cell loops call scalar
 #: helpers only, and read their arrays once, before the loop (a container passed per cell cost 5×).
 INLINE = dict(JIT, inline="always")
+#: the 3D per-cell kernels' drivers: parallel over slabs of cells, in an order that does not depend on
+#: the number of threads (:mod:`dsmv.cel.kernels.hexahedra`)
+PARALLEL = dict(JIT, parallel=True)
 
 
 @njit(**JIT)

@@ -1,0 +1,417 @@
+"""Element kernels of the 3D CEL step: eight-node hexahedra (boxes of the rectilinear grid), one-point rule.
+
+Cell arrays have shape (nx, ny, nz); node arrays are flat (:mod:`dsmv.cel.layout`) and a cell finds
+its eight nodes in the corner table, local corners in the order of
+:func:`~dsmv.cel.layout.corner_offsets`: 0 (−,−,−), 1 (+,−,−), 2 (+,+,−), 3 (−,+,−), then 4–7 the
+same one layer up. The transported cell state ``q`` has the rows of :data:`SOLID`: σxx, σyy, σzz,
+σxy, σyz, σzx (the soil's own, tension positive, Pa; the cell carries φ·σ), ξ, z0, then any soil-law
+state. z is up.
+
+On a box the one-point gradient of the trilinear shape functions is ∂N_a/∂x = s_a/(4·dx) with
+s_a = ±1 the corner's side along x, and the four hourglass vectors (the products ηζ, ζξ, ξη and ξηζ
+of the corners' signs) are orthogonal to every linear field: the viscous hourglass control of
+Flanagan & Belytschko (1981) acts on them directly, scaled to match the 2D element (:data:`HOURGLASS_SCALE`).
+The stress update rotates σ with the spin (Jaumann), adds the elastic trial increment and returns
+to Tresca's hexagonal prism with its corners (de Souza Neto, Perić & Owen 2008, in principal
+axes) or to the von Mises cylinder.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from dsmv.cel.kernels.common import INLINE, JIT, PARALLEL, law_factor, law_state, radial_return, tresca_return
+from dsmv.cel.layout import CellRows
+
+SOLID = CellRows(3)
+SXX, SYY, SZZ, SXY, SYZ, SZX = (SOLID.of(c) for c in ("xx", "yy", "zz", "xy", "yz", "zx"))
+XI, Z0, NQ_BASE = SOLID.xi, SOLID.z0, SOLID.base
+
+#: each local corner's side (−1 or +1) along x, y and z (rows), in the corner table's order
+SIDE = np.array([[-1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0, -1.0],
+                 [-1.0, -1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0],
+                 [-1.0, -1.0, -1.0, -1.0, 1.0, 1.0, 1.0, 1.0]])
+#: the hourglass vectors ηζ, ζξ, ξη, ξηζ over the corners: the trilinear modes the one-point rule cannot see
+HOURGLASS = np.stack([SIDE[1] * SIDE[2], SIDE[2] * SIDE[0], SIDE[0] * SIDE[1], SIDE[0] * SIDE[1] * SIDE[2]])
+#: the viscous hourglass force's scale, ρ·c·V^(2/3) times this: a slab one cell thick whose nodes
+#: move alike on both faces then feels, per unit thickness, the 2D element's force (ρ·c·√A/4 on
+#: the Q4 mode, which the slab sees as the ζξ vector over both faces, twice over eight nodes)
+HOURGLASS_SCALE = 1.0 / 16.0
+#: Jacobi sweeps at most, for a 3×3 symmetric matrix (it converges quadratically: 4–5 suffice)
+JACOBI_SWEEPS = 12
+
+
+@njit(**JIT)
+def cell_volumes(x, y, z):
+    """Cell volumes (m³)."""
+    vol = np.empty((len(x) - 1, len(y) - 1, len(z) - 1))
+    for i in range(len(x) - 1):
+        for j in range(len(y) - 1):
+            for k in range(len(z) - 1):
+                vol[i, j, k] = (x[i + 1] - x[i]) * (y[j + 1] - y[j]) * (z[k + 1] - z[k])
+    return vol
+
+
+@njit(**INLINE)
+def cell_nodes(corner, split, i, j, k, ny1, nz1, out):
+    """Cell (i, j, k)'s eight nodes into ``out`` (uint64): from the corner table where a split node is
+    used, else the structured numbering ((i·(ny+1) + j)·(nz+1) + k, the table's own)."""
+    if split[i, j, k]:
+        for c in range(8):
+            out[c] = np.uint64(corner[i, j, k, c])
+    else:
+        n0 = (np.uint64(i) * ny1 + np.uint64(j)) * nz1 + np.uint64(k)
+        out[0] = n0
+        out[1] = n0 + ny1 * nz1
+        out[2] = out[1] + nz1
+        out[3] = n0 + nz1
+        for c in range(4):
+            out[c + 4] = out[c] + np.uint64(1)
+
+
+@njit(**INLINE)
+def gather_velocities(v, nodes8, ve):
+    """The eight nodes' velocities into ``ve`` (3, 8), read once per cell."""
+    for a in range(3):
+        for c in range(8):
+            ve[a, c] = v[a, nodes8[c]]
+
+
+@njit(**INLINE)
+def velocity_gradient(ve, inv4, grad):
+    """The one-point velocity gradient grad[a, b] = ∂v_a/∂x_b (1/s) of a cell from its nodes' velocities
+    ``ve`` (3, 8); ``inv4`` = (1/(4dx), 1/(4dy), 1/(4dz))."""
+    for a in range(3):
+        gx, gy, gz = 0.0, 0.0, 0.0
+        for c in range(8):
+            va = ve[a, c]
+            gx += SIDE[0, c] * va
+            gy += SIDE[1, c] * va
+            gz += SIDE[2, c] * va
+        grad[a, 0] = gx * inv4[0]
+        grad[a, 1] = gy * inv4[1]
+        grad[a, 2] = gz * inv4[2]
+
+
+@njit(**JIT)
+def slab_forces(i, x, y, z, corner, split, v, phi, q, fn, par):
+    """The nodal forces of the cells of slab i (all j, k), added into ``fn``; returns the slab's
+    hourglass and bulk-viscosity power (W). A slab's cells touch the nodes of planes i and i + 1
+    only (split nodes included: a copy sits on its parent's plane)."""
+    rho, c_wave = par.density, par.wave_speed
+    _, ny, nz = phi.shape
+    ny1, nz1 = np.uint64(ny + 1), np.uint64(nz + 1)
+    nodes8 = np.empty(8, dtype=np.uint64)
+    ve = np.empty((3, 8))
+    fl = np.empty((3, 8))
+    grad = np.empty((3, 3))
+    inv4 = np.empty(3)
+    hg_power = 0.0
+    bv_power = 0.0
+    dx = x[i + 1] - x[i]
+    for j in range(ny):
+        dy = y[j + 1] - y[j]
+        for k in range(nz):
+            f = phi[i, j, k]
+            if f <= 0.0 and par.skip_void:
+                continue
+            dz = z[k + 1] - z[k]
+            vol = dx * dy * dz
+            inv4[0], inv4[1], inv4[2] = 0.25 / dx, 0.25 / dy, 0.25 / dz
+            cell_nodes(corner, split, i, j, k, ny1, nz1, nodes8)
+            gather_velocities(v, nodes8, ve)
+            velocity_gradient(ve, inv4, grad)
+            div = grad[0, 0] + grad[1, 1] + grad[2, 2]
+            qb = 0.0
+            if div < 0.0:  # bulk viscosity, a pressure of the soil itself (Pa), in compression only
+                h = min(dx, dy, dz)
+                qb = rho * (par.bulk_quadratic * par.bulk_quadratic * h * h * div * div
+                            - par.bulk_linear * c_wave * h * div)
+                bv_power += f * qb * (-div) * vol
+            sxx = q[SXX, i, j, k] - qb
+            syy = q[SYY, i, j, k] - qb
+            szz = q[SZZ, i, j, k] - qb
+            sxy, syz, szx = q[SXY, i, j, k], q[SYZ, i, j, k], q[SZX, i, j, k]
+            wx, wy, wz = vol * f * inv4[0], vol * f * inv4[1], vol * f * inv4[2]
+            for c in range(8):
+                bx, by, bz = SIDE[0, c] * wx, SIDE[1, c] * wy, SIDE[2, c] * wz
+                fl[0, c] = -(sxx * bx + sxy * by + szx * bz)
+                fl[1, c] = -(sxy * bx + syy * by + syz * bz)
+                fl[2, c] = -(szx * bx + syz * by + szz * bz)
+            if par.hourglass > 0.0:
+                coef = HOURGLASS_SCALE * par.hourglass * rho * f * c_wave * vol ** (2.0 / 3.0)
+                for mode in range(4):
+                    for a in range(3):
+                        g = 0.0
+                        for c in range(8):
+                            g += HOURGLASS[mode, c] * ve[a, c]
+                        cg = coef * g
+                        for c in range(8):
+                            fl[a, c] -= cg * HOURGLASS[mode, c]
+                        hg_power += cg * g
+            for c in range(8):
+                n = nodes8[c]
+                fn[0, n] += fl[0, c]
+                fn[1, n] += fl[1, c]
+                fn[2, n] += fl[2, c]
+    return hg_power, bv_power
+
+
+@njit(**PARALLEL)
+def nodal_forces(mesh, cells, nodes, par, work):
+    """Internal nodal forces (N) from the cell stresses: f_a = −V·φ·σ·∇N_a at the centre; viscous
+    hourglass control on the four hourglass vectors (coefficient ``par.hourglass``); linear and
+    quadratic bulk viscosity in compression. ``work`` accumulates the power of hourglass [0] and
+    bulk viscosity [1] (W). Cells without soil are skipped.
+
+    Parallel over slabs of constant i in two colours: the even slabs, then the odd ones. Slabs of
+    one colour share no node, so each node sums its cells' forces in the same order whatever the
+    number of threads, and the slabs' powers are summed in slab order: results are bit for bit
+    the same on any thread count."""
+    nx = cells.phi.shape[0]
+    fn = nodes.f
+    fn[:] = 0.0
+    power = np.zeros((2, nx))
+    for colour in range(2):
+        for s in prange((nx - colour + 1) // 2):
+            i = 2 * s + colour
+            power[0, i], power[1, i] = slab_forces(i, mesh.x, mesh.y, mesh.z, mesh.corner, mesh.split, nodes.v,
+                                                   cells.phi, cells.q, fn, par)
+    for i in range(nx):
+        work[0] += power[0, i]
+        work[1] += power[1, i]
+
+
+@njit(**INLINE)
+def jacobi_eigen(a, vec):
+    """Eigenvalues (on a's diagonal) and eigenvectors (vec's columns) of the symmetric 3×3 matrix a,
+    in place, by cyclic Jacobi rotations (Golub & Van Loan 2013, §8.5)."""
+    for r in range(3):
+        for c in range(3):
+            vec[r, c] = 1.0 if r == c else 0.0
+    for _ in range(JACOBI_SWEEPS):
+        off = a[0, 1] * a[0, 1] + a[1, 2] * a[1, 2] + a[0, 2] * a[0, 2]
+        scale = a[0, 0] * a[0, 0] + a[1, 1] * a[1, 1] + a[2, 2] * a[2, 2]
+        if off <= 1e-30 * scale or off == 0.0:
+            return
+        for p in range(2):
+            for r in range(p + 1, 3):
+                apr = a[p, r]
+                if apr == 0.0:
+                    continue
+                theta = 0.5 * (a[r, r] - a[p, p]) / apr
+                t = (1.0 if theta >= 0.0 else -1.0) / (abs(theta) + math.sqrt(theta * theta + 1.0))
+                cos = 1.0 / math.sqrt(t * t + 1.0)
+                sin = t * cos
+                for m in range(3):  # a ← Jᵀ·a·J, columns then rows
+                    amp, amr = a[m, p], a[m, r]
+                    a[m, p] = cos * amp - sin * amr
+                    a[m, r] = sin * amp + cos * amr
+                for m in range(3):
+                    apm, arm = a[p, m], a[r, m]
+                    a[p, m] = cos * apm - sin * arm
+                    a[r, m] = sin * apm + cos * arm
+                for m in range(3):
+                    vmp, vmr = vec[m, p], vec[m, r]
+                    vec[m, p] = cos * vmp - sin * vmr
+                    vec[m, r] = sin * vmp + cos * vmr
+
+
+@njit(**INLINE)
+def tresca_solid(s, su, shear_mod, a, vec):
+    """Return of the stress s (six components, in place) to Tresca's prism s1 − s3 ≤ 2·su in its
+    principal axes (:func:`~dsmv.cel.kernels.common.tresca_return`, corners included). Returns the
+    plastic shear strain increment and the multiplier sum (0 when elastic)."""
+    a[0, 0], a[1, 1], a[2, 2] = s[0], s[1], s[2]
+    a[0, 1] = a[1, 0] = s[3]
+    a[1, 2] = a[2, 1] = s[4]
+    a[0, 2] = a[2, 0] = s[5]
+    jacobi_eigen(a, vec)
+    e0, e1, e2 = a[0, 0], a[1, 1], a[2, 2]
+    # sort descending, remembering each principal value's axis
+    i1, i2, i3 = 0, 1, 2
+    if e0 < e1:
+        e0, e1, i1, i2 = e1, e0, i2, i1
+    if e1 < e2:
+        e1, e2, i2, i3 = e2, e1, i3, i2
+    if e0 < e1:
+        e0, e1, i1, i2 = e1, e0, i2, i1
+    n1, n2, n3, dxi, dg = tresca_return(e0, e1, e2, su, shear_mod)
+    if dg <= 0.0:
+        return 0.0, 0.0
+    d1, d2, d3 = n1 - e0, n2 - e1, n3 - e2  # σ ← σ + Σ Δs_i·e_i⊗e_i
+    rows = ((0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (0, 2))
+    for m in range(6):
+        r, c = rows[m]
+        s[m] += d1 * vec[r, i1] * vec[c, i1] + d2 * vec[r, i2] * vec[c, i2] + d3 * vec[r, i3] * vec[c, i3]
+    return dxi, dg
+
+
+@njit(**INLINE)
+def shear_rate_solid(d, a, vec):
+    """(Δε1 − Δε3) of the strain increment d (six components, shear as tensor components)."""
+    a[0, 0], a[1, 1], a[2, 2] = d[0], d[1], d[2]
+    a[0, 1] = a[1, 0] = d[3]
+    a[1, 2] = a[2, 1] = d[4]
+    a[0, 2] = a[2, 0] = d[5]
+    jacobi_eigen(a, vec)
+    return max(a[0, 0], a[1, 1], a[2, 2]) - min(a[0, 0], a[1, 1], a[2, 2])
+
+
+@njit(**JIT)
+def slab_stress(i, x, y, z, corner, split, v, phi, q, su_cell, factor, open_frac, par, law):
+    """The stress update of the cells of slab i (:func:`update_stress`); returns their plastic work (J)."""
+    _, ny, nz = phi.shape
+    ny1, nz1 = np.uint64(ny + 1), np.uint64(nz + 1)
+    n_state = q.shape[0] - NQ_BASE
+    shear_mod, dt = par.shear, par.dt
+    lam = par.bulk - 2.0 * shear_mod / 3.0
+    nodes8 = np.empty(8, dtype=np.uint64)
+    ve = np.empty((3, 8))
+    grad = np.empty((3, 3))
+    inv4 = np.empty(3)
+    s = np.empty(6)
+    d = np.empty(6)
+    a = np.empty((3, 3))
+    vec = np.empty((3, 3))
+    plastic = 0.0
+    dx = x[i + 1] - x[i]
+    for j in range(ny):
+        dy = y[j + 1] - y[j]
+        for k in range(nz):
+            f = phi[i, j, k]
+            if f <= par.stress_cutoff * open_frac[i, j, k]:
+                for m in range(6):
+                    q[m, i, j, k] = 0.0
+                su_cell[i, j, k] = 0.0
+                continue
+            dz = z[k + 1] - z[k]
+            inv4[0], inv4[1], inv4[2] = 0.25 / dx, 0.25 / dy, 0.25 / dz
+            cell_nodes(corner, split, i, j, k, ny1, nz1, nodes8)
+            gather_velocities(v, nodes8, ve)
+            velocity_gradient(ve, inv4, grad)
+            d[0], d[1], d[2] = dt * grad[0, 0], dt * grad[1, 1], dt * grad[2, 2]
+            d[3] = 0.5 * dt * (grad[0, 1] + grad[1, 0])
+            d[4] = 0.5 * dt * (grad[1, 2] + grad[2, 1])
+            d[5] = 0.5 * dt * (grad[0, 2] + grad[2, 0])
+            wxy = 0.5 * dt * (grad[0, 1] - grad[1, 0])  # spin increments W_ab = ½(∂v_a/∂x_b − ∂v_b/∂x_a)Δt
+            wyz = 0.5 * dt * (grad[1, 2] - grad[2, 1])
+            wzx = 0.5 * dt * (grad[2, 0] - grad[0, 2])
+            sxx, syy, szz = q[SXX, i, j, k], q[SYY, i, j, k], q[SZZ, i, j, k]
+            sxy, syz, szx = q[SXY, i, j, k], q[SYZ, i, j, k], q[SZX, i, j, k]
+            # Jaumann: σ + W·σ − σ·W (W = [[0, wxy, −wzx], [−wxy, 0, wyz], [wzx, −wyz, 0]])
+            s[0] = sxx + 2.0 * (wxy * sxy - wzx * szx)
+            s[1] = syy + 2.0 * (wyz * syz - wxy * sxy)
+            s[2] = szz + 2.0 * (wzx * szx - wyz * syz)
+            s[3] = sxy + wxy * (syy - sxx) + wyz * szx - wzx * syz
+            s[4] = syz + wyz * (szz - syy) + wzx * sxy - wxy * szx
+            s[5] = szx + wzx * (sxx - szz) + wxy * syz - wyz * sxy
+            tr = d[0] + d[1] + d[2]
+            for m in range(3):
+                s[m] += lam * tr + 2.0 * shear_mod * d[m]
+            for m in range(3, 6):
+                s[m] += 2.0 * shear_mod * d[m]
+            su = (par.su0 + par.ks * q[Z0, i, j, k]) * factor[i, j, k]
+            if su < 0.0:
+                su = 0.0
+            xi_before = q[XI, i, j, k]
+            gamma_dot = 0.0
+            if law is not None and par.law_active:
+                gamma_dot = shear_rate_solid(d, a, vec) / dt
+                s0 = q[NQ_BASE, i, j, k] if n_state > 0 else 0.0
+                s1 = q[NQ_BASE + 1, i, j, k] if n_state > 1 else 0.0
+                su *= law_factor(law, xi_before, gamma_dot, s0, s1)
+            su_cell[i, j, k] = su
+            p = (s[0] + s[1] + s[2]) / 3.0
+            dev_sq = ((s[0] - p) ** 2 + (s[1] - p) ** 2 + (s[2] - p) ** 2
+                      + 2.0 * (s[3] * s[3] + s[4] * s[4] + s[5] * s[5]))
+            volume = dx * dy * dz * f
+            if 0.5 * dev_sq > su * su:  # J2 > su²: outside the von Mises cylinder, which contains Tresca's prism
+                if par.tresca:
+                    dxi, dg = tresca_solid(s, su, shear_mod, a, vec)
+                    if dg > 0.0:
+                        q[XI, i, j, k] += dxi
+                        plastic += 2.0 * su * dg * volume
+                else:
+                    scale, dlam = radial_return(math.sqrt(dev_sq), su, shear_mod)
+                    for m in range(3):
+                        s[m] = p + (s[m] - p) * scale
+                    for m in range(3, 6):
+                        s[m] *= scale
+                    q[XI, i, j, k] += math.sqrt(2.0) * dlam
+                    plastic += math.sqrt(2.0) * su * dlam * volume
+            for m in range(6):
+                q[m, i, j, k] = s[m]
+            if law is not None and n_state > 0:
+                s0 = q[NQ_BASE, i, j, k]
+                s1 = q[NQ_BASE + 1, i, j, k] if n_state > 1 else 0.0
+                xi = q[XI, i, j, k]
+                for m in range(n_state):
+                    q[NQ_BASE + m, i, j, k] = law_state(law, m, s0, s1, xi, xi - xi_before, gamma_dot, dt)
+    return plastic
+
+
+@njit(**PARALLEL)
+def update_stress(mesh, cells, nodes, par, law, out):
+    """Stress update for undrained soil of strength su = (su0 + ks·z0)·f·law(ξ, γ̇, state): Jaumann
+    rotation by the spin, elastic trial, return (Tresca with ``par.tresca``, else von Mises √J2 ≤ su).
+    ξ accumulates Δε1^p − Δε3^p; ``out[0]`` accumulates plastic work (J); ``cells.su`` receives
+    each cell's strength (Pa). As :func:`dsmv.cel.kernels.plane.update_stress`, in three dimensions.
+    Tresca's return needs the principal axes only where √J2 > su (s1 − s3 ≤ 2·√J2 always).
+    Parallel over slabs of constant i (a cell writes only its own state); the slabs' plastic work
+    is summed in slab order, so the result does not depend on the number of threads."""
+    nx = cells.phi.shape[0]
+    plastic = np.zeros(nx)
+    for i in prange(nx):
+        plastic[i] = slab_stress(i, mesh.x, mesh.y, mesh.z, mesh.corner, mesh.split, nodes.v, cells.phi, cells.q,
+                                 cells.su, cells.strength_factor, cells.open_frac, par, law)
+    for i in range(nx):
+        out[0] += plastic[i]
+
+
+@njit(**JIT)
+def elastic_energy(phi, q, vol, shear_mod, bulk_mod):
+    """Elastic energy stored in the soil (J): s:s/(4G) + p²/(2K) per unit volume."""
+    total = 0.0
+    nx, ny, nz = phi.shape
+    for i in range(nx):
+        for j in range(ny):
+            for k in range(nz):
+                f = phi[i, j, k]
+                if f > 0.0:
+                    sxx, syy, szz = q[SXX, i, j, k], q[SYY, i, j, k], q[SZZ, i, j, k]
+                    p = (sxx + syy + szz) / 3.0
+                    dev = ((sxx - p) ** 2 + (syy - p) ** 2 + (szz - p) ** 2
+                           + 2.0 * (q[SXY, i, j, k] ** 2 + q[SYZ, i, j, k] ** 2 + q[SZX, i, j, k] ** 2))
+                    total += vol[i, j, k] * f * (dev / (4.0 * shear_mod) + p * p / (2.0 * bulk_mod))
+    return total
+
+
+@njit(**JIT)
+def hourglass_modes(corner, phi, v, full):
+    """How much of the nodal velocity field is hourglass (the zig-zag diagnostic, as in 2D): over
+    cells with φ ≥ ``full``, Σ|hourglass amplitudes|² and Σ|linear amplitudes|² (m²/s²), each
+    amplitude the projection on its corner vector over the vector's squared length (8)."""
+    nx, ny, nz = phi.shape
+    hourglass_sq = 0.0
+    linear_sq = 0.0
+    for i in range(nx):
+        for j in range(ny):
+            for k in range(nz):
+                if phi[i, j, k] < full:
+                    continue
+                for a in range(3):
+                    for mode in range(4):
+                        g = 0.0
+                        for c in range(8):
+                            g += HOURGLASS[mode, c] * v[a, corner[i, j, k, c]]
+                        hourglass_sq += (g / 8.0) ** 2
+                    for b in range(3):
+                        g = 0.0
+                        for c in range(8):
+                            g += SIDE[b, c] * v[a, corner[i, j, k, c]]
+                        linear_sq += (g / 8.0) ** 2
+    return hourglass_sq, linear_sq

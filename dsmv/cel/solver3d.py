@@ -1,0 +1,196 @@
+"""``solver=cel3d``: the explicit CEL solver on hexahedra, on the layers 2D and 3D share.
+
+What differs from :class:`~dsmv.cel.solver.Cel2DSolver` is the grid (three axes: x across the
+body, y along it, z up), the bodies (a rectangular or circular plate, a strip as a slab one cell
+thick between two plane-strain planes), their contact (:func:`~dsmv.cel.contact.build_plate_contact`)
+and the element kernels (:mod:`dsmv.cel.kernels.hexahedra`); sizing, the controller and its
+guards, the energy ledger and the result are :class:`~dsmv.cel.solver.CelSolver`'s. A quarter of
+a plate is modelled, with two vertical symmetry planes through its axes.
+
+This version is the small-strain analysis (``solver.remap=false``): the soil stays on the
+undeformed grid, which is what the exact bearing capacities of surface plates refer to.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from dsmv.cel import ledger
+from dsmv.cel.body import Box, Disc
+from dsmv.cel.config import Cel3DConfig
+from dsmv.cel.contact import ContactRules, build_plate_contact
+from dsmv.cel.grid import build_solid_grid
+from dsmv.cel.kernels.hexahedra import NQ_BASE, SOLID
+from dsmv.cel.layout import N_BODY, Cells, Nodes, SolidMesh, split_cells
+from dsmv.cel.solver import CelSolver, State, in_sweep
+from dsmv.cel.state import Elastic, layers_below, step_parameters
+from dsmv.errors import ConfigError
+from dsmv.scene import Scene
+
+#: the throughput the 3D cost estimate assumes (cell updates per second, one thread), a guard
+#: against hours, not a prediction: the quarter square plate at B/10, small strain, measured
+#: about 5e6 on these machines' cores
+CELL_UPDATES_PER_S_3D = 5.0e6
+#: memory per cell of the 3D state (B): eight state rows, φ, strength, factor, openings, the
+#: corner table (8 × int32) and the nodes' velocity, force, travel and mass
+BYTES_PER_CELL_3D = 8 * (8 + 4) + 4 * 8 + 8 * 10
+#: grids with fewer cells run the per-cell kernels on one thread
+PARALLEL_MIN_CELLS = 20_000
+
+
+class Cel3DSolver(CelSolver):
+    """Solver plugin ``cel3d``."""
+
+    name = "cel3d"
+    dim = 3
+    config_model = Cel3DConfig
+    bodies = ("strip", "rectangular_plate", "circular_plate")
+    cell_updates_per_s = CELL_UPDATES_PER_S_3D
+    bytes_per_cell = BYTES_PER_CELL_3D
+
+    @classmethod
+    def check_capabilities(cls, scene: Scene) -> ContactRules:
+        body, cfg = scene.geometry, scene.solver
+        if body.kind not in cls.bodies:
+            raise ConfigError("geometry.kind", body.kind, f"{cls.name} runs {', '.join(cls.bodies)} bodies")
+        if body.adhesion_factor not in (0.0, 1.0):
+            raise ConfigError("geometry.roughness", body.roughness, f"{cls.name} takes 'rough' or 'smooth' for now")
+        if cfg.remap:
+            raise ConfigError("solver.remap", True, f"{cls.name} is the small-strain analysis for now: "
+                                                    "solver.remap=false (the 3D remap is not built yet)")
+        if scene.output.fields:
+            raise ConfigError("output.fields", True, f"{cls.name} writes no fields yet: output.fields=false")
+        if scene.landing.initial_depth_m != 0.0:
+            raise ConfigError("landing.initial_depth_m", scene.landing.initial_depth_m,
+                              f"{cls.name} starts a body on the mudline for now (0)")
+        return ContactRules.of(scene, False)
+
+    # ------------------------------------------------------------------ geometry
+
+    @property
+    def slab(self) -> bool:
+        """A strip: a slab one cell thick between two plane-strain planes."""
+        return self.scene.geometry.kind == "strip"
+
+    def half_length_m(self) -> float:
+        """Half the body's length along y (m): L/2, B/2 for a circle, unbounded for a strip."""
+        body = self.scene.geometry
+        if body.kind == "strip":
+            return math.inf
+        return 0.5 * (body.width_m if body.kind == "circular_plate" else body.contact_length_m)
+
+    def shape(self):
+        body = self.scene.geometry
+        if body.kind == "circular_plate":
+            return Disc(0.5 * body.width_m)
+        return Box(0.5 * body.width_m, self.half_length_m())
+
+    def build(self):
+        """The grid: a uniform core around the body, graded outwards in all three directions."""
+        scene, cfg = self.scene, self.scene.solver
+        travel = self.expected_travel_m()
+        B = self.characteristic_width_m(travel)
+        h, n_half = self.core_cell_size(0.5 * B)
+        margin = cfg.core_margin_widths * B
+        half_length = self.half_length_m() if not self.slab else 0.5 * B
+        core = (h * math.ceil((0.5 * B + margin) / h), h * math.ceil((half_length + margin) / h))
+        far = (max(cfg.domain_half_width_widths * B, core[0] + h),
+               max(half_length + (cfg.domain_half_width_widths - 0.5) * B, core[1] + h))
+        grid = build_solid_grid(h=h, core=core, far=far, core_depth=margin,
+                                depth=max(cfg.domain_depth_widths * B, margin + h),
+                                void_height=1.3 * travel + 0.25 * B + 3 * h, ratio=scene.mesh.growth_ratio,
+                                h_max=scene.mesh.max_cell_size_m, slab=self.slab)
+        self.grid, self.h, self.n_half, self.travel = grid, h, n_half, travel
+        return grid
+
+    def model_scale(self) -> float:
+        """Model quantities → per track: four quarters of a plate; a strip slab is half the section over
+        one cell of thickness, per contact length L."""
+        if self.slab:
+            return 2.0 * self.scene.geometry.contact_length_m / self.h
+        return 4.0
+
+    def contact_area_m2(self) -> float:
+        """The area the bearing factor refers to (m²): the footprint the body's cells press, per track
+        (B·L for a rectangle on node lines; a circle's inscribed staircase, a little less than π·B²/4)."""
+        return self.footprint_m2 * self.model_scale()
+
+    # ------------------------------------------------------------------ state
+
+    def initial_state(self) -> State:
+        """Grid, body and contact, the geostatic soil, the step's parameters, and the touchdown."""
+        from dsmv.cel.kernels.hexahedra import cell_volumes
+        from dsmv.cel.kernels.nodes import nodal_mass
+
+        scene, cfg = self.scene, self.scene.solver
+        soil, landing = scene.soil, scene.landing
+        grid = self.build()
+        shape3 = grid.shape
+        rho, grav = soil.density_kg_m3, landing.gravity_m_s2
+        elastic = Elastic.of(soil)
+        k_base = grid.row_of(0.0)
+        body_contact = build_plate_contact(self.shape(), grid, k_base, scene.geometry.adhesion_factor)
+        footprint = body_contact.solid[:, :, k_base]
+        self.footprint_m2 = float((np.diff(grid.x)[:, None] * np.diff(grid.y)[None, :])[footprint].sum())
+        fill, depth = layers_below(grid.z, 0.0)
+        open_frac = body_contact.openings.open_frac
+        phi = fill[None, None, :] * open_frac
+        initial_law_state = self.law.initial_state()
+        q = np.zeros((NQ_BASE + len(initial_law_state), *shape3))
+        stress_z = -rho * grav * depth[None, None, :] * phi
+        q[SOLID.of("zz")] = stress_z
+        q[SOLID.of("xx")] = q[SOLID.of("yy")] = elastic.k0 * stress_z
+        q[SOLID.z0] = depth[None, None, :] * phi
+        q[NQ_BASE:] = initial_law_state[:, None, None, None]
+        vol = cell_volumes(grid.x, grid.y, grid.z)
+        mesh = SolidMesh(grid.x, grid.y, grid.z, vol, body_contact.corner, int(np.prod([len(a) for a in grid.axes])),
+                         split_cells(body_contact.corner))
+        cells = Cells(phi, q, np.zeros(shape3), body_contact.strength_factor, body_contact.solid, open_frac,
+                      body_contact.gap, np.full(shape3, np.nan))
+        n_nodes = body_contact.n_nodes
+        nodes = Nodes(np.zeros((3, n_nodes)), np.zeros((3, n_nodes)), np.zeros(n_nodes), np.zeros((3, n_nodes)))
+        scale = self.model_scale()
+        drop = landing.kind == "drop"
+        separation = cfg.contact_separation is True or (cfg.contact_separation == "auto" and drop)
+        par = step_parameters(
+            dt=cfg.cfl * self.h / elastic.wave_speed_m_s, density=rho, elastic=elastic, h=self.h, gravity=grav,
+            su0=soil.su0_pa, ks=soil.ks_pa_per_m, hourglass=cfg.hourglass, bulk_linear=cfg.bulk_viscosity_linear,
+            bulk_quadratic=cfg.bulk_viscosity_quadratic, stress_cutoff=cfg.stress_cutoff,
+            body_mass=landing.inertia_per_track_kg / scale, body_weight=landing.weight_per_track_n / scale,
+            push_velocity=landing.velocity_m_s, remap_courant=cfg.remap_courant, axisymmetric=False,
+            advection_order=cfg.advection_order, drop=drop, inflow=False, remap=False,
+            law_active=self.law.active or not cfg.economies.skip_inactive_law, skip_void=cfg.economies.skip_void,
+            separation=separation, tresca=cfg.yield_surface == "tresca",
+        )
+        nodal_mass(mesh, cells, rho, nodes.mass)
+        state = State(grid, mesh, cells, None, nodes, body_contact.contact, None, par, np.zeros(N_BODY),
+                      np.zeros(ledger.N_ENERGY), self.law_kernel(par, len(initial_law_state)), scale,
+                      float(rho * (phi * vol).sum()), self.kernels.elastic_energy(phi, q, vol, par.shear, par.bulk),
+                      0.0, 0.5 * par.body_mass * landing.velocity_m_s**2 if drop else 0.0)
+        self.touchdown(state)
+        return state
+
+    def thread_count(self, cells: int) -> int:
+        """Threads for the per-cell kernels: ``solver.threads``, else all Numba's outside a sweep and one
+        in a sweep's job; one below :data:`PARALLEL_MIN_CELLS`, where threads cost more than they save."""
+        import numba
+
+        available = numba.config.NUMBA_NUM_THREADS
+        asked = self.scene.solver.threads or (1 if in_sweep() else available)
+        return 1 if cells < PARALLEL_MIN_CELLS else max(1, min(asked, available))
+
+    def advance(self, state: State, n: int) -> tuple[int, int]:
+        import numba
+
+        numba.set_num_threads(self.thread_count(state.cells.phi.size))
+        return super().advance(state, n)
+
+    def loop_arguments(self, state: State) -> tuple:
+        return (state.mesh, state.cells, state.nodes, state.contact, state.par, state.body, state.energy, state.law)
+
+    @staticmethod
+    def top_fill(state: State) -> float:
+        return float(state.cells.phi[:, :, -1].max())
+
