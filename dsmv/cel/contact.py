@@ -342,7 +342,9 @@ def build_plate_contact(shape, grid, k_base: int, alpha: float) -> BodyContact:
       in plan, which with contact separation lets go of soil that pulls away. At a corner of the
       footprint the copy's normal is the bisector; on a symmetry plane it lies in that plane, and
       the copy keeps its parent's rollers;
-    - the body's other nodes move with it.
+    - a smooth body's wall nodes on one flat face (a plate's side, a step of a circle's staircase)
+      are tied along the face's normal, as 2D's walls; its other nodes, and all of a rough body's,
+      move with it (a rough wall is a full tie here: 2D's capped pull α·su is not in 3D yet).
 
     ``shape`` is in the grid frame (x = y = 0 on the symmetry planes, z = 0 at the base)."""
     solid = solid_cells(shape, grid)
@@ -356,6 +358,14 @@ def build_plate_contact(shape, grid, k_base: int, alpha: float) -> BodyContact:
     normal = np.zeros((len(tie_i), 3))
     corner = structured_corners(solid.shape)
     offsets = [tuple(o) for o in corner_offsets(3)]
+    if alpha == 0.0:  # a smooth wall holds its nodes along its normal, where it has one
+        for t in np.nonzero(tie_k > k_base)[0]:
+            i, j, k = tie_i[t], tie_j[t], tie_k[t]
+            soil_side = [(ci + 0.5 - i, cj + 0.5 - j) for ci in (i - 1, i) for cj in (j - 1, j) for ck in (k - 1, k)
+                         if 0 <= ci < nx and 0 <= cj < ny and 0 <= ck < nz and not solid[ci, cj, ck]]
+            n_wall = np.array([sum(a for a, _ in soil_side) * (0 < i < nx), sum(b for _, b in soil_side) * (0 < j < ny)])
+            if np.count_nonzero(n_wall) == 1:  # on one flat face (not an edge, nor inside the body)
+                full[t], normal[t, :2] = False, np.sign(n_wall)
     split_node, split_parent, split_normal, split_fixed = [], [], [], []
     for t in np.nonzero(tie_k == k_base)[0]:
         i, j = tie_i[t], tie_j[t]

@@ -114,6 +114,19 @@ class Faces(NamedTuple):
     flux_y: np.ndarray
 
 
+class SolidFaces(NamedTuple):
+    """A 3D grid's faces normal to each axis, indexed [face along the axis, the other two axes' cells
+    in order]: their open fraction (the body closes faces) and the soil volume through them in the
+    last remap sweep (m³)."""
+
+    aperture_x: np.ndarray
+    aperture_y: np.ndarray
+    aperture_z: np.ndarray
+    flux_x: np.ndarray
+    flux_y: np.ndarray
+    flux_z: np.ndarray
+
+
 class Nodes(NamedTuple):
     """Node state, flat (:mod:`module docstring <dsmv.cel.layout>`): velocity (d, n) in m/s,
     force (d, n) in N per unit thickness or per radian, lumped mass (n,) in kg, and the travel

@@ -7,8 +7,9 @@ and the element kernels (:mod:`dsmv.cel.kernels.hexahedra`); sizing, the control
 guards, the energy ledger and the result are :class:`~dsmv.cel.solver.CelSolver`'s. A quarter of
 a plate is modelled, with two vertical symmetry planes through its axes.
 
-This version is the small-strain analysis (``solver.remap=false``): the soil stays on the
-undeformed grid, which is what the exact bearing capacities of surface plates refer to.
+With ``solver.remap=true`` (the default) the grid moves with the body and the soil is carried
+through it in three directional sweeps; ``false`` is the small-strain analysis on the undeformed
+grid, which is what the exact bearing capacities of surface plates refer to.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from dsmv.cel.config import Cel3DConfig
 from dsmv.cel.contact import ContactRules, build_plate_contact
 from dsmv.cel.grid import build_solid_grid
 from dsmv.cel.kernels.hexahedra import NQ_BASE, SOLID
-from dsmv.cel.layout import N_BODY, Cells, Nodes, SolidMesh, split_cells
+from dsmv.cel.layout import N_BODY, Cells, Inflow, Nodes, SolidFaces, SolidMesh, split_cells
 from dsmv.cel.solver import CelSolver, State, in_sweep
 from dsmv.cel.state import Elastic, layers_below, step_parameters
 from dsmv.errors import ConfigError
@@ -38,6 +39,18 @@ CELL_UPDATES_PER_S_3D = 5.0e6
 BYTES_PER_CELL_3D = 8 * (8 + 4) + 4 * 8 + 8 * 10
 #: grids with fewer cells run the per-cell kernels on one thread
 PARALLEL_MIN_CELLS = 20_000
+
+
+def solid_faces(solid: np.ndarray) -> SolidFaces:
+    """The faces of a 3D grid whose body is whole cells: closed beside a body cell, open elsewhere,
+    each axis' faces indexed [face along it, the other two axes' cells]."""
+    apertures = []
+    for axis in range(3):
+        padded = np.pad(solid, [(1, 1) if a == axis else (0, 0) for a in range(3)])
+        n = solid.shape[axis] + 1
+        closed = np.take(padded, range(n), axis=axis) | np.take(padded, range(1, n + 1), axis=axis)
+        apertures.append(np.ascontiguousarray(np.moveaxis(1.0 - closed, axis, 0)))
+    return SolidFaces(*apertures, *(np.zeros_like(a) for a in apertures))
 
 
 class Cel3DSolver(CelSolver):
@@ -57,9 +70,6 @@ class Cel3DSolver(CelSolver):
             raise ConfigError("geometry.kind", body.kind, f"{cls.name} runs {', '.join(cls.bodies)} bodies")
         if body.adhesion_factor not in (0.0, 1.0):
             raise ConfigError("geometry.roughness", body.roughness, f"{cls.name} takes 'rough' or 'smooth' for now")
-        if cfg.remap:
-            raise ConfigError("solver.remap", True, f"{cls.name} is the small-strain analysis for now: "
-                                                    "solver.remap=false (the 3D remap is not built yet)")
         if scene.output.fields:
             raise ConfigError("output.fields", True, f"{cls.name} writes no fields yet: output.fields=false")
         if scene.landing.initial_depth_m != 0.0:
@@ -147,6 +157,10 @@ class Cel3DSolver(CelSolver):
         vol = cell_volumes(grid.x, grid.y, grid.z)
         mesh = SolidMesh(grid.x, grid.y, grid.z, vol, body_contact.corner, int(np.prod([len(a) for a in grid.axes])),
                          split_cells(body_contact.corner))
+        faces = solid_faces(body_contact.solid)
+        ghost = np.zeros((q.shape[0], *shape3[:2]))
+        ghost[NQ_BASE:] = initial_law_state[:, None, None]  # soil entering at the base brings the initial state
+        inflow = Inflow(ghost, np.full(shape3[:2], -(grid.z[0] - 0.5 * (grid.z[1] - grid.z[0]))))
         cells = Cells(phi, q, np.zeros(shape3), body_contact.strength_factor, body_contact.solid, open_frac,
                       body_contact.gap, np.full(shape3, np.nan))
         n_nodes = body_contact.n_nodes
@@ -160,12 +174,12 @@ class Cel3DSolver(CelSolver):
             bulk_quadratic=cfg.bulk_viscosity_quadratic, stress_cutoff=cfg.stress_cutoff,
             body_mass=landing.inertia_per_track_kg / scale, body_weight=landing.weight_per_track_n / scale,
             push_velocity=landing.velocity_m_s, remap_courant=cfg.remap_courant, axisymmetric=False,
-            advection_order=cfg.advection_order, drop=drop, inflow=False, remap=False,
+            advection_order=cfg.advection_order, drop=drop, inflow=True, remap=cfg.remap,
             law_active=self.law.active or not cfg.economies.skip_inactive_law, skip_void=cfg.economies.skip_void,
             separation=separation, tresca=cfg.yield_surface == "tresca",
         )
         nodal_mass(mesh, cells, rho, nodes.mass)
-        state = State(grid, mesh, cells, None, nodes, body_contact.contact, None, par, np.zeros(N_BODY),
+        state = State(grid, mesh, cells, faces, nodes, body_contact.contact, inflow, par, np.zeros(N_BODY),
                       np.zeros(ledger.N_ENERGY), self.law_kernel(par, len(initial_law_state)), scale,
                       float(rho * (phi * vol).sum()), self.kernels.elastic_energy(phi, q, vol, par.shear, par.bulk),
                       0.0, 0.5 * par.body_mass * landing.velocity_m_s**2 if drop else 0.0)
@@ -188,7 +202,8 @@ class Cel3DSolver(CelSolver):
         return super().advance(state, n)
 
     def loop_arguments(self, state: State) -> tuple:
-        return (state.mesh, state.cells, state.nodes, state.contact, state.par, state.body, state.energy, state.law)
+        return (state.mesh, state.cells, state.faces, state.nodes, state.contact, state.inflow, state.par, state.body,
+                state.energy, state.law)
 
     @staticmethod
     def top_fill(state: State) -> float:

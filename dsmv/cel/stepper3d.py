@@ -2,9 +2,11 @@
 
 The step of :mod:`dsmv.cel.stepper` on hexahedra: nodal forces (:mod:`dsmv.cel.kernels.hexahedra`),
 the body's motion and the tied nodes (the shared stages of :mod:`dsmv.cel.kernels.nodes`), the
-explicit velocity update, the boundary conditions, the stress update. The grid stays where it is
-relative to the body's start: this loop is the small-strain analysis (``solver.remap=false``);
-the faces hold the soil along their normal or wholly, without a capped adhesive pull.
+explicit velocity update, the boundary conditions, the stress update; then, once some node has
+travelled ``par.remap_travel``, the Eulerian phase in three directional sweeps whose order
+alternates (x, y, z, then z, y, x) (:mod:`dsmv.cel.kernels.remap3d`), with soil entering at the base as the grid moves
+down with the body. The faces hold the soil along their normal or wholly, without a capped
+adhesive pull.
 """
 
 from __future__ import annotations
@@ -15,10 +17,14 @@ import numpy as np
 from numba import njit
 
 from dsmv.cel.kernels.common import INLINE, JIT
-from dsmv.cel.kernels.hexahedra import nodal_forces, update_stress
-from dsmv.cel.kernels.nodes import apply_fixed, apply_ties, nodal_mass, ties_that_hold, update_velocities
-from dsmv.cel.layout import B_MAXDISP, B_OFFSET, B_STEP, B_TIME, B_VEL
-from dsmv.cel.ledger import E_BULK, E_HOURGLASS, E_PLASTIC, E_SOIL_GRAV
+from dsmv.cel.kernels.hexahedra import SOLID, nodal_forces, update_stress
+from dsmv.cel.kernels.nodes import (
+    apply_fixed, apply_ties, gather_travel, hand_travel_to_parents, nodal_mass, split_mass_kinetic_change,
+    split_masses, ties_that_hold, update_velocities,
+)
+from dsmv.cel.kernels.remap3d import remap_sweeps
+from dsmv.cel.layout import B_INFLOW, B_MAXDISP, B_OFFSET, B_REMAP_OFFSET, B_REMAPS, B_STEP, B_TIME, B_VEL
+from dsmv.cel.ledger import E_BULK, E_HOURGLASS, E_PLASTIC, E_REMAP_ELASTIC, E_REMAP_KINETIC, E_SOIL_GRAV
 from dsmv.cel.stepper import AT_REST, NOT_FINITE, RUNNING, move_body
 
 
@@ -48,14 +54,53 @@ def lagrange_step(mesh, cells, nodes, contact, par, body, energy, law):
     return resistance, v_old
 
 
+SZZ, SXX, SYY, Z0 = SOLID.of("zz"), SOLID.of("xx"), SOLID.of("yy"), SOLID.z0
+
+
+@njit(**INLINE)
+def refresh_inflow(inflow, par, body):
+    """Soil entering at the base: intact and geostatic at its depth halfway through the travel."""
+    ghost = inflow.ghost
+    for i in range(ghost.shape[1]):
+        for j in range(ghost.shape[2]):
+            depth = inflow.depth0[i, j] - 0.5 * (body[B_REMAP_OFFSET] + body[B_OFFSET])
+            ghost[SZZ, i, j] = -par.density * par.gravity * depth
+            ghost[SXX, i, j] = par.k0 * ghost[SZZ, i, j]
+            ghost[SYY, i, j] = ghost[SXX, i, j]
+            ghost[Z0, i, j] = depth
+
+
+@njit(**INLINE)
+def remap(mesh, cells, faces, nodes, contact, inflow, par, body, energy, swept):
+    """The Eulerian phase: carry soil and momentum through the grid by the gathered travel."""
+    if par.inflow:
+        refresh_inflow(inflow, par, body)
+    hand_travel_to_parents(contact, nodes)
+    audit = np.zeros(2)
+    reverse = int(body[B_REMAPS]) % 2 == 1  # the sweeps alternate their order: x, y, z then z, y, x
+    body[B_INFLOW] += remap_sweeps(mesh, cells, faces, nodes, par, inflow.ghost, reverse, audit)
+    energy[E_REMAP_ELASTIC] += audit[0]
+    energy[E_REMAP_KINETIC] += audit[1]
+    nodes.travel[:] = 0.0
+    split_masses(contact, nodes.mass, swept)
+    nodal_mass(mesh, cells, par.density, nodes.mass)
+    energy[E_REMAP_KINETIC] += split_mass_kinetic_change(contact, nodes, swept)
+    body[B_REMAP_OFFSET] = body[B_OFFSET]
+    body[B_REMAPS] += 1.0
+
+
 @njit(**JIT)
-def run_steps(n_steps, mesh, cells, nodes, contact, par, body, energy, law):
+def run_steps(n_steps, mesh, cells, faces, nodes, contact, inflow, par, body, energy, law):
     """Advance up to ``n_steps`` steps; return (steps done, exit code) as :func:`dsmv.cel.stepper.run_steps`."""
+    swept = np.zeros((len(contact.split_node), 2))
     nodal_mass(mesh, cells, par.density, nodes.mass)
     for step in range(n_steps):
         resistance, v_old = lagrange_step(mesh, cells, nodes, contact, par, body, energy, law)
+        travel = gather_travel(nodes, body[B_VEL], par.dt) if par.remap else 0.0
         if not (math.isfinite(body[B_VEL]) and math.isfinite(resistance)):
             return step + 1, NOT_FINITE
         if par.drop and body[B_VEL] >= 0.0 and v_old < 0.0:
             return step + 1, AT_REST
+        if par.remap and travel >= par.remap_travel:
+            remap(mesh, cells, faces, nodes, contact, inflow, par, body, energy, swept)
     return n_steps, RUNNING

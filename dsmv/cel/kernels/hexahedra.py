@@ -400,9 +400,19 @@ def update_stress(mesh, cells, nodes, par, law, out):
         out[0] += plastic[i]
 
 
+@njit(**INLINE)
+def elastic_energy_density_solid(q, i, j, k, shear_mod, bulk_mod):
+    """Linear elastic energy per unit volume of cell (i, j, k)'s stress, s:s/(4G) + p²/(2K) (J/m³)."""
+    sxx, syy, szz = q[SXX, i, j, k], q[SYY, i, j, k], q[SZZ, i, j, k]
+    p = (sxx + syy + szz) / 3.0
+    dev = ((sxx - p) ** 2 + (syy - p) ** 2 + (szz - p) ** 2
+           + 2.0 * (q[SXY, i, j, k] ** 2 + q[SYZ, i, j, k] ** 2 + q[SZX, i, j, k] ** 2))
+    return dev / (4.0 * shear_mod) + p * p / (2.0 * bulk_mod)
+
+
 @njit(**JIT)
 def elastic_energy(phi, q, vol, shear_mod, bulk_mod):
-    """Elastic energy stored in the soil (J): s:s/(4G) + p²/(2K) per unit volume."""
+    """Elastic energy stored in the soil (J)."""
     total = 0.0
     nx, ny, nz = phi.shape
     for i in range(nx):
@@ -410,11 +420,7 @@ def elastic_energy(phi, q, vol, shear_mod, bulk_mod):
             for k in range(nz):
                 f = phi[i, j, k]
                 if f > 0.0:
-                    sxx, syy, szz = q[SXX, i, j, k], q[SYY, i, j, k], q[SZZ, i, j, k]
-                    p = (sxx + syy + szz) / 3.0
-                    dev = ((sxx - p) ** 2 + (syy - p) ** 2 + (szz - p) ** 2
-                           + 2.0 * (q[SXY, i, j, k] ** 2 + q[SYZ, i, j, k] ** 2 + q[SZX, i, j, k] ** 2))
-                    total += vol[i, j, k] * f * (dev / (4.0 * shear_mod) + p * p / (2.0 * bulk_mod))
+                    total += vol[i, j, k] * f * elastic_energy_density_solid(q, i, j, k, shear_mod, bulk_mod)
     return total
 
 
