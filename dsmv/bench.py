@@ -16,7 +16,8 @@ Three parts, every timing a median of repeats and every ratio measured in the sa
 
 Writes ``bench.md`` (the tables), ``bench.csv`` (every run) and ``bench.png`` under
 ``--out`` (default ``runs/bench``). ``--quick`` runs a short version (coarser levels, one
-repeat) in under three minutes.
+repeat) in under three minutes; ``--3d`` the 3D solver's throughput, threads, cold start and
+memory per cell instead (``bench_3d.md``).
 """
 
 from __future__ import annotations
@@ -280,6 +281,67 @@ def threads_and_compile(plan: Plan) -> dict:
     return figures
 
 
+#: the 3D throughput cases: the rough square plate (quarter model) with the remap, pushed 0.02 B, on
+#: B/10 cells (about 30,000) and B/16 (about 120,000, where two threads are asked to pay off)
+SOLID_CASE = ["geometry=rectangular_plate", "landing=push", "soil.law=tresca", "soil.su0_pa=10000",
+              "soil.ks_pa_per_m=0", "soil.youngs_modulus_pa=5e6", "landing.gravity_m_s2=0",
+              "landing.velocity_m_s=0.1", "landing.displacement_m=0.02"]
+SOLID_CELLS_M = (0.1, 0.0625)
+
+
+def state_bytes_per_cell(overrides: list[str]) -> tuple[float, float]:
+    """The bytes per cell a solver's state holds (every array of its containers, nodes and contact
+    included), and what its cost estimate assumes."""
+    from dsmv import registry
+
+    scene = compose_scene(overrides)
+    solver = registry.load("solvers", scene.solver.name, "solver.name")(scene)
+    state = solver.initial_state()
+    arrays = [a for part in (state.mesh, state.cells, state.faces, state.nodes, state.contact, state.inflow)
+              for a in part if isinstance(a, np.ndarray)]
+    return sum(a.nbytes for a in arrays) / state.cells.phi.size, solver.bytes_per_cell
+
+
+def solid_throughput(out: Path) -> dict:
+    """The 3D solver's figures, each run in a fresh process: cold and warm start, cell-updates per
+    second on one and two threads, the cost of a 3D cell-update against a 2D one (the Prandtl push
+    at B/20, one thread, same run), and the memory per cell (the state's arrays over its cells,
+    against what the cost estimate assumes). Writes ``bench_3d.md``."""
+    figures, rows = {}, []
+    with tempfile.TemporaryDirectory() as cache:
+        one = {"NUMBA_CACHE_DIR": cache, "NUMBA_NUM_THREADS": "1"}
+        two = {"NUMBA_CACHE_DIR": cache, "NUMBA_NUM_THREADS": "2"}
+        cold = in_subprocess(SOLID_CASE + [f"mesh.cell_size_m={SOLID_CELLS_M[0]}"], one)
+        plane = in_subprocess(THROUGHPUT_CASE, one)
+        for h in SOLID_CELLS_M:
+            case = SOLID_CASE + [f"mesh.cell_size_m={h}"]
+            warm = in_subprocess(case, one)
+            pair = in_subprocess(case, two)
+            rows.append({"cells": warm["cells"], "steps": warm["steps"], "wall_1": warm["wall_s"],
+                         "wall_2": pair["wall_s"], "rate_1": warm["cell_updates_per_s"],
+                         "rate_2": pair["cell_updates_per_s"], "nc": warm["nc_at_0p02B"], "nc_2": pair["nc_at_0p02B"]})
+    figures["compile_cold_s"], figures["wall_cold_s"] = cold["compile_s"], cold["wall_s"]
+    figures["cost_vs_2d"] = plane["cell_updates_per_s"] / rows[0]["rate_1"]
+    figures["bytes_per_cell"], assumed = state_bytes_per_cell(SOLID_CASE + [f"mesh.cell_size_m={SOLID_CELLS_M[-1]}"])
+    lines = ["# dsmv-bench: the 3D solver", "",
+             "The rough square plate (quarter model) pushed 0.02 B with the remap, each run in a fresh process.", "",
+             "| cells | steps | 1 thread (s) | M cell-updates/s | 2 threads (s) | M cell-updates/s | speed-up | "
+             "q/su at 0.02 B, 1 and 2 threads |", "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        same = "equal" if r["nc"] == r["nc_2"] else f"{r['nc']:.9g} / {r['nc_2']:.9g}"
+        lines.append(f"| {r['cells']:,.0f} | {r['steps']:,.0f} | {r['wall_1']:.2f} | {r['rate_1'] / 1e6:.2f} | "
+                     f"{r['wall_2']:.2f} | {r['rate_2'] / 1e6:.2f} | {r['wall_1'] / r['wall_2']:.2f}× | {same} |")
+    lines += ["", f"- cold start: **{figures['compile_cold_s']:.1f} s** compile + {figures['wall_cold_s']:.2f} s "
+                  f"({rows[0]['cells']:,.0f} cells)",
+              f"- a 3D cell-update costs **{figures['cost_vs_2d']:.2f}×** a 2D one (the Prandtl push at B/20, "
+              f"{plane['cell_updates_per_s'] / 1e6:.1f} M cell-updates/s, one thread, this run)",
+              f"- memory per cell: **{figures['bytes_per_cell']:,.0f} B** in the state's arrays "
+              f"({rows[-1]['cells']:,.0f} cells; the cost estimate assumes {assumed:,.0f} B)"]
+    (out / "bench_3d.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines), flush=True)
+    return figures
+
+
 def write_outputs(out: Path, rows: list[Row], economy_rows: list[dict], figures: dict, plan: Plan,
                   landing_ref: float) -> None:
     with (out / "bench.csv").open("w", newline="") as fh:
@@ -370,6 +432,8 @@ def main(argv: list[str] | None = None) -> None:
                         "(dsmv.regression) into FILE (JSON; scenes already there are kept)")
     parser.add_argument("--against", metavar="REF", help="with --regression: compare with a file written before")
     parser.add_argument("--scenes", nargs="*", help="with --regression: only these scenes")
+    parser.add_argument("--3d", dest="solid", action="store_true", help="instead: the 3D solver's throughput, "
+                        "threads, cold start and memory (bench_3d.md under --out)")
     args = parser.parse_args(argv)
     if args.regression:
         from dsmv import regression
@@ -382,6 +446,9 @@ def main(argv: list[str] | None = None) -> None:
     plan = QUICK if args.quick else FULL
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    if args.solid:
+        solid_throughput(out)
+        return
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     started = time.perf_counter()
 

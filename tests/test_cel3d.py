@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 from dsmv import registry
+from dsmv.errors import ConfigError
 from dsmv.scene import build_scene
 
 #: a push in small strain, weightless Tresca soil su 10 kPa, E = 500·su (the strip's verification soil)
@@ -136,6 +137,17 @@ def test_a_strip_slab_pushed_with_the_remap_is_the_plane_strain_problem(compose_
 def gourvenec(width_over_length: float) -> float:
     """A rough rectangular plate's exact factor: (2 + π)·sc, sc = 1 + 0.214·B/L − 0.067·(B/L)² (Gourvenec 2007)."""
     return (2 + math.pi) * (1 + 0.214 * width_over_length - 0.067 * width_over_length**2)
+
+
+def test_cel2d_runs_a_circular_plate_axisymmetric(compose_cfg):
+    """``geometry=circular_plate`` with ``solver=cel2d`` is the axisymmetric flat plate: the same run, bit
+    for bit, as the strip of the same width in ``solver.mode=axisymmetric``."""
+    case = [*SMALL_STRAIN_PUSH, "solver=cel2d", "landing.displacement_m=0.02", "mesh.cell_size_m=0.1"]
+    plate = _solve(compose_cfg, [*case, "geometry=circular_plate"]).metrics
+    strip = _solve(compose_cfg, [*case, "geometry=strip", "solver.mode=axisymmetric"]).metrics
+    assert plate["nc_at_0p02B"] == strip["nc_at_0p02B"]
+    with pytest.raises(ConfigError, match="^solver.mode = 'plane_strain': a circular plate is axisymmetric"):
+        build_scene(compose_cfg([*case, "geometry=circular_plate", "solver.mode=plane_strain"]))
 
 
 @pytest.mark.slow

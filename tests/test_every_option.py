@@ -80,8 +80,8 @@ def refused_key(geometry: str, landing: str, solver: str) -> str | None:
         return "landing.velocity_m_s"  # the fall cone is released from rest: a push needs a speed
     if solver == "analytic_energy" and geometry in ("tbar", "fall_cone_30deg"):
         return "geometry.kind"  # the energy method models tracks, strips and plates
-    if solver == "cel2d" and geometry in PLATES:
-        return "geometry.kind"  # plates are 3D bodies
+    if solver == "cel2d" and geometry == "rectangular_plate":
+        return "geometry.kind"  # a rectangle is a 3D body (a circle is axisymmetric in 2D)
     if solver == "cel3d" and geometry not in ("strip", *PLATES):
         return "geometry.kind"  # the 3D solver runs strips (as slabs) and plates
     return None

@@ -4,7 +4,7 @@
 contact the body gets; ``check_scene`` refuses what it cannot do and the set-up
 (:func:`build_contact`) builds the tie table from the same rules:
 
-- **flat faces** (a strip, a track's cross-section): the base and walls tie their nodes along the
+- **flat faces** (a strip, a track's cross-section, a circular plate in axisymmetry): the base and walls tie their nodes along the
   face normal only; along the face the soil is held by adhesion α·su (rough is α = 1). The nodes
   at the body's corners are split: the soil cells beyond the base see their own copy of the
   corner node (:func:`split_corners`). Contact separation lets a face go of soil that pulls away.
@@ -60,7 +60,7 @@ class ContactRules:
     @property
     def flat_faced(self) -> bool:
         """A flat base and vertical walls: normal ties with adhesion, split corners."""
-        return self.kind in ("strip", "track") and not self.longitudinal
+        return self.kind in ("strip", "track", "circular_plate") and not self.longitudinal
 
     @property
     def circular(self) -> bool:

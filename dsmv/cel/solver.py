@@ -504,24 +504,25 @@ class Cel2DSolver(CelSolver):
     name = "cel2d"
     dim = 2
     config_model = Cel2DConfig
-    bodies = ("strip", "track", "tbar", "cone")
+    bodies = ("strip", "track", "tbar", "cone", "circular_plate")
 
     @staticmethod
     def is_axisymmetric(scene: Scene) -> bool:
         mode = scene.solver.mode
-        return mode == "axisymmetric" or (mode == "auto" and scene.geometry.kind == "cone")
+        return mode == "axisymmetric" or (mode == "auto" and scene.geometry.kind in ("cone", "circular_plate"))
 
     @classmethod
     def check_capabilities(cls, scene: Scene) -> ContactRules:
         rules = super().check_capabilities(scene)
         cfg, body = scene.solver, scene.geometry
-        if not cfg.economies.symmetry and (body.kind == "cone" or cfg.mode == "axisymmetric"
+        if not cfg.economies.symmetry and (body.kind in ("cone", "circular_plate") or cfg.mode == "axisymmetric"
                                            or body.roughness != "rough" or scene.output.fields or rules.separation):
             raise ConfigError("solver.economies.symmetry", False, "the whole section runs plane strain bodies with "
                               "rough contact, no contact separation and no field output; it exists to measure what "
                               "the half model saves")
-        if body.kind == "cone" and cfg.mode == "plane_strain":
-            raise ConfigError("solver.mode", cfg.mode, "a cone is axisymmetric: 'auto' or 'axisymmetric'")
+        if body.kind in ("cone", "circular_plate") and cfg.mode == "plane_strain":
+            raise ConfigError("solver.mode", cfg.mode, f"a {body.kind.replace('_', ' ')} is axisymmetric: 'auto' or "
+                                                       "'axisymmetric'")
         return rules
 
     def __init__(self, scene: Scene, checked: bool = False):

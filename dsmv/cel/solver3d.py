@@ -34,9 +34,11 @@ from dsmv.scene import Scene
 #: against hours, not a prediction: the quarter square plate at B/10, small strain, measured
 #: about 5e6 on these machines' cores
 CELL_UPDATES_PER_S_3D = 5.0e6
-#: memory per cell of the 3D state (B): eight state rows, φ, strength, factor, openings, the
-#: corner table (8 × int32) and the nodes' velocity, force, travel and mass
-BYTES_PER_CELL_3D = 8 * (8 + 4) + 4 * 8 + 8 * 10
+#: memory per cell of the 3D state (B): eight state rows, φ, strength, factor, openings and the shared
+#: divergence, the cell volumes, three face apertures and fluxes, the corner table (8 × int32) and the
+#: nodes' velocity, force, travel and mass (a tenth more nodes than cells on these grids); the state's
+#: arrays measured 291 B per cell on the quarter square plate at B/10 (``dsmv-bench --3d``)
+BYTES_PER_CELL_3D = 8 * (8 + 5 + 1 + 6) + 4 * 8 + 3 + int(1.1 * 8 * 10)
 #: grids with fewer cells run the per-cell kernels on one thread
 PARALLEL_MIN_CELLS = 20_000
 
