@@ -330,23 +330,26 @@ def touchdown_mass(contact: Contact, mass: np.ndarray) -> float:
 
 
 
-def build_plate_contact(shape, grid, k_base: int, alpha: float) -> BodyContact:
+def build_plate_contact(shape, grid, k_base: int, alpha: float, wall_area: float = 1.0) -> BodyContact:
     """The contact of a flat-based body on a 3D grid (a plate, a strip slab), from the same ideas as
     the flat faces of 2D (:func:`build_contact`):
 
-    - the base's nodes inside its footprint are tied along the base's normal (smooth, α = 0) or
-      wholly (rough, α = 1: a full tie, without 2D's capped adhesive pull);
+    - the base's nodes inside its footprint are tied along the base's normal and held along it by
+      the capped adhesion α·su over their share of the base (rough is α = 1, as in 2D);
     - the nodes on the footprint's edge are tied wholly for the cells under the base, and split:
       the soil cells beyond the edge (below the base and beside the wall's first layer) see their
       own copy (:func:`split_corners`' idea, along a line of nodes), tied along the wall's normal
-      in plan, which with contact separation lets go of soil that pulls away. At a corner of the
+      in plan and held along it by the wall's adhesion over the lower half of the wall faces beside
+      it, which with contact separation lets go of soil that pulls away. At a corner of the
       footprint the copy's normal is the bisector; on a symmetry plane it lies in that plane, and
       the copy keeps its parent's rollers;
-    - a smooth body's wall nodes on one flat face (a plate's side, a step of a circle's staircase)
-      are tied along the face's normal, as 2D's walls; its other nodes, and all of a rough body's,
-      move with it (a rough wall is a full tie here: 2D's capped pull α·su is not in 3D yet).
+    - the wall nodes on one flat face (a plate's side, a step of a circle's staircase) are tied
+      along the face's normal with the adhesion α·su over their share of the wall, as 2D's walls;
+      the body's other nodes move with it.
 
-    ``shape`` is in the grid frame (x = y = 0 on the symmetry planes, z = 0 at the base)."""
+    ``shape`` is in the grid frame (x = y = 0 on the symmetry planes, z = 0 at the base);
+    ``wall_area`` scales the walls' adhesion to the body's true wall: the faces of a circle's
+    staircase add up to 4/π of the circle's perimeter, so a circle passes π/4."""
     solid = solid_cells(shape, grid)
     nx, ny, nz = solid.shape
     node_shape = (nx + 1, ny + 1, nz + 1)
@@ -358,22 +361,33 @@ def build_plate_contact(shape, grid, k_base: int, alpha: float) -> BodyContact:
     normal = np.zeros((len(tie_i), 3))
     corner = structured_corners(solid.shape)
     offsets = [tuple(o) for o in corner_offsets(3)]
-    if alpha == 0.0:  # a smooth wall holds its nodes along its normal, where it has one
-        for t in np.nonzero(tie_k > k_base)[0]:
-            i, j, k = tie_i[t], tie_j[t], tie_k[t]
-            soil_side = [(ci + 0.5 - i, cj + 0.5 - j) for ci in (i - 1, i) for cj in (j - 1, j) for ck in (k - 1, k)
-                         if 0 <= ci < nx and 0 <= cj < ny and 0 <= ck < nz and not solid[ci, cj, ck]]
-            n_wall = np.array([sum(a for a, _ in soil_side) * (0 < i < nx), sum(b for _, b in soil_side) * (0 < j < ny)])
-            if np.count_nonzero(n_wall) == 1:  # on one flat face (not an edge, nor inside the body)
-                full[t], normal[t, :2] = False, np.sign(n_wall)
-    split_node, split_parent, split_normal, split_fixed = [], [], [], []
+    cap = np.zeros(len(tie_i))
+    dx, dy, dz = (np.diff(a) for a in grid.axes)
+    grips = [[] for _ in tie_i]
+
+    def soil_cells(i, j, k):
+        return [(ci, cj, ck) for ci in (i - 1, i) for cj in (j - 1, j) for ck in (k - 1, k)
+                if 0 <= ci < nx and 0 <= cj < ny and 0 <= ck < nz and not solid[ci, cj, ck]]
+
+    for t in np.nonzero(tie_k > k_base)[0]:  # a wall holds its nodes along its normal, where it has one
+        i, j, k = tie_i[t], tie_j[t], tie_k[t]
+        soil = soil_cells(i, j, k)
+        n_wall = np.array([sum(ci + 0.5 - i for ci, _, _ in soil) * (0 < i < nx),
+                           sum(cj + 0.5 - j for _, cj, _ in soil) * (0 < j < ny)])
+        if np.count_nonzero(n_wall) == 1:  # on one flat face (not an edge, nor inside the body)
+            full[t], normal[t, :2] = False, np.sign(n_wall)
+            # its share of the wall: a quarter of each wall face it is a corner of, seen from the soil
+            cap[t] = alpha * wall_area * sum((dy[cj] if n_wall[0] else dx[ci]) * dz[ck] / 4 for ci, cj, ck in soil)
+            grips[t] = soil
+    split_node, split_parent, split_normal, split_fixed, split_cap, split_grips = [], [], [], [], [], []
     for t in np.nonzero(tie_k == k_base)[0]:
         i, j = tie_i[t], tie_j[t]
         columns = [(ci, cj) for ci in (i - 1, i) for cj in (j - 1, j) if 0 <= ci < nx and 0 <= cj < ny]
         outside = [(ci, cj) for ci, cj in columns if not footprint[ci, cj]]
-        if not outside:  # inside the footprint (or on a symmetry plane through it)
-            if alpha == 0.0:
-                full[t], normal[t, 2] = False, -1.0
+        if not outside:  # inside the footprint (or on a symmetry plane through it): its share of the base
+            full[t], normal[t, 2] = False, -1.0
+            cap[t] = alpha * sum(dx[ci] * dy[cj] / 4 for ci, cj in columns)
+            grips[t] = soil_cells(i, j, k_base)
             continue
         # on the footprint's edge: the copy's normal points out of the footprint, in plan
         n_out = np.array([sum(ci + 0.5 - i for ci, _ in outside), sum(cj + 0.5 - j for _, cj in outside), 0.0])
@@ -387,6 +401,17 @@ def build_plate_contact(shape, grid, k_base: int, alpha: float) -> BodyContact:
                     corner[ci, cj, ck, offsets.index((i - ci, j - cj, k_base - ck))] = copy
         parent = np.ravel_multi_index((i, j, k_base), node_shape)
         split_node.append(copy), split_parent.append(parent), split_normal.append(n_out)
+        # the copy is a node of the wall: held along it by the adhesion over the lower half of the wall
+        # faces beside it (2D's split corner), gripped by the soil that the cells beside them hold
+        beside = []
+        if k_base < nz:
+            for ci, cj in outside:
+                mirror_x = 0 <= 2 * i - 1 - ci < nx and footprint[2 * i - 1 - ci, cj]  # beyond the x wall
+                mirror_y = 0 <= 2 * j - 1 - cj < ny and footprint[ci, 2 * j - 1 - cj]  # beyond the y wall
+                if (mirror_x or mirror_y) and not solid[ci, cj, k_base]:
+                    beside.append((ci, cj, k_base, dy[cj] if mirror_x else dx[ci]))
+        split_cap.append(alpha * wall_area * sum(width * dz[k_base] / 4 for *_, width in beside))
+        split_grips.append([cell for *cell, _ in beside])
         split_fixed += [(copy, a) for a, index in ((0, i), (1, j)) if index in (0, node_shape[a] - 1)]
     fixed_node, fixed_axis = fixed_velocities(node_shape)
     n_split = len(split_node)
@@ -395,8 +420,9 @@ def build_plate_contact(shape, grid, k_base: int, alpha: float) -> BodyContact:
         node=np.concatenate([np.ravel_multi_index((tie_i, tie_j, tie_k), node_shape), split_node]).astype(np.int64),
         full=np.concatenate([full, np.zeros(n_split, dtype=np.bool_)]),
         normal=np.ascontiguousarray(np.concatenate([normal, np.array(split_normal).reshape(-1, 3)])),
-        cap=np.zeros(len(tie_i) + n_split),
-        grip_start=np.zeros(len(tie_i) + n_split + 1, dtype=np.int64), grip_cell=np.zeros((0, 3), dtype=np.int64),
+        cap=np.concatenate([cap, split_cap]),
+        grip_start=np.concatenate([[0], np.cumsum([len(g) for g in grips + split_grips])]).astype(np.int64),
+        grip_cell=np.array([c for g in grips + split_grips for c in g], dtype=np.int64).reshape(-1, 3),
         holding=np.ones(len(tie_i) + n_split, dtype=np.bool_),
         split_node=np.array(split_node, dtype=np.int64), split_parent=np.array(split_parent, dtype=np.int64),
         fixed_node=np.concatenate([fixed_node, extra[:, 0]]), fixed_axis=np.concatenate([fixed_axis, extra[:, 1]]),

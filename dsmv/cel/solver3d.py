@@ -70,8 +70,6 @@ class Cel3DSolver(CelSolver):
         body, cfg = scene.geometry, scene.solver
         if body.kind not in cls.bodies:
             raise ConfigError("geometry.kind", body.kind, f"{cls.name} runs {', '.join(cls.bodies)} bodies")
-        if body.adhesion_factor not in (0.0, 1.0):
-            raise ConfigError("geometry.roughness", body.roughness, f"{cls.name} takes 'rough' or 'smooth' for now")
         if scene.output.fields:
             raise ConfigError("output.fields", True, f"{cls.name} writes no fields yet: output.fields=false")
         if scene.landing.initial_depth_m != 0.0:
@@ -143,7 +141,9 @@ class Cel3DSolver(CelSolver):
         rho, grav = soil.density_kg_m3, landing.gravity_m_s2
         elastic = Elastic.of(soil)
         k_base = grid.row_of(0.0)
-        body_contact = build_plate_contact(self.shape(), grid, k_base, scene.geometry.adhesion_factor)
+        shape = self.shape()
+        body_contact = build_plate_contact(shape, grid, k_base, scene.geometry.adhesion_factor,
+                                           wall_area=math.pi / 4 if isinstance(shape, Disc) else 1.0)
         footprint = body_contact.solid[:, :, k_base]
         self.footprint_m2 = float((np.diff(grid.x)[:, None] * np.diff(grid.y)[None, :])[footprint].sum())
         fill, depth = layers_below(grid.z, 0.0)

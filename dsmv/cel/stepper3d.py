@@ -5,8 +5,8 @@ the body's motion and the tied nodes (the shared stages of :mod:`dsmv.cel.kernel
 explicit velocity update, the boundary conditions, the stress update; then, once some node has
 travelled ``par.remap_travel``, the Eulerian phase in three directional sweeps whose order
 alternates (x, y, z, then z, y, x) (:mod:`dsmv.cel.kernels.remap3d`), with soil entering at the base as the grid moves
-down with the body. The faces hold the soil along their normal or wholly, without a capped
-adhesive pull.
+down with the body. The node stages (velocities, boundary conditions, ties and the faces' capped
+adhesive pull) are 2D's, :func:`dsmv.cel.stepper.move_nodes`.
 """
 
 from __future__ import annotations
@@ -19,13 +19,14 @@ from numba import njit
 from dsmv.cel.kernels.common import INLINE, JIT
 from dsmv.cel.kernels.hexahedra import SOLID, nodal_forces, update_stress
 from dsmv.cel.kernels.nodes import (
-    apply_fixed, apply_ties, gather_travel, hand_travel_to_parents, nodal_mass, split_mass_kinetic_change,
-    split_masses, ties_that_hold, update_velocities,
+    gather_travel, hand_travel_to_parents, nodal_mass, split_mass_kinetic_change, split_masses, ties_that_hold,
 )
 from dsmv.cel.kernels.remap3d import remap_sweeps
-from dsmv.cel.layout import B_INFLOW, B_MAXDISP, B_OFFSET, B_REMAP_OFFSET, B_REMAPS, B_STEP, B_TIME, B_VEL
-from dsmv.cel.ledger import E_BULK, E_HOURGLASS, E_PLASTIC, E_REMAP_ELASTIC, E_REMAP_KINETIC, E_SOIL_GRAV
-from dsmv.cel.stepper import AT_REST, NOT_FINITE, RUNNING, move_body
+from dsmv.cel.layout import (
+    B_FRICTION, B_INFLOW, B_MAXDISP, B_OFFSET, B_REMAP_OFFSET, B_REMAPS, B_STEP, B_TIME, B_VEL,
+)
+from dsmv.cel.ledger import E_BULK, E_HOURGLASS, E_PLASTIC, E_REMAP_ELASTIC, E_REMAP_KINETIC
+from dsmv.cel.stepper import AT_REST, NOT_FINITE, RUNNING, move_body, move_nodes
 
 
 @njit(**INLINE)
@@ -38,11 +39,8 @@ def lagrange_step(mesh, cells, nodes, contact, par, body, energy, law):
     if par.separation:  # which face ties hold this step: those the soil would otherwise cross
         ties_that_hold(contact, nodes, par.dt, par.gravity, par.mass_floor,
                        body[B_VEL] if par.drop else -par.push_velocity)
-    resistance, v_old = move_body(nodes, contact, par, body, energy, 0.0)
-    momentum_before, momentum_after = update_velocities(nodes, par.gravity, par.dt, par.mass_floor)
-    momentum_after += apply_fixed(nodes, contact)
-    momentum_after += apply_ties(contact, nodes, body[B_VEL])
-    energy[E_SOIL_GRAV] += -par.gravity * par.dt * 0.5 * (momentum_before + momentum_after)
+    resistance, v_old = move_body(nodes, contact, par, body, energy, body[B_FRICTION])  # last step's pull
+    move_nodes(cells, nodes, contact, par, body, energy)
     plastic = np.zeros(1)
     update_stress(mesh, cells, nodes, par, law, plastic)
     energy[E_PLASTIC] += plastic[0]

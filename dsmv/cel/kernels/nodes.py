@@ -18,6 +18,8 @@ pushes nothing onto the body. Corners and staircase nodes (no normal) hold.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -182,10 +184,14 @@ def grip_strength(contact, cells, k):
     start, end = contact.grip_start[k], contact.grip_start[k + 1]
     if end == start:
         return 0.0
+    su, phi, grip = cells.su.reshape(-1), cells.phi.reshape(-1), contact.grip_cell
+    shape = cells.su.shape
     total = 0.0
     for c in range(start, end):
-        i, j = contact.grip_cell[c, 0], contact.grip_cell[c, 1]
-        total += cells.su[i, j] * min(cells.phi[i, j], 1.0)
+        flat = 0  # the grip cell's index in the flat cell arrays, from its index per axis
+        for a in range(grip.shape[1]):
+            flat = flat * shape[a] + grip[c, a]
+        total += su[flat] * min(phi[flat], 1.0)
     return total / (end - start)
 
 
@@ -201,11 +207,32 @@ def pull_along_face(vx, vy, tx, ty, v_body, dw_max, m, dt):
     return vx + dw * tx, vy + dw * ty, m * dw * ty, -m * dw * (w + dw), -m * dw * ty / dt
 
 
+@njit(**INLINE)
+def pull_in_face(v, n, normal, k, v_body, dw_max, m, dt):
+    """In 3D, the face's capped pull on tied node n: as :func:`pull_along_face`, against the slip's own
+    direction in the face (the node's velocity relative to the body, less its normal part). Updates
+    ``v`` and returns the momentum change m·Δv_up, the pull times the slip it leaves, and the pull's
+    reaction on the body (N, up +)."""
+    wx, wy, wz = v[0, n], v[1, n], v[2, n] - v_body
+    un = wx * normal[k, 0] + wy * normal[k, 1] + wz * normal[k, 2]
+    wx, wy, wz = wx - un * normal[k, 0], wy - un * normal[k, 1], wz - un * normal[k, 2]
+    w = math.sqrt(wx * wx + wy * wy + wz * wz)
+    if w == 0.0:
+        return 0.0, 0.0, 0.0
+    scale = -1.0 if w <= dw_max else -dw_max / w  # stick, or the capped change against the slip
+    v[0, n] += scale * wx
+    v[1, n] += scale * wy
+    v[2, n] += scale * wz
+    dw = -scale * w  # the change's size
+    return m * scale * wz, m * dw * (w - dw), -m * scale * wz / dt
+
+
 @njit(**JIT)
 def adhesion(contact, cells, nodes, v_body, dt, mass_floor, energy_slip):
-    """The faces' capped pull (α·su) on their holding, normally tied nodes, in plane (the slip runs
-    along the face's in-plane tangent). Adds the slip's dissipation to ``energy_slip[0]`` (J);
-    returns the change of the vertical momentum (kg·m/s) and the pull's reaction on the body (N)."""
+    """The faces' capped pull (α·su) on their holding, normally tied nodes: in 2D along the face's
+    in-plane tangent, in 3D against the slip's direction in the face. Adds the slip's dissipation to
+    ``energy_slip[0]`` (J); returns the change of the vertical momentum (kg·m/s) and the pull's
+    reaction on the body (N)."""
     v, mass, normal = nodes.v, nodes.mass, contact.normal
     change = 0.0
     reaction = 0.0
@@ -217,8 +244,11 @@ def adhesion(contact, cells, nodes, v_body, dt, mass_floor, energy_slip):
         if m <= mass_floor:
             continue
         dw_max = contact.cap[k] * grip_strength(contact, cells, k) * dt / m
-        v[0, n], v[1, n], dp, slip, pull = pull_along_face(v[0, n], v[1, n], -normal[k, 1], normal[k, 0], v_body,
-                                                           dw_max, m, dt)
+        if v.shape[0] == 2:
+            v[0, n], v[1, n], dp, slip, pull = pull_along_face(v[0, n], v[1, n], -normal[k, 1], normal[k, 0],
+                                                               v_body, dw_max, m, dt)
+        else:
+            dp, slip, pull = pull_in_face(v, n, normal, k, v_body, dw_max, m, dt)
         change += dp
         energy_slip[0] += slip
         reaction += pull
