@@ -129,9 +129,10 @@ def _corner_views(node_array: np.ndarray, cell_shape) -> list:
 def solid_cells(shape, grid) -> np.ndarray:
     """The body's cells (the grid's cell shape): every corner inside the shape, plus what the shape adds.
 
-    On a grid that spans both sides of the axis (the whole section), the half grid x ≥ 0 is
-    rasterised and mirrored, so the two halves are exact mirror images."""
-    if grid.x[0] < 0.0:
+    On a 2D grid that spans both sides of the axis (the whole section), the half grid x ≥ 0 is
+    rasterised and mirrored, so the two halves are exact mirror images (a 3D grid's mirrored axes
+    have exactly negated coordinates, and its shapes depend on |x| and |y|)."""
+    if grid.x[0] < 0.0 and len(grid.axes) == 2:
         half = Grid(grid.x[grid.nx // 2:], grid.y, grid.h)
         solid = solid_cells(shape, half)
         return np.concatenate([solid[::-1], solid])

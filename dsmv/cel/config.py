@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Literal, Optional, Union
 
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from dsmv.scene import Count, Number, Schema
 
@@ -22,8 +22,17 @@ class Economies(Schema):
     stop_at_rest: bool = Field(description="a landing ends when the body first comes to rest; "
                                            "false: it runs on to twice that time")
     skip_void: bool = Field(description="cells without soil do no force arithmetic")
-    symmetry: bool = Field(description="model half the section, with a symmetry plane on the body's axis; "
-                                       "false: the whole section (plane strain, rough contact)")
+    symmetry: bool = Field(description="model half the section, with a symmetry plane on the body's axis "
+                                       "(true or 'half'); false or 'full': the whole section (plane strain, rough "
+                                       "contact)")
+
+    @field_validator("symmetry", mode="before")
+    @classmethod
+    def _half_or_full(cls, value):
+        """'half' and 'full', the 3D solver's words, name the 2D models too (a 3D config keeps its words)."""
+        if cls.model_fields["symmetry"].annotation is not bool or not isinstance(value, str):
+            return value
+        return {"half": True, "full": False}.get(value, value)
 
 
 class CelConfig(Schema):
@@ -71,9 +80,10 @@ class Cel2DConfig(CelConfig):
 class SolidEconomies(Economies):
     """A 3D solver's economies: the symmetry planes it models."""
 
-    symmetry: Literal["quarter"] = Field(description=(
-        "quarter: a quarter of the body, two vertical symmetry planes through its axes (a strip slab: "
-        "half, one plane, between two plane-strain planes)"))
+    symmetry: Literal["quarter", "half", "full"] = Field(description=(
+        "quarter: a quarter of the body, two vertical symmetry planes through its axes; half: one plane, "
+        "across the body (x = 0); full: the whole body. A strip slab lies between two plane-strain "
+        "planes: quarter and half model half its section"))
 
 
 class Cel3DConfig(CelConfig):

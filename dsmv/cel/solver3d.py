@@ -5,7 +5,8 @@ body, y along it, z up), the bodies (a rectangular or circular plate, a strip as
 thick between two plane-strain planes), their contact (:func:`~dsmv.cel.contact.build_plate_contact`)
 and the element kernels (:mod:`dsmv.cel.kernels.hexahedra`); sizing, the controller and its
 guards, the energy ledger and the result are :class:`~dsmv.cel.solver.CelSolver`'s. A quarter of
-a plate is modelled, with two vertical symmetry planes through its axes.
+a plate is modelled, with two vertical symmetry planes through its axes, unless
+``solver.economies.symmetry`` asks for half of it or the whole.
 
 With ``solver.remap=true`` (the default) the grid moves with the body and the soil is carried
 through it in three directional sweeps; ``false`` is the small-strain analysis on the undeformed
@@ -22,7 +23,7 @@ from dsmv.cel import ledger
 from dsmv.cel.body import Box, Disc
 from dsmv.cel.config import Cel3DConfig
 from dsmv.cel.contact import ContactRules, build_plate_contact
-from dsmv.cel.grid import build_solid_grid
+from dsmv.cel.grid import SolidGrid, build_solid_grid
 from dsmv.cel.kernels.hexahedra import NQ_BASE, SOLID
 from dsmv.cel.layout import N_BODY, Cells, Inflow, Nodes, SolidFaces, SolidMesh, split_cells
 from dsmv.cel.solver import CelSolver, State, in_sweep
@@ -112,15 +113,20 @@ class Cel3DSolver(CelSolver):
                                 depth=max(cfg.domain_depth_widths * B, margin + h),
                                 void_height=1.3 * travel + 0.25 * B + 3 * h, ratio=scene.mesh.growth_ratio,
                                 h_max=scene.mesh.max_cell_size_m, slab=self.slab)
+        symmetry = cfg.economies.symmetry
+        mirrored = (symmetry == "full", symmetry != "quarter" and not self.slab)  # the axes modelled both sides
+        grid = SolidGrid(*(np.concatenate([-a[:0:-1], a]) if both else a for a, both in zip((grid.x, grid.y), mirrored)),
+                         grid.z, grid.h)
         self.grid, self.h, self.n_half, self.travel = grid, h, n_half, travel
         return grid
 
     def model_scale(self) -> float:
-        """Model quantities → per track: four quarters of a plate; a strip slab is half the section over
-        one cell of thickness, per contact length L."""
+        """Model quantities → per track: four quarters of a plate (two halves, one whole); a strip slab is
+        half the section (or the whole) over one cell of thickness, per contact length L."""
+        symmetry = self.scene.solver.economies.symmetry
         if self.slab:
-            return 2.0 * self.scene.geometry.contact_length_m / self.h
-        return 4.0
+            return (1.0 if symmetry == "full" else 2.0) * self.scene.geometry.contact_length_m / self.h
+        return {"quarter": 4.0, "half": 2.0, "full": 1.0}[symmetry]
 
     def contact_area_m2(self) -> float:
         """The area the bearing factor refers to (m²): the footprint the body's cells press, per track
