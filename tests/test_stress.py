@@ -1,7 +1,7 @@
 """Numerical-stability stress suite: extreme but legal scenes end with the right status.
 
 ``pytest -m stress`` runs every scene through the CLI (``solver=cel2d``, the default medium
-mesh, one Numba thread) and reads its ``result.json`` and ``history.csv``; the default suite
+mesh, one Numba thread; the 3D scenes on a quarter square plate at B/4, two threads) and reads its ``result.json`` and ``history.csv``; the default suite
 runs the cheapest scenes in-process on the coarse mesh. Every run must end with the status the
 scene calls for and a message, no NaN or Inf in any metric or history column, soil mass
 conserved (``mass_error`` ≤ 1e-10), and, when ``ok``, the energy audit closed within its
@@ -64,10 +64,12 @@ def read_run(run_dir: Path) -> Run:
     return Run(result, history)
 
 
-def run_cli(run_dir: Path, overrides, threads: int = 1) -> Run:
-    """One CEL job through the ``dsmv`` console script, in its own Hydra run dir."""
+def run_cli(run_dir: Path, overrides, threads: int = 1, solver: str | None = "cel2d") -> Run:
+    """One CEL job through the ``dsmv`` console script, in its own Hydra run dir: a 2D stress scene
+    (:func:`dsmv.regression.stress_scene`), or with ``solver=None`` the overrides as they are."""
     env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), HYDRA_FULL_ERROR="0")
-    proc = subprocess.run([str(BIN / "dsmv"), *BASE, *stress_scene(overrides), f"hydra.run.dir={run_dir}"],
+    scene = stress_scene(overrides) if solver == "cel2d" else list(overrides)
+    proc = subprocess.run([str(BIN / "dsmv"), *BASE, *scene, f"hydra.run.dir={run_dir}"],
                           cwd=run_dir.parent,
                           env=env, capture_output=True, text=True, timeout=600)
     assert "Traceback" not in proc.stderr + proc.stdout
@@ -344,3 +346,51 @@ def test_diverging_outflow_cannot_create_soil():
     # each neighbour received half the middle cell's soil, and its origin depth with it
     assert phi[0, 0] == pytest.approx(1.0 + 5e-4, rel=1e-15)
     assert q[Z0, 0, 0] == pytest.approx(2.0 * 5e-4 / (1.0 + 5e-4), rel=1e-12)
+
+
+# --------------------------------------------------------------------------- the 3D solver
+#: the 3D scenes: the default landing on Tresca soil on a 1 m square plate (quarter model, B/4 cells)
+SOLID_BASE = ("geometry=rectangular_plate", "soil.law=tresca", "mesh.cell_size_m=0.25")
+
+
+def _solid_reference(tmp_path_factory, overrides: tuple = ()) -> dict:
+    key = ("3d", *overrides)
+    if key not in _REFERENCES:
+        run = run_cli(tmp_path_factory.mktemp("reference") / "run", [*SOLID_BASE, *overrides], solver=None)
+        check_contract(run, "ok")
+        _REFERENCES[key] = run
+    return _REFERENCES[key].metrics
+
+
+def _plate_fast_heavy_touchdown(run, other):
+    assert run.metrics["energy_in_kinetic_j"] == pytest.approx(0.5 * 10500 * 10.0**2, rel=1e-12)
+    assert run.metrics["max_sinkage_m"] > other()["max_sinkage_m"]
+
+
+def _plate_too_heavy(run, other):
+    # q/su0 = 10500·9.81/(1 m²·2000 Pa) = 51.5, far beyond a deep plate's factor (about 9): ks = 0
+    # soil cannot stop it
+    assert "without slowing down" in run.result["message"]
+    assert run.metrics["max_sinkage_m"] >= 1.0
+
+
+def _plate_cfl_beyond_limit(run, other):
+    # 1.0 is beyond the 3D explicit limit (about 1/√3): a guard trips and says what to change
+    assert "solver.cfl" in run.result["message"]
+
+
+SOLID_SCENES = [
+    Scene("plate_3d_touchdown_10_m_s_10500_kg", ("landing.velocity_m_s=10", "landing.mass_kg=10500"), "ok",
+          _plate_fast_heavy_touchdown),
+    Scene("plate_3d_ks_0_too_heavy", ("soil.su0_pa=2000", "soil.ks_pa_per_m=0", "landing.mass_kg=10500"),
+          "bearing_failure", _plate_too_heavy),
+    Scene("plate_3d_cfl_1_beyond_limit", ("solver.cfl=1.0",), "unstable", _plate_cfl_beyond_limit),
+]
+
+
+@pytest.mark.stress
+@pytest.mark.parametrize("scene", SOLID_SCENES, ids=[s.name for s in SOLID_SCENES])
+def test_stress_scene_3d(scene, tmp_path, tmp_path_factory):
+    run = run_cli(tmp_path / "run", [*SOLID_BASE, *scene.overrides], solver=None, threads=2)
+    check_contract(run, scene.status)
+    scene.check(run, lambda: _solid_reference(tmp_path_factory))
