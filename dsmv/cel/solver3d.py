@@ -40,8 +40,10 @@ CELL_UPDATES_PER_S_3D = 5.0e6
 #: nodes' velocity, force, travel and mass (a tenth more nodes than cells on these grids); the state's
 #: arrays measured 291 B per cell on the quarter square plate at B/10 (``dsmv-bench --3d``)
 BYTES_PER_CELL_3D = 8 * (8 + 5 + 1 + 6) + 4 * 8 + 3 + int(1.1 * 8 * 10)
-#: grids with fewer cells run the per-cell kernels on one thread
-PARALLEL_MIN_CELLS = 20_000
+#: grids with fewer cells run the per-cell kernels on one thread. Two threads against one, the square
+#: plate pushed with the remap (min of two runs each, dsmv-bench --3d for the larger grids): 1.13× at
+#: 4,275 cells, 1.23× at 9,200, 1.25× at 17,500, 1.33× at 28,800, 1.62× at 81,356
+PARALLEL_MIN_CELLS = 4_000
 
 
 def solid_faces(solid: np.ndarray) -> SolidFaces:
