@@ -282,7 +282,7 @@ def threads_and_compile(plan: Plan) -> dict:
 
 
 #: the 3D throughput cases: the rough square plate (quarter model) with the remap, pushed 0.02 B, on
-#: B/10 cells (about 30,000) and B/16 (about 120,000, where two threads are asked to pay off)
+#: B/10 cells (about 29,000) and B/16 (about 81,000, near the 100,000 where two threads are asked to pay off)
 SOLID_CASE = ["geometry=rectangular_plate", "landing=push", "soil.law=tresca", "soil.su0_pa=10000",
               "soil.ks_pa_per_m=0", "soil.youngs_modulus_pa=5e6", "landing.gravity_m_s2=0",
               "landing.velocity_m_s=0.1", "landing.displacement_m=0.02"]
