@@ -184,8 +184,9 @@ def test_a_surface_plate_bears_its_exact_load(compose_cfg, geometry, length, rou
     """A quarter plate pushed 0.11 B in small strain at B/10: q/su at 0.1 B (the plateau) against the
     exact factor (measured: square 5.927, +0.5 %; L/B = 2 5.649, +0.9 %; L/B = 4 5.435, +0.8 %;
     circle 6.175, +2.1 %)."""
-    metrics = _solve(compose_cfg, [*SMALL_STRAIN_PUSH, "solver=cel3d", f"geometry={geometry}",
-                                   f"geometry.contact_length_m={length}", f"geometry.roughness={roughness}",
-                                   "landing.displacement_m=0.11", "mesh.cell_size_m=0.1"]).metrics
+    length_key = [f"geometry.contact_length_m={length}"] if geometry == "rectangular_plate" else []
+    metrics = _solve(compose_cfg, [*SMALL_STRAIN_PUSH, "solver=cel3d", f"geometry={geometry}", *length_key,
+                                   f"geometry.roughness={roughness}", "landing.displacement_m=0.11",
+                                   "mesh.cell_size_m=0.1"]).metrics
     assert metrics["nc_at_0p1B"] == pytest.approx(truth, rel=tolerance)
     assert metrics["energy_error"] < 1e-3 and metrics["mass_error"] < 1e-10
