@@ -290,8 +290,11 @@ def shear_rate_solid(d, a, vec):
 
 
 @njit(**JIT)
-def slab_stress(i, x, y, z, corner, split, v, phi, q, su_cell, factor, open_frac, par, law):
-    """The stress update of the cells of slab i (:func:`update_stress`); returns their plastic work (J)."""
+def slab_stress(i, mesh, cells, v, par, law):
+    """The stress update of the cells of slab i (:func:`update_stress`); returns their plastic work (J).
+    Containers are read once per slab (a container passed per cell costs a reference count per array)."""
+    x, y, z, corner, split = mesh.x, mesh.y, mesh.z, mesh.corner, mesh.split
+    phi, q, su_cell, factor, open_frac = cells.phi, cells.q, cells.su, cells.strength_factor, cells.open_frac
     _, ny, nz = phi.shape
     ny1, nz1 = np.uint64(ny + 1), np.uint64(nz + 1)
     n_state = q.shape[0] - NQ_BASE
@@ -394,8 +397,7 @@ def update_stress(mesh, cells, nodes, par, law, out):
     nx = cells.phi.shape[0]
     plastic = np.zeros(nx)
     for i in prange(nx):
-        plastic[i] = slab_stress(i, mesh.x, mesh.y, mesh.z, mesh.corner, mesh.split, nodes.v, cells.phi, cells.q,
-                                 cells.su, cells.strength_factor, cells.open_frac, par, law)
+        plastic[i] = slab_stress(i, mesh, cells, nodes.v, par, law)
     for i in range(nx):
         out[0] += plastic[i]
 

@@ -41,20 +41,19 @@ def face_travel(axis, u, f, la, lb):
 
 
 @njit(**JIT)
-def advect_line(axis, la, lb, x, y, z, vol, phi, phi0, q, open_frac, u, aperture, flux, ghost, par, inflow_here):
-    """One line of a sweep of the cell state along ``axis`` (:func:`dsmv.cel.kernels.remap2d.advect_cells`,
-    in 3D): face fluxes by donor–acceptor, the state at the donor's value plus a van Leer slope,
-    then the line's cells updated. The interface's normal is read from ``phi0``, the fills before the
-    sweep: a neighbouring line may be updating its own. Returns (soil volume entered at the base,
-    elastic energy change)."""
-    la, lb = np.int64(la), np.int64(lb)  # a parallel loop's index is unsigned: mixed with int64 it would unify to float
+def line_fluxes(axis, la, lb, mesh, cells, phi0, u, aperture, ghost, par, line_flux, qflux):
+    """The face fluxes of line (la, lb) of a sweep along ``axis``: soil volume by donor–acceptor into
+    ``line_flux``, the state at the donor's value plus a van Leer slope into ``qflux``. The interface's
+    normal is read from ``phi0``, the fills before the sweep: a neighbouring line may be updating its
+    own. Returns the soil volume entered at the base (m³)."""
+    x, y, z, vol = mesh.x, mesh.y, mesh.z, mesh.vol
+    phi, q, open_frac = cells.phi, cells.q, cells.open_frac
     nx, ny, nz = phi.shape
     n_cells = (nx, ny, nz)[axis]
     n_faces = n_cells + 1
     nq = q.shape[0]
     order, phi_min = par.advection_order, par.phi_min
-    qflux = np.zeros((nq, n_faces))
-    line_flux = np.zeros(n_faces)
+    inflow_here = par.inflow and axis == 2  # soil enters through the base
     entered = 0.0
     for face in range(n_faces):
         un = face_travel(axis, u, face, la, lb)
@@ -108,7 +107,14 @@ def advect_line(axis, la, lb, x, y, z, vol, phi, phi0, q, open_frac, u, aperture
                 hi = q[m, hi_, hj, hk] if hi_full else value
                 value += (0.5 if un > 0.0 else -0.5) * van_leer(value - lo, hi - value) * (1.0 - courant)
             qflux[m, face] = signed * value
-    # a cell that gives through both faces gives at most what it holds (remap2d.limit_diverging_outflow)
+    return entered
+
+
+@njit(**JIT)
+def limit_line_outflow(axis, la, lb, phi, vol, line_flux, qflux):
+    """A cell that gives through both faces gives at most what it holds
+    (:func:`dsmv.cel.kernels.remap2d.limit_diverging_outflow`)."""
+    n_cells = len(line_flux) - 1
     for c in range(n_cells):
         if line_flux[c] < 0.0 and line_flux[c + 1] > 0.0:
             ci, cj, ck = cell_of(axis, c, la, lb)
@@ -118,10 +124,17 @@ def advect_line(axis, la, lb, x, y, z, vol, phi, phi0, q, open_frac, u, aperture
                 scale = held / given
                 line_flux[c] *= scale
                 line_flux[c + 1] *= scale
-                for m in range(nq):
+                for m in range(qflux.shape[0]):
                     qflux[m, c] *= scale
                     qflux[m, c + 1] *= scale
-    # the line's cells after the sweep (remap2d.apply_line_fluxes)
+
+
+@njit(**JIT)
+def apply_line(axis, la, lb, phi, q, vol, line_flux, qflux, flux, par):
+    """The cells of line (la, lb) after the sweep (:func:`dsmv.cel.kernels.remap2d.apply_line_fluxes`);
+    ``flux`` keeps the line's face fluxes for the momentum sweep. Returns the elastic energy change (J)."""
+    n_cells = len(line_flux) - 1
+    nq = q.shape[0]
     elastic_change = 0.0
     shear_mod, bulk_mod = par.shear, par.bulk
     for c in range(n_cells):
@@ -144,7 +157,23 @@ def advect_line(axis, la, lb, x, y, z, vol, phi, phi0, q, open_frac, u, aperture
         phi[ci, cj, ck] = new_soil / v
         elastic_change += new_soil * elastic_energy_density_solid(q, ci, cj, ck, shear_mod, bulk_mod)
     flux[n_cells, la, lb] = line_flux[n_cells]
-    return entered, elastic_change
+    return elastic_change
+
+
+
+
+@njit(**JIT)
+def advect_line(axis, la, lb, mesh, cells, phi0, u, aperture, flux, ghost, par):
+    """One line of a sweep of the cell state along ``axis`` (:func:`dsmv.cel.kernels.remap2d.advect_cells`,
+    in 3D): its face fluxes, the limit on diverging outflow, its cells updated. Returns (soil volume
+    entered at the base, elastic energy change)."""
+    la, lb = np.int64(la), np.int64(lb)  # a parallel loop's index is unsigned: mixed with int64 it would unify to float
+    n_faces = (cells.phi.shape[0], cells.phi.shape[1], cells.phi.shape[2])[axis] + 1
+    qflux = np.zeros((cells.q.shape[0], n_faces))
+    line_flux = np.zeros(n_faces)
+    entered = line_fluxes(axis, la, lb, mesh, cells, phi0, u, aperture, ghost, par, line_flux, qflux)
+    limit_line_outflow(axis, la, lb, cells.phi, mesh.vol, line_flux, qflux)
+    return entered, apply_line(axis, la, lb, cells.phi, cells.q, mesh.vol, line_flux, qflux, flux, par)
 
 
 @njit(**PARALLEL)
@@ -155,13 +184,11 @@ def advect_cells(axis, mesh, cells, aperture, flux, u, par, ghost, audit):
     n_a, n_b = flux.shape[1], flux.shape[2]
     entered = np.zeros((n_a, n_b))
     elastic = np.zeros((n_a, n_b))
-    inflow_here = par.inflow and axis == 2
     phi0 = cells.phi.copy()
     for la in prange(n_a):
         for lb in range(n_b):
-            entered[la, lb], elastic[la, lb] = advect_line(
-                axis, la, lb, mesh.x, mesh.y, mesh.z, mesh.vol, cells.phi, phi0, cells.q, cells.open_frac, u,
-                aperture, flux, ghost, par, inflow_here)
+            entered[la, lb], elastic[la, lb] = advect_line(axis, la, lb, mesh, cells, phi0, u, aperture, flux,
+                                                           ghost, par)
     total = 0.0
     for la in range(n_a):
         for lb in range(n_b):
