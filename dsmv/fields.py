@@ -3,7 +3,8 @@
 ``output.fields=true`` makes a CEL run write, into its job directory,
 
 - ``fields.pvd``: a ParaView collection that lists the frames with their simulated times;
-- ``fields/frame_NNNN.vtu``: one unstructured-grid file per frame (quads, binary, zlib);
+- ``fields/frame_NNNN.vtu``: one unstructured-grid file per frame (quads in 2D, hexahedra in 3D,
+  binary, zlib);
 - ``fields/max_sinkage.vtu``: the frame at the deepest point of the run, listed in the
   collection at its time like the others.
 
@@ -13,17 +14,20 @@ for all steps, which would leave the user to shift each step by the body's offse
 ParaView by hand; VTU frames carry their true positions, need no HDF5 (h5py), and each one
 opens on its own with ``meshio.read``.
 
-Coordinates are in the fixed (laboratory) frame: x across the section from the symmetry
-axis (the radius r in axisymmetry), y upwards with y = 0 at the body's base at touchdown
-(the mudline when ``landing.initial_depth_m`` = 0). Each frame's nodes are the grid's nodes
-shifted by the body's displacement at that instant. Units are SI.
+Coordinates are in the fixed (laboratory) frame, the last axis up with 0 at the body's base at
+touchdown (the mudline when ``landing.initial_depth_m`` = 0). In 2D: x across the section from
+the symmetry axis (the radius r in axisymmetry), y up. In 3D (``solver=cel3d``): x across the
+body, y along it, z up; the modelled quarter (or half) lies on the positive side of its symmetry
+planes x = 0 and y = 0 (ParaView's Reflect filter shows the rest). Each frame's nodes are the
+grid's nodes shifted by the body's displacement at that instant. Units are SI.
 
 Cell data (float32):
 
 ===================================  ====  ======================================================
 ``volume_fraction``                  -     soil volume per cell volume φ (compressed soil: > 1)
-``stress_xx_pa`` … ``stress_zz_pa``  Pa    the soil's own stress, tension positive; zz is the
-                                           out-of-plane stress (the hoop stress in axisymmetry)
+``stress_xx_pa`` … ``stress_zx_pa``  Pa    the soil's own stress, tension positive; in 2D xx, yy,
+                                           xy and zz, the out-of-plane stress (the hoop stress in
+                                           axisymmetry); in 3D xx, yy, zz, xy, yz, zx
 ``su_pa``                            Pa    current undrained strength, the stress update's own
                                            (su_intact(z0)·law factor·α in an interface layer)
 ``mobilised_strength``               -     √J2/su (Tresca: (σ1 − σ3)/(2·su)); 1 at yield
@@ -31,13 +35,14 @@ Cell data (float32):
 ``shear_strain_rate_per_s``          1/s   γ̇ = ε̇1 − ε̇3 by the stress update's own rule
 ``plastic_shear_strain_rate_per_s``  1/s   γ̇ where the soil is at yield (YIELD_RATIO), else 0
 ``initial_depth_m``                  m     z0, the depth where the cell's soil started
-``hourglass_velocity_m_s``           m/s   amplitude of the Q4 hourglass (zig-zag) mode in the
-                                           cell's nodal velocities (a checkerboard shows here)
+``hourglass_velocity_m_s``           m/s   amplitude of the hourglass (zig-zag) modes in the
+                                           cell's nodal velocities (a checkerboard shows here):
+                                           the Q4 mode in 2D, the four hexahedral vectors in 3D
 ``body``                             -     1 in cells inside the rigid body
 ===================================  ====  ======================================================
 
 Point data: ``velocity_m_s`` (n, 3), the nodal material velocity in the laboratory frame
-(the solver's own values at the grid's nodes, z component 0; empty nodes carry 0; a body's split
+(the solver's own values at the grid's nodes, z component 0 in 2D; empty nodes carry 0; a body's split
 corner nodes are not points of the frame, their cells' derived fields use them). Field data per frame:
 ``time_s``, ``sinkage_m`` (the body's downward displacement).
 
@@ -63,11 +68,17 @@ FIELDS_FILE = "fields.pvd"
 FIELDS_DIR = "fields"
 MAX_SINKAGE_FRAME = f"{FIELDS_DIR}/max_sinkage.vtu"
 
-STRESS_NAMES = {K.SXX: "stress_xx_pa", K.SYY: "stress_yy_pa", K.SXY: "stress_xy_pa", K.SZZ: "stress_zz_pa"}
+
+
+def stress_names(dim: int) -> dict[int, str]:
+    """The stress rows of a ``dim``-axis grid's cell state by output name's row."""
+    rows = K.CellRows(dim)
+    return {rows.of(c): f"stress_{c}_pa" for c in rows.stress}
+
 
 #: a cell counts as yielding when its mobilised strength √J2/su is at least this. The return
 #: puts a yielding cell on the surface exactly; the remap blends the cell with its neighbours.
-#: Measured (session 3, with a remap after every step) over all frames of the default landing
+#: Measured (with a remap after every step) over all frames of the default landing
 #: (coarse and medium meshes): of
 #: the soil cells above 0.9, 66–67 % lie within 0.1 % of 1, 5 % between 0.99 and 0.999 (those
 #: blended) and 28 % between 0.9 and 0.99 (cells loading or unloading
@@ -76,25 +87,46 @@ YIELD_RATIO = 0.99
 
 
 def hourglass_velocity(corner, v) -> np.ndarray:
-    """Amplitude |a| of the Q4 hourglass mode Γ = (1, −1, 1, −1) in each cell's nodal velocities
-    (m/s): a = (v0 − v1 + v2 − v3)/4, as in :func:`dsmv.cel.kernels.plane.hourglass_modes`; the
-    cells' nodes from the corner table (a body's split corners included)."""
-    w = v[:, corner]  # (2, nx, ny, 4)
-    a = 0.25 * (w[..., 0] - w[..., 1] + w[..., 2] - w[..., 3])
-    return np.hypot(a[0], a[1])
+    """Amplitude of the hourglass modes in each cell's nodal velocities (m/s), each mode's amplitude
+    its projection on the corner vector over the vector's squared length, as in the kernels'
+    ``hourglass_modes``: in 2D the Q4 mode Γ = (1, −1, 1, −1), a = (v0 − v1 + v2 − v3)/4; in 3D the
+    root sum of squares over the four vectors ηζ, ζξ, ξη, ξηζ. The cells' nodes come from the corner
+    table (a body's split corners included)."""
+    w = v[:, corner]  # (d, cells..., 2^d)
+    if corner.shape[-1] == 4:
+        a = 0.25 * (w[..., 0] - w[..., 1] + w[..., 2] - w[..., 3])
+        return np.hypot(a[0], a[1])
+    from dsmv.cel.kernels.hexahedra import HOURGLASS
+
+    a = w @ HOURGLASS.T / 8.0  # (3, cells..., 4)
+    return np.sqrt((a * a).sum(axis=(0, -1)))
+
+
+def _stress_tensors(q: np.ndarray, dim: int) -> np.ndarray:
+    """The cells' stress as 3×3 tensors (cells..., 3, 3), from the rows of a ``dim``-axis state."""
+    rows = K.CellRows(dim)
+    sigma = np.zeros((*q.shape[1:], 3, 3))
+    if dim == 2:
+        pairs = {"xx": (0, 0), "yy": (1, 1), "zz": (2, 2), "xy": (0, 1)}
+    else:
+        pairs = {"xx": (0, 0), "yy": (1, 1), "zz": (2, 2), "xy": (0, 1), "yz": (1, 2), "zx": (2, 0)}
+    for name, (a, b) in pairs.items():
+        sigma[..., a, b] = sigma[..., b, a] = q[rows.of(name)]
+    return sigma
 
 
 def mobilised_strength(q: np.ndarray, su: np.ndarray, tresca: bool) -> np.ndarray:
-    """The stress over the strength (-): √J2/su, or (σ1 − σ3)/(2·su) on Tresca's surface; 0 where su = 0."""
-    sxx, syy, sxy, szz = q[K.SXX], q[K.SYY], q[K.SXY], q[K.SZZ]
+    """The stress over the strength (-): √J2/su, or (σ1 − σ3)/(2·su) on Tresca's surface; 0 where su = 0.
+    ``q``: the cell state of a 2D (nx, ny) or 3D (nx, ny, nz) grid."""
+    sigma = _stress_tensors(q, q.ndim - 1)
     if tresca:
-        centre, radius = 0.5 * (sxx + syy), np.sqrt(0.25 * (sxx - syy) ** 2 + sxy**2)
-        s1 = np.maximum(centre + radius, szz)
-        s3 = np.minimum(centre - radius, szz)
-        shear = 0.5 * (s1 - s3)
+        finite = np.isfinite(sigma).all(axis=(-2, -1))
+        principal = np.linalg.eigvalsh(np.where(finite[..., None, None], sigma, 0.0))  # ascending
+        shear = np.where(finite, 0.5 * (principal[..., -1] - principal[..., 0]), np.nan)
     else:
-        p = (sxx + syy + szz) / 3.0
-        shear = np.sqrt(0.5 * ((sxx - p) ** 2 + (syy - p) ** 2 + (szz - p) ** 2) + sxy**2)
+        p = np.trace(sigma, axis1=-2, axis2=-1) / 3.0
+        dev = sigma - p[..., None, None] * np.eye(3)
+        shear = np.sqrt(0.5 * (dev * dev).sum(axis=(-2, -1)))
     return np.divide(shear, su, out=np.zeros_like(shear), where=su > 0.0)
 
 
@@ -175,33 +207,41 @@ class FieldRecorder:
         phi, q, su, rate = snap.phi, snap.q, snap.su, snap.rate
         soil = phi > self.stress_cutoff
         ratio = mobilised_strength(q, su, self.tresca)
+        rows = K.CellRows(phi.ndim)
         out = {"volume_fraction": phi}
-        out |= {name: q[k] for k, name in STRESS_NAMES.items()}
+        out |= {name: q[k] for k, name in stress_names(phi.ndim).items()}
         out |= {
             "su_pa": su,
             "mobilised_strength": ratio,
-            "plastic_shear_strain": q[K.XI],
+            "plastic_shear_strain": q[rows.xi],
             "shear_strain_rate_per_s": rate,
             "plastic_shear_strain_rate_per_s": np.where(ratio >= YIELD_RATIO, rate, 0.0),
-            "initial_depth_m": q[K.Z0],
+            "initial_depth_m": q[rows.z0],
             "hourglass_velocity_m_s": np.where(soil, hourglass_velocity(self.corner, snap.v), 0.0),
             "body": self.solid.astype(float),
         }
         return out
 
     def _mesh(self, snap: _Snapshot):
+        """The frame as a meshio mesh: the grid's nodes in row-major order (node (i, j[, k]) is point
+        i·(ny+1) + j, or (i·(ny+1) + j)·(nz+1) + k, the solver's own numbering), the last axis shifted
+        by the sinkage; cells as VTK quads or hexahedra, whose corner order is the corner table's."""
         import meshio
 
-        x, y = self.grid.x, self.grid.y
-        nx, ny = len(x) - 1, len(y) - 1
-        px, py = np.meshgrid(x, y - snap.sinkage_m, indexing="ij")  # node (i, j) is point i·(ny+1) + j
-        points = np.column_stack([px.ravel(), py.ravel(), np.zeros(px.size)])
-        node = np.arange(points.shape[0]).reshape(nx + 1, ny + 1)
-        quads = np.stack([node[:-1, :-1], node[1:, :-1], node[1:, 1:], node[:-1, 1:]], axis=-1).reshape(-1, 4)
+        axes = [np.asarray(a, dtype=float) for a in self.grid.axes]
+        axes[-1] = axes[-1] - snap.sinkage_m
+        dim = len(axes)
+        coords = np.meshgrid(*axes, indexing="ij")
+        points = np.column_stack([c.ravel() for c in coords] + [np.zeros(coords[0].size)] * (3 - dim))
+        node = np.arange(points.shape[0]).reshape(coords[0].shape)
+        corners = [node[tuple(slice(None, -1) if o == 0 else slice(1, None) for o in offset)]
+                   for offset in K.corner_offsets(dim)]
+        cells_of = np.stack(corners, axis=-1).reshape(-1, 2**dim)
         cells = {name: [np.ascontiguousarray(v, dtype=np.float32).ravel()] for name, v in self.cell_fields(snap).items()}
-        grid_v = snap.v[:, : (nx + 1) * (ny + 1)]  # the grid's nodes, node (i, j) at i·(ny+1) + j
-        velocity = np.column_stack([grid_v[0], grid_v[1], np.zeros(grid_v.shape[1])]).astype(np.float32)
-        return meshio.Mesh(points, [("quad", quads)], cell_data=cells, point_data={"velocity_m_s": velocity})
+        grid_v = snap.v[:, : points.shape[0]]  # the grid's nodes come first, split nodes after
+        velocity = np.vstack([grid_v, np.zeros((3 - dim, grid_v.shape[1]))]).T.astype(np.float32)
+        kind = "quad" if dim == 2 else "hexahedron"
+        return meshio.Mesh(points, [(kind, cells_of)], cell_data=cells, point_data={"velocity_m_s": velocity})
 
     @staticmethod
     def _write_frame(mesh, path: Path, snap: _Snapshot) -> None:
@@ -274,8 +314,9 @@ def penetration_frame(run_dir: Path, history: dict[str, np.ndarray]) -> Path | N
 
 @dataclass
 class Frame:
-    """One frame read back on its rectilinear grid: node coordinates x (nx+1) and y (ny+1) in
-    the laboratory frame (m), cell fields (nx, ny), nodal velocity (nx+1, ny+1, 2) in m/s."""
+    """One frame read back on its rectilinear grid, in the laboratory frame (m): node coordinates x,
+    y (and z in 3D), cell fields (nx, ny[, nz]), nodal velocity (nx+1, ny+1[, nz+1], d) in m/s.
+    ``labels``: the axes' names (a section of a 3D frame is a 2D frame whose axes are two of x, y, z)."""
 
     x: np.ndarray
     y: np.ndarray
@@ -283,17 +324,47 @@ class Frame:
     velocity: np.ndarray
     time_s: float
     sinkage_m: float
+    z: np.ndarray | None = None
+    labels: tuple[str, ...] = ("x", "y")
+
+    def section(self, normal: str) -> Frame:
+        """A 3D frame's 2D section on its symmetry plane ``normal`` = 0: ``"y"`` the cross-section
+        (x, z), ``"x"`` the longitudinal section (y, z). Cells: the layer beside the plane on its
+        positive side; velocity: the in-plane components, the mean of that layer's two node planes.
+        The in-plane horizontal axis starts at the other symmetry plane (the half a full model
+        mirrors), as a 2D frame starts at its axis."""
+        cut = {"x": 0, "y": 1}[normal]
+        keep = 1 - cut
+        planes = (self.x, self.y)
+        at = int(np.argmin(np.abs(planes[cut])))
+        start = int(np.argmin(np.abs(planes[keep])))
+        cells = {k: np.take(v, at, axis=cut)[start:] for k, v in self.cells.items()}
+        nodes = 0.5 * (np.take(self.velocity, at, axis=cut) + np.take(self.velocity, at + 1, axis=cut))
+        velocity = nodes[start:][..., [keep, 2]]
+        return Frame(planes[keep][start:], self.z, cells, velocity, self.time_s, self.sinkage_m,
+                     labels=(self.labels[keep], self.labels[2]))
 
 
 def read_frame(path: Path) -> Frame:
-    """Read a frame written by :class:`FieldRecorder` (points ordered node (i, j) → i·(ny+1) + j)."""
+    """Read a frame written by :class:`FieldRecorder` (points ordered node (i, j) → i·(ny+1) + j,
+    in 3D (i, j, k) → (i·(ny+1) + j)·(nz+1) + k)."""
     import meshio
 
     mesh = meshio.read(path)
-    x = np.unique(mesh.points[:, 0])
-    ny1 = mesh.points.shape[0] // len(x)
-    y = mesh.points[:ny1, 1]
+    time_s, sinkage_m = float(mesh.field_data["time_s"][0]), float(mesh.field_data["sinkage_m"][0])
+    points = mesh.points
+    if mesh.cells[0].type == "hexahedron":
+        x, y = np.unique(points[:, 0]), np.unique(points[:, 1])
+        nz1 = points.shape[0] // (len(x) * len(y))
+        z = points[:nz1, 2]
+        shape = (len(x) - 1, len(y) - 1, nz1 - 1)
+        cells = {name: np.asarray(data[0], dtype=float).reshape(shape) for name, data in mesh.cell_data.items()}
+        velocity = np.asarray(mesh.point_data["velocity_m_s"], dtype=float).reshape(len(x), len(y), nz1, 3)
+        return Frame(x, y, cells, velocity, time_s, sinkage_m, z=z, labels=("x", "y", "z"))
+    x = np.unique(points[:, 0])
+    ny1 = points.shape[0] // len(x)
+    y = points[:ny1, 1]
     nx, ny = len(x) - 1, ny1 - 1
     cells = {name: np.asarray(data[0], dtype=float).reshape(nx, ny) for name, data in mesh.cell_data.items()}
     velocity = np.asarray(mesh.point_data["velocity_m_s"], dtype=float)[:, :2].reshape(nx + 1, ny + 1, 2)
-    return Frame(x, y, cells, velocity, float(mesh.field_data["time_s"][0]), float(mesh.field_data["sinkage_m"][0]))
+    return Frame(x, y, cells, velocity, time_s, sinkage_m)

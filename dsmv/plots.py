@@ -166,10 +166,9 @@ def _contour_panel(fig, ax, view, values, label, cmap, title, window, arrows=Fal
     ax.set_xlim(-half_width, half_width)
     ax.set_ylim(bottom, top)
     ax.set_aspect("equal")
-    ax.set_ylabel("y (m)")
 
 
-def plot_field_contours(frame_path: Path, path: Path, title: str, flow_frame_path: Path | None = None) -> Path:
+def plot_field_contours(frame_path: Path, path: Path, title: str, flow_frame_path: Path | None = None) -> list[Path]:
     """Banded contours of su, ξ and the soil velocity around the body at one field frame.
 
     Like the reference study's Figures 3 and 10 (strength), 8 (accumulated plastic shear
@@ -179,17 +178,38 @@ def plot_field_contours(frame_path: Path, path: Path, title: str, flow_frame_pat
     ``flow_frame_path``: a frame whose velocity field is shown too, in the same window (at
     the deepest point a landing body is at rest and the soil's velocity is what rings on;
     the mechanism shows while it still moves). Reads VTU frames written by :mod:`dsmv.fields`.
+
+    A 3D frame is drawn on its symmetry planes: the cross-section (x, z) at ``path`` and, for a
+    plate, the longitudinal section (y, z) beside it (:data:`LONGITUDINAL_SUFFIX`). Returns the
+    figures written.
     """
+    from dsmv.fields import read_frame
+
+    frame = read_frame(frame_path)
+    flow = [] if flow_frame_path is None else [read_frame(flow_frame_path)]
+    if frame.z is None:
+        return [_plot_section(frame, flow, path, title)]
+    path = Path(path)
+    written = [_plot_section(frame.section("y"), [f.section("y") for f in flow], path, f"{title}: cross-section y = 0")]
+    if len(frame.y) > 2:  # a plate (a strip's slab is one cell thick: its section is the cross-section)
+        longitudinal = path.with_name(path.stem + LONGITUDINAL_SUFFIX + path.suffix)
+        written.append(_plot_section(frame.section("x"), [f.section("x") for f in flow], longitudinal,
+                                     f"{title}: longitudinal section x = 0"))
+    return written
+
+
+#: a 3D run's longitudinal section is drawn beside its cross-section, the file name's stem + this
+LONGITUDINAL_SUFFIX = "_longitudinal"
+
+
+def _plot_section(frame, flow: list, path: Path, title: str) -> Path:
+    """The contour panels of one 2D frame (or a 3D frame's section) and its flow frames."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from dsmv.fields import read_frame
-
-    frame = read_frame(frame_path)
     window = _core_window(frame)
-    flow = [] if flow_frame_path is None else [read_frame(flow_frame_path)]
     half_width, bottom, top = window
     # panels 8 in wide at the window's aspect, kept between 2.2 and 5 in high (inches, matplotlib's unit)
     panel_height = min(max(2.2, 3.5 * (top - bottom) / half_width), 5.0)
@@ -204,7 +224,10 @@ def plot_field_contours(frame_path: Path, path: Path, title: str, flow_frame_pat
         view = _mirrored_view(one, window)
         _contour_panel(fig, ax, view, np.hypot(view["ux"], view["uy"]), "|v| (m/s)", "plasma",
                        f"soil velocity, t = {one.time_s:.4f} s, sinkage {one.sinkage_m:.4f} m", window, arrows=True)
-    axes[-1].set_xlabel("x (m): 0 on the symmetry axis; y = 0 the body's base at touchdown")
+    across, up = frame.labels
+    for ax in axes:
+        ax.set_ylabel(f"{up} (m)")
+    axes[-1].set_xlabel(f"{across} (m): 0 on the symmetry plane; {up} = 0 the body's base at touchdown")
     fig.suptitle(title, fontsize=10)
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -223,7 +223,7 @@ def write_outputs(scene: Scene, result: SolveResult, run_dir: Path) -> list[Path
             from dsmv.plots import FIELD_PLOT_FILE, plot_field_contours
 
             title = f"{scene.soil.name} ({scene.soil.law}), {scene.geometry.name} — {result.status}"
-            files.append(plot_field_contours(run_dir / fields.MAX_SINKAGE_FRAME, run_dir / FIELD_PLOT_FILE, title,
+            files.extend(plot_field_contours(run_dir / fields.MAX_SINKAGE_FRAME, run_dir / FIELD_PLOT_FILE, title,
                                              fields.penetration_frame(run_dir, result.history)))
     files.append(run_dir / RESOLVED_CONFIG_FILE)
     return files

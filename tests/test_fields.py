@@ -1,6 +1,7 @@
 """Field output (``output.fields``): VTU frames and a ParaView collection, contour PNGs; off by default."""
 
 import json
+import math
 import xml.etree.ElementTree as ET
 
 import meshio
@@ -195,3 +196,107 @@ def test_a_run_that_goes_unstable_still_leaves_its_fields_and_contours(compose_c
     assert tmp_path / FIELD_PLOT_FILE in files
     last = meshio.read(fields.series(tmp_path)[-1][1])
     assert not np.isfinite(last.cell_data["stress_xx_pa"][0]).all()
+
+
+CELL_FIELDS_3D = CELL_FIELDS | {"stress_yz_pa", "stress_zx_pa"}
+
+
+def test_a_3d_run_writes_hexahedra_and_both_sections(compose_cfg, tmp_path, monkeypatch):
+    """A quarter square plate pushed into weightless Tresca soil (su 10 kPa) with the remap: hexahedral
+    frames that read back cell for cell and node for node as the solver's state (φ, the body, the
+    nodal velocities), whose strength is su, whose cells under the plate sit on Tresca's surface
+    (mobilised strength 1: the field's principal stresses agree with the return's), shifted down by
+    the sinkage, and the two sections' contour figures."""
+    from dsmv.cel.solver3d import Cel3DSolver
+    from dsmv.plots import LONGITUDINAL_SUFFIX
+    from dsmv.runner import write_outputs
+    from tests.test_cel3d import SMALL_STRAIN_PUSH
+
+    captured = {}
+    real = Cel3DSolver.initial_state
+
+    def keep(self):
+        captured["state"] = real(self)
+        return captured["state"]
+
+    monkeypatch.setattr(Cel3DSolver, "initial_state", keep)
+    overrides = [*SMALL_STRAIN_PUSH, "geometry=rectangular_plate", "geometry.width_m=1", "geometry.contact_length_m=1",
+                 "mesh.cell_size_m=0.2", "solver.remap=true", "landing.displacement_m=0.05", "output.plots=true",
+                 "output.fields=true", "output.field_frames=2"]
+    scene = build_scene(compose_cfg(overrides))
+    result = Cel3DSolver(scene).solve(tmp_path)
+    assert result.status == "ok", result.message
+    files = write_outputs(scene, result, tmp_path)
+    frames = fields.series(tmp_path)
+    assert len(frames) >= 3
+    first = meshio.read(frames[0][1])
+    for _, path in frames:
+        mesh = meshio.read(path)
+        (block,) = mesh.cells
+        assert block.type == "hexahedron" and set(mesh.cell_data) == CELL_FIELDS_3D
+        sinkage = mesh.field_data["sinkage_m"][0]
+        assert mesh.points[:, 2].min() == pytest.approx(first.points[:, 2].min() - sinkage, abs=1e-9)
+    state = captured["state"]
+    last = fields.read_frame(frames[-1][1])
+    assert last.cells["volume_fraction"] == pytest.approx(state.cells.phi.astype(np.float32), rel=1e-7, abs=1e-30)
+    assert np.array_equal(last.cells["body"] == 1.0, state.cells.solid)
+    grid_v = state.nodes.v[:, : last.velocity[..., 0].size].T.reshape(last.velocity.shape)
+    assert last.velocity == pytest.approx(grid_v.astype(np.float32), rel=1e-7, abs=1e-30)
+    soil = last.cells["volume_fraction"] > 0.99
+    assert last.cells["su_pa"][soil] == pytest.approx(1e4, rel=1e-6)
+    assert last.cells["mobilised_strength"][soil].max() == pytest.approx(1.0, rel=1e-5)
+    figure = tmp_path / FIELD_PLOT_FILE
+    longitudinal = figure.with_name(figure.stem + LONGITUDINAL_SUFFIX + figure.suffix)
+    assert {figure, longitudinal} <= set(files)
+    assert figure.stat().st_size > 10_000 and longitudinal.stat().st_size > 10_000
+
+
+def test_3d_field_measures_of_known_states():
+    """The 3D cell measures against closed forms: Tresca's (σ1 − σ3)/2 and √J2 of a principal state
+    turned by a rotation; the hourglass amplitude of one pure hexahedral mode and of a linear field
+    (0); the shear strain rate ε̇1 − ε̇3 of simple shear v_x = a·z (a)."""
+    from dsmv.cel.kernels.hexahedra import HOURGLASS, SOLID, shear_strain_rates
+    from dsmv.cel.layout import corner_offsets, structured_corners
+    from dsmv.cel.state import Elastic, step_parameters
+    from scipy.spatial.transform import Rotation
+
+    principal = np.array([-30.0, 4.0, 10.0])
+    turn = Rotation.from_euler("xyz", [0.3, -0.7, 1.1]).as_matrix()
+    sigma = turn @ np.diag(principal) @ turn.T
+    q = np.zeros((SOLID.base, 1, 1, 1))
+    for name, (a, b) in {"xx": (0, 0), "yy": (1, 1), "zz": (2, 2), "xy": (0, 1), "yz": (1, 2), "zx": (2, 0)}.items():
+        q[SOLID.of(name)] = sigma[a, b]
+    su = np.full((1, 1, 1), 5.0)
+    assert fields.mobilised_strength(q, su, tresca=True)[0, 0, 0] == pytest.approx(20.0 / 5.0, rel=1e-12)
+    dev = principal - principal.mean()
+    assert fields.mobilised_strength(q, su, tresca=False)[0, 0, 0] == pytest.approx(
+        math.sqrt(0.5 * (dev**2).sum()) / 5.0, rel=1e-12)
+
+    corner = structured_corners((1, 1, 1))
+    v = np.zeros((3, 8))
+    v[1, corner[0, 0, 0]] = 0.3 * HOURGLASS[2]  # the ξη vector in v_y, amplitude 0.3 m/s
+    assert fields.hourglass_velocity(corner, v)[0, 0, 0] == pytest.approx(0.3, rel=1e-12)
+    v[0, corner[0, 0, 0]] = 1.0  # a uniform v_x and a linear v_z add no hourglass
+    v[2, corner[0, 0, 0]] = 2.0 * corner_offsets(3)[:, 0] - 0.5 * corner_offsets(3)[:, 2]
+    assert fields.hourglass_velocity(corner, v)[0, 0, 0] == pytest.approx(0.3, rel=1e-12)
+
+    from dsmv.cel.solver3d import solid_faces
+    from dsmv.cel.layout import Cells, Nodes, SolidMesh, split_cells
+    from dsmv.cel.kernels.hexahedra import cell_volumes
+
+    x, y, z = np.linspace(0.0, 1.0, 4), np.linspace(0.0, 0.5, 3), np.linspace(-1.0, 0.0, 5)
+    shape = (3, 2, 4)
+    corner = structured_corners(shape)
+    mesh = SolidMesh(x, y, z, cell_volumes(x, y, z), corner, corner.max() + 1, split_cells(corner))
+    solid = np.zeros(shape, bool)
+    cells = Cells(np.ones(shape), np.zeros((SOLID.base, *shape)), np.zeros(shape), np.ones(shape), solid,
+                  np.ones(shape), np.zeros(shape), np.full(shape, np.nan))
+    X, Y, Z = np.meshgrid(x, y, z, indexing="ij")
+    nodes = Nodes(np.zeros((3, X.size)), np.zeros((3, X.size)), np.zeros(X.size), np.zeros((3, X.size)))
+    a = 0.7
+    nodes.v[0] = (a * Z).ravel()
+    par = step_parameters(dt=1e-3, density=1.0, elastic=Elastic(1.0, 1.0, 1.0, 0.0), h=0.25, gravity=0.0, su0=1.0,
+                          ks=0.0, hourglass=0.0, bulk_linear=0.0, bulk_quadratic=0.0, stress_cutoff=0.01,
+                          axisymmetric=False, advection_order=2, drop=False, inflow=False, remap=True, tresca=True,
+                          law_active=False)
+    assert shear_strain_rates(mesh, cells, solid_faces(solid), nodes, par, 0.0) == pytest.approx(np.full(shape, a))

@@ -466,9 +466,11 @@ class CelSolver:
         cells, par = state.cells, state.par
         return self.kernels.elastic_energy(cells.phi, cells.q, state.mesh.vol, par.shear, par.bulk)
 
-    def loop_arguments(self, state: State) -> tuple:
+    @staticmethod
+    def loop_arguments(state: State) -> tuple:
         """What the compiled loop takes after the step count."""
-        raise NotImplementedError
+        return (state.mesh, state.cells, state.faces, state.nodes, state.contact, state.inflow, state.par, state.body,
+                state.energy, state.law)
 
     def advance(self, state: State, n: int) -> tuple[int, int]:
         """``n`` steps of the compiled loop (its machine code found once, then called directly)."""
@@ -479,7 +481,29 @@ class CelSolver:
             state.stepper = compiled_entry(self.kernels.run_steps, (n, *args))
         return state.stepper(n, *args)
 
+    def field_recorder(self, state: State):
+        from dsmv.fields import FieldRecorder
+
+        recorder = FieldRecorder(state.grid, state.cells.solid, state.mesh.corner, tresca=state.par.tresca,
+                                 stress_cutoff=self.scene.solver.stress_cutoff,
+                                 frames=self.scene.output.field_frames,
+                                 spacing_s=self.steps_per_sample(state) * state.par.dt)
+        recorder.sample(0.0, 0.0, *self.snapshot(state))
+        return recorder
+
+    def snapshot(self, state: State) -> tuple:
+        """What a field frame copies: φ, the cell state, the kernels' strength and shear strain rate,
+        and the velocities of all nodes."""
+        rate = self.kernels.shear_strain_rates(state.mesh, state.cells, state.faces, state.nodes, state.par,
+                                               state.body[B_VEL])
+        return state.cells.phi, state.cells.q, state.cells.su, rate, state.nodes.v
+
     # ------------------------------------------------------------------ state reductions
+
+    @staticmethod
+    def top_fill(state: State) -> float:
+        """The fullest cell of the grid's top layer (-)."""
+        return float(state.cells.phi[..., -1].max())
 
     @staticmethod
     def soil_kinetic_energy(state: State) -> float:
@@ -624,28 +648,3 @@ class Cel2DSolver(CelSolver):
                       0.0, 0.5 * par.body_mass * landing.velocity_m_s**2 if drop else 0.0)
         self.touchdown(state)
         return state
-
-    def loop_arguments(self, state: State) -> tuple:
-        return (state.mesh, state.cells, state.faces, state.nodes, state.contact, state.inflow, state.par, state.body,
-                state.energy, state.law)
-
-    @staticmethod
-    def top_fill(state: State) -> float:
-        return float(state.cells.phi[:, -1].max())
-
-    def field_recorder(self, state: State):
-        from dsmv.fields import FieldRecorder
-
-        recorder = FieldRecorder(state.grid, state.cells.solid, state.mesh.corner, tresca=state.par.tresca,
-                                 stress_cutoff=self.scene.solver.stress_cutoff,
-                                 frames=self.scene.output.field_frames,
-                                 spacing_s=self.steps_per_sample(state) * state.par.dt)
-        recorder.sample(0.0, 0.0, *self.snapshot(state))
-        return recorder
-
-    def snapshot(self, state: State) -> tuple:
-        """What a field frame copies: φ, the cell state, the kernels' strength and shear strain rate,
-        and the velocities of all nodes."""
-        rate = self.kernels.shear_strain_rates(state.mesh, state.cells, state.faces, state.nodes, state.par,
-                                               state.body[B_VEL])
-        return state.cells.phi, state.cells.q, state.cells.su, rate, state.nodes.v

@@ -73,8 +73,6 @@ class Cel3DSolver(CelSolver):
         body, cfg = scene.geometry, scene.solver
         if body.kind not in cls.bodies:
             raise ConfigError("geometry.kind", body.kind, f"{cls.name} runs {', '.join(cls.bodies)} bodies")
-        if scene.output.fields:
-            raise ConfigError("output.fields", True, f"{cls.name} writes no fields yet: output.fields=false")
         if scene.landing.initial_depth_m != 0.0:
             raise ConfigError("landing.initial_depth_m", scene.landing.initial_depth_m,
                               f"{cls.name} starts a body on the mudline for now (0)")
@@ -210,12 +208,3 @@ class Cel3DSolver(CelSolver):
 
         numba.set_num_threads(self.thread_count(state.cells.phi.size))
         return super().advance(state, n)
-
-    def loop_arguments(self, state: State) -> tuple:
-        return (state.mesh, state.cells, state.faces, state.nodes, state.contact, state.inflow, state.par, state.body,
-                state.energy, state.law)
-
-    @staticmethod
-    def top_fill(state: State) -> float:
-        return float(state.cells.phi[:, :, -1].max())
-

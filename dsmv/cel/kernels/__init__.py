@@ -24,7 +24,7 @@ class DimensionKernels(NamedTuple):
     cell_volumes: object        # (node coordinates per axis[, axisymmetric in 2D]) -> cell volumes (m³)
     elastic_energy: object      # (phi, q, vol, G, K) -> stored elastic energy (J)
     hourglass_modes: object     # (corner, phi, v, full) -> Σ|hourglass mode|², Σ|linear modes|²
-    shear_strain_rates: object  # (mesh, cells, faces, nodes, par, v_body) -> γ̇ per cell (1/s); 3D: none yet
+    shear_strain_rates: object  # (mesh, cells, faces, nodes, par, v_body) -> γ̇ per cell (1/s)
 
 
 def for_dimension(dim: int) -> DimensionKernels:
@@ -41,5 +41,5 @@ def for_dimension(dim: int) -> DimensionKernels:
         from dsmv.cel.kernels import hexahedra
 
         return DimensionKernels(stepper3d.run_steps, hexahedra.cell_volumes, hexahedra.elastic_energy,
-                                hexahedra.hourglass_modes, None)
+                                hexahedra.hourglass_modes, hexahedra.shear_strain_rates)
     raise ValueError(f"no CEL element kernels for {dim} axes (2 and 3 are available)")

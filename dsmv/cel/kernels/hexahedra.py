@@ -402,6 +402,39 @@ def update_stress(mesh, cells, nodes, par, law, out):
         out[0] += plastic[i]
 
 
+@njit(**JIT)
+def shear_strain_rates(mesh, cells, faces, nodes, par, v_body):
+    """Each cell's shear strain rate γ̇ = ε̇1 − ε̇3 (1/s) by the stress update's own rule, 0 in cells that
+    carry no stress: what the field output shows. (``faces`` and ``v_body``: the 2D kernel's signature;
+    boxes have no cut faces.)"""
+    x, y, z, corner, split = mesh.x, mesh.y, mesh.z, mesh.corner, mesh.split
+    nx, ny, nz = cells.phi.shape
+    ny1, nz1 = np.uint64(ny + 1), np.uint64(nz + 1)
+    rate = np.zeros((nx, ny, nz))
+    nodes8 = np.empty(8, dtype=np.uint64)
+    ve = np.empty((3, 8))
+    grad = np.empty((3, 3))
+    inv4 = np.empty(3)
+    d = np.empty(6)
+    a = np.empty((3, 3))
+    vec = np.empty((3, 3))
+    for i in range(nx):
+        for j in range(ny):
+            for k in range(nz):
+                if cells.phi[i, j, k] <= par.stress_cutoff * cells.open_frac[i, j, k]:
+                    continue
+                inv4[0], inv4[1], inv4[2] = 0.25 / (x[i + 1] - x[i]), 0.25 / (y[j + 1] - y[j]), 0.25 / (z[k + 1] - z[k])
+                cell_nodes(corner, split, i, j, k, ny1, nz1, nodes8)
+                gather_velocities(nodes.v, nodes8, ve)
+                velocity_gradient(ve, inv4, grad)
+                d[0], d[1], d[2] = grad[0, 0], grad[1, 1], grad[2, 2]
+                d[3] = 0.5 * (grad[0, 1] + grad[1, 0])
+                d[4] = 0.5 * (grad[1, 2] + grad[2, 1])
+                d[5] = 0.5 * (grad[0, 2] + grad[2, 0])
+                rate[i, j, k] = shear_rate_solid(d, a, vec)
+    return rate
+
+
 @njit(**INLINE)
 def elastic_energy_density_solid(q, i, j, k, shear_mod, bulk_mod):
     """Linear elastic energy per unit volume of cell (i, j, k)'s stress, s:s/(4G) + p²/(2K) (J/m³)."""
