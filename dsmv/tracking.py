@@ -56,15 +56,30 @@ def _client(tracking: TrackingConfig):
     return MlflowClient(tracking_uri=resolve_uri(tracking.uri))
 
 
+#: MLflow 3's UI opens an experiment by its kind: without it, an experiment of plain runs opens on
+#: the GenAI overview (traces), and a newcomer sees no runs
+EXPERIMENT_KIND = {"mlflow.experimentKind": "custom_model_development"}
+
+
+def experiment_description(name: str) -> str:
+    """What an experiment holds, in the words the MLflow UI shows under its name."""
+    return (f"{name}: one run per dsmv job. Params: the resolved config (dotted keys); metrics: the result "
+            f"contract, SI units in the names; tag dsmv.status: ok, bearing_failure, out_of_domain, unstable, "
+            f"failed or interrupted. The history.* curves are logged with step = simulated time in "
+            f"microseconds. Surrogate runs carry dsmv.role = surrogate.")
+
+
 def _experiment_id(client, name: str, artifact_location: str | None) -> str:
+    """The experiment's id, created (with its kind and description) if it does not exist yet."""
     found = client.get_experiment_by_name(name)
     if found is not None:
         return found.experiment_id
     location = None
     if artifact_location:
         location = Path(artifact_location).resolve().as_uri() if "://" not in artifact_location else artifact_location
+    tags = EXPERIMENT_KIND | {"mlflow.note.content": experiment_description(name)}
     try:
-        return client.create_experiment(name, artifact_location=location)
+        return client.create_experiment(name, artifact_location=location, tags=tags)
     except Exception:  # created meanwhile by a parallel job
         found = client.get_experiment_by_name(name)
         if found is None:

@@ -37,6 +37,13 @@ def test_single_run_writes_the_contract_and_one_finished_mlflow_run(run_cli, tmp
     # named from the scene, described by the summary's answer
     assert run.data.tags["mlflow.runName"] == "nodule_field soil (einav_randolph), track_pioneer_i, drop 4500 kg at 1.5 m/s"
     assert run.data.tags["mlflow.note.content"] == "ok: max sinkage 0.0645 m"
+    # MLflow 3 opens the experiment on its runs (a classic experiment), under a description
+    from mlflow.tracking import MlflowClient
+
+    experiment = MlflowClient(f"sqlite:///{(tmp_path / 'runs' / 'mlflow.db').resolve()}").get_experiment(
+        run.info.experiment_id)
+    assert experiment.tags["mlflow.experimentKind"] == "custom_model_development"
+    assert "one run per dsmv job" in experiment.tags["mlflow.note.content"]
     assert run.data.params["soil.su0_pa"] == "5000.0"
     assert run.data.metrics["max_sinkage_m"] == pytest.approx(result["metrics"]["max_sinkage_m"])
     assert "history.sinkage_m" in run.data.metrics
