@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.dsmv-installed
 DOCS_STAMP := $(VENV)/.dsmv-docs-installed
 
-.PHONY: install run test docs clean
+.PHONY: install run test docs clean mlflow-screenshots
 
 install: $(STAMP)
 
@@ -30,6 +30,11 @@ $(DOCS_STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet -e ".[docs]"
 	@touch $(DOCS_STAMP)
+
+# The MLflow UI as a user sees it: a two-job sweep, the UI on loopback, three screenshots in
+# headless Chromium (Debian's chromium package) into runs/mlflow_screenshots.
+mlflow-screenshots: install
+	$(BIN)/python -m dsmv.mlflow_check runs/mlflow_screenshots
 
 clean:
 	rm -rf runs/outputs runs/multirun runs/mlflow.db runs/mlartifacts

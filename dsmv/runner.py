@@ -76,7 +76,7 @@ def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, sweep_dir: Path | None, caug
         scene = build_scene(cfg)
         parent = tracking.parent_run_id(Path(hydra_cfg.sweep.dir)) if multirun else None
         # named from the scene; a sweep's job adds what it varies, so that no two of its runs read alike
-        swept = " ".join(hydra_cfg.overrides.task) if multirun else ""
+        swept = tracking.scene_overrides(hydra_cfg.overrides.task) if multirun else ""
         run_name = scene_label(scene) + (f" [{swept}]" if swept else "")
         tracker = tracking.start_job(cfg, scene, run_dir, run_name, parent)
     except DsmvError as error:

@@ -40,6 +40,18 @@ def experiment_name(study: str) -> str:
     return f"dsmv-{study}"
 
 
+#: command-line overrides that say where and how a run is kept, not what it computes: left out of run names
+BOOKKEEPING_KEYS = ("paths", "tracking", "hydra", "output")
+
+
+def scene_overrides(overrides) -> str:
+    """The overrides that change what a run computes, as typed (``landing.mass_kg=6500 mesh=coarse``)."""
+    def key(override: str) -> str:
+        return override.split("=", 1)[0].lstrip("+~").split(".", 1)[0].split("/", 1)[0]
+
+    return " ".join(o for o in overrides if key(o) not in BOOKKEEPING_KEYS)
+
+
 def resolve_uri(uri: str) -> str:
     """Make a relative ``sqlite:///`` store absolute, so every process and the UI agree."""
     prefix = "sqlite:///"
@@ -237,7 +249,9 @@ class MlflowSweepCallback(Callback):
         sha = _git_sha()
         if sha:
             tags["mlflow.source.git.commit"] = sha
-        run = client.create_run(experiment_id, tags=tags, run_name=f"sweep {sweep_dir.name}")
+        varied = scene_overrides(config.hydra.overrides.task)
+        name = f"sweep {study}: {varied}" if varied else f"sweep {study} {sweep_dir.name}"
+        run = client.create_run(experiment_id, tags=tags, run_name=name[:250])
         overrides = list(config.hydra.overrides.task)
         if overrides:
             client.log_param(run.info.run_id, "sweep.overrides", " ".join(overrides)[:6000])

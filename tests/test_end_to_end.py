@@ -61,7 +61,7 @@ def test_python_dash_m_is_the_same_app(run_cli, tmp_path):
 
 @pytest.mark.parametrize("launcher", ["basic", "joblib"])
 def test_2x2_multirun_leaves_one_parent_and_four_finished_children(run_cli, tmp_path, launcher):
-    args = ["-m", "landing.velocity_m_s=0.5,1.0", "soil.su0_pa=4000,6000"]
+    args = ["-m", "landing.velocity_m_s=0.5,1.0", "soil.su0_pa=4000,6000", "output.plots=false"]
     if launcher == "joblib":
         args += ["hydra/launcher=joblib", "hydra.launcher.n_jobs=2"]
     proc = run_cli("dsmv", *args)
@@ -82,6 +82,12 @@ def test_2x2_multirun_leaves_one_parent_and_four_finished_children(run_cli, tmp_
     got = sorted((c.data.params["landing.velocity_m_s"], c.data.params["soil.su0_pa"]) for c in children)
     assert got == [("0.5", "4000"), ("0.5", "6000"), ("1.0", "4000"), ("1.0", "6000")]
     assert all("max_sinkage_m" in c.data.metrics for c in children)
+    # named by what they compute: the sweep by its overrides, a job by its scene and its values;
+    # where results go and how they are kept (output, hydra, paths, tracking) name nothing
+    assert parent.info.run_name == "sweep default_scene: landing.velocity_m_s=0.5,1.0 soil.su0_pa=4000,6000"
+    names = {c.info.run_name for c in children}
+    assert "nodule_field soil (einav_randolph), track_pioneer_i, drop 4500 kg at 1 m/s " \
+           "[landing.velocity_m_s=1.0 soil.su0_pa=6000]" in names and len(names) == 4
     sweep_dir = jobs[0].parent
     assert (sweep_dir / "sweep_summary.csv").read_text().count("\n") == 5
 
