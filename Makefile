@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.dsmv-installed
 DOCS_STAMP := $(VENV)/.dsmv-docs-installed
 
-.PHONY: install run test docs clean mlflow-screenshots
+.PHONY: install run test docs report clean mlflow-screenshots
 
 install: $(STAMP)
 
@@ -30,6 +30,11 @@ $(DOCS_STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet -e ".[docs]"
 	@touch $(DOCS_STAMP)
+
+# The verification report from runs, stamped with the commit: docs/verification/report.md (about
+# 40 minutes on one core); REPORT_ARGS=--quick writes a short one under runs/report/ instead.
+report: install
+	$(BIN)/dsmv-report $(REPORT_ARGS)
 
 # The MLflow UI as a user sees it: a two-job sweep, the UI on loopback, three screenshots in
 # headless Chromium (Debian's chromium package) into runs/mlflow_screenshots.

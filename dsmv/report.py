@@ -1,0 +1,248 @@
+"""``dsmv-report``: the verification report, generated from runs and stamped with the commit it measured.
+
+Each check is a scene with an exact or published answer (or, for the default landing, none: its
+reference is its own extrapolated value), run on a sequence of core cell sizes. The report gives,
+per check, the result on every mesh, its error, the order observed over the three finest meshes
+(:func:`dsmv.convergence.richardson`), the extrapolated value and its error, and the wall time,
+and draws the errors against the cell size on one figure.
+
+``dsmv-report`` runs the full set and writes ``docs/verification/report.md`` (the site's page) and
+its figure beside it. ``dsmv-report --quick`` runs coarse meshes of a subset in a few minutes and
+writes under ``runs/report/``, never over the committed page. Exit codes: 0 written, 1 a check did
+not end ``ok`` (the page is still written, the run marked), 2 bad arguments.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import platform
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+
+from dsmv.regression import QUIET
+
+PAGE = Path("docs/verification/report.md")
+QUICK_DIR = Path("runs/report")
+FIGURE = "report_convergence.png"
+
+#: the small-strain push of the exact strip and plate solutions: weightless Tresca soil, su 10 kPa,
+#: the analysis on the undeformed grid (what the exact solutions refer to)
+SMALL_STRAIN = ("experiment=verify_prandtl", "hydra.mode=RUN", "solver.remap=false", "solver.contact_separation=false")
+
+
+@dataclass(frozen=True)
+class Check:
+    """A scene with a reference answer, run on a sequence of core cell sizes (m, fine to coarse)."""
+
+    name: str
+    metric: str
+    reference: float | None  # None: the check's own extrapolated value is its reference
+    source: str
+    overrides: tuple[str, ...]
+    cells_m: tuple[float, ...]
+    quick_cells_m: tuple[float, ...] | None  # None: not in the quick report
+    length_m: float  # the body's size the cells are quoted against (B or D)
+    length_name: str = "B"
+
+
+CHECKS = (
+    Check("Prandtl: rough strip, small strain, q/su at 0.05 B", "nc_at_0p05B", 2 + math.pi,
+          "Prandtl (1920): 2 + π", (*SMALL_STRAIN, "landing.displacement_m=0.06"),
+          (0.025, 0.05, 0.1), (0.05, 0.1, 0.2), 1.0),
+    Check("Prandtl: smooth strip, small strain, q/su at 0.05 B", "nc_at_0p05B", 2 + math.pi,
+          "Prandtl (1920), Hill (1950): 2 + π", (*SMALL_STRAIN, "geometry.roughness=smooth", "landing.displacement_m=0.06"),
+          (0.025, 0.05, 0.1), None, 1.0),
+    Check("Davis & Booker: smooth strip, su = su0 + k·z, k·B/su0 = 4, small strain, q/su0 at 0.02 B", "nc_at_0p02B",
+          7.80, "Davis & Booker (1973); PLAXIS 2D validation manual 3.2: 7.80",
+          (*SMALL_STRAIN, "geometry.roughness=smooth", "soil.ks_pa_per_m=40000", "soil.youngs_modulus_pa=1e7",
+           "landing.displacement_m=0.04", "solver.initial_travel_m=0.1"),
+          (0.025, 0.05, 0.1), (0.05, 0.1, 0.2), 1.0),
+    Check("Circular plate: rough, axisymmetric, small strain, q/su at 0.1 B", "nc_at_0p1B", 6.05,
+          "Cox, Eason & Hopkins (1961): 6.05",
+          (*SMALL_STRAIN, "solver=cel2d", "geometry=circular_plate", "landing.displacement_m=0.11"),
+          (0.025, 0.05, 0.1), (0.05, 0.1, 0.2), 1.0),
+    Check("Circular plate: smooth, axisymmetric, small strain, q/su at 0.1 B", "nc_at_0p1B", 5.69,
+          "Cox, Eason & Hopkins (1961): 5.69",
+          (*SMALL_STRAIN, "solver=cel2d", "geometry=circular_plate", "geometry.roughness=smooth",
+           "landing.displacement_m=0.11"),
+          (0.025, 0.05, 0.1), None, 1.0),
+    Check("T-bar: rough, pushed 2 D with the remap, steady q/su", "nc_deep", 11.94,
+          "Randolph & Houlsby (1984): 11.94", ("experiment=verify_tbar", "hydra.mode=RUN", "geometry.roughness=rough"),
+          (0.025, 0.05), None, 0.5, "D"),
+    Check("T-bar: smooth, pushed 2 D with the remap, steady q/su", "nc_deep", 9.20,
+          "Martin & Randolph (2006): 9.20", ("experiment=verify_tbar", "hydra.mode=RUN", "geometry.roughness=smooth"),
+          (0.025, 0.05), None, 0.5, "D"),
+    Check("Square plate: rough, 3D quarter model, small strain, q/su at 0.1 B", "nc_at_0p1B",
+          (2 + math.pi) * (1 + 0.214 - 0.067), "Gourvenec (2007): (2 + π)·(1 + 0.214·B/L − 0.067·(B/L)²) = 5.90",
+          (*SMALL_STRAIN, "solver=cel3d", "geometry=rectangular_plate", "geometry.contact_length_m=1",
+           "solver.yield_surface=tresca", "landing.displacement_m=0.11"),
+          (0.1, 0.2), (0.25,), 1.0),
+    Check("Default landing: max sinkage (m), Einav–Randolph, no exact answer", "max_sinkage_m", None,
+          "its own value extrapolated from the three finest meshes", ("solver=cel2d",),
+          (0.005, 0.01, 0.02, 0.04), (0.02, 0.04, 0.08), 1.0),
+)
+
+
+@dataclass
+class Outcome:
+    """One check on one mesh."""
+
+    cell_m: float
+    status: str
+    value: float
+    wall_s: float
+
+
+def run(check: Check, cell_m: float) -> Outcome:
+    """The check's scene on core cells ``cell_m``, in this process (compile time not counted)."""
+    from dsmv import registry
+    from dsmv.bench import compose_scene
+
+    scene = compose_scene([*check.overrides, f"mesh.cell_size_m={cell_m}", "solver.progress=off", *QUIET])
+    result = registry.load("solvers", scene.solver.name, "solver.name")(scene).solve()
+    value = result.metrics.get(check.metric, math.nan)
+    return Outcome(cell_m, result.status, float(value), float(result.metrics.get("wall_s", math.nan)))
+
+
+def provenance() -> dict[str, str]:
+    """The commit measured, whether its tree was clean, the date and the machine."""
+    def git(*args: str) -> str:
+        try:
+            return subprocess.run(["git", *args], capture_output=True, text=True, check=True,
+                                  cwd=Path(__file__).resolve().parent).stdout.strip()
+        except (OSError, subprocess.CalledProcessError):
+            return ""
+
+    import numba
+
+    commit = git("rev-parse", "HEAD") or "unknown (not a git checkout)"
+    dirty = git("status", "--porcelain", "--untracked-files=no")
+    cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
+                if line.startswith("model name")), platform.processor()) if Path("/proc/cpuinfo").exists() else ""
+    return {"commit": commit, "tree": "modified" if dirty else "clean",
+            "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+            "machine": f"{cpu or platform.machine()}, {numba.config.NUMBA_NUM_THREADS} Numba thread(s), "
+                       f"Python {platform.python_version()}, Numba {numba.__version__}"}
+
+
+def estimate(check: Check, outcomes: list[Outcome]):
+    """Richardson over the three finest meshes that ended ok (None with fewer)."""
+    from dsmv.convergence import richardson
+
+    ok = [o for o in outcomes if o.status == "ok" and math.isfinite(o.value)][:3]
+    if len(ok) < 3:
+        return None
+    return richardson(tuple(o.cell_m for o in ok), tuple(o.value for o in ok))
+
+
+def _error(value: float, reference: float | None) -> str:
+    return "" if reference is None or not math.isfinite(value) else f"{100 * (value / reference - 1):+.2f} %"
+
+
+def check_section(check: Check, outcomes: list[Outcome]) -> tuple[str, dict]:
+    """The check's markdown section and its summary row."""
+    est = estimate(check, outcomes)
+    reference = check.reference if check.reference is not None else (est.extrapolated if est else None)
+    lines = [f"### {check.name}", "", f"Reference: {check.source}.", "",
+             f"| core cell | {check.length_name}/h | {check.metric} | error | wall time |", "|---|---|---|---|---|"]
+    for o in outcomes:
+        shown = f"{o.value:.5g}" if o.status == "ok" else f"{o.status}"
+        lines.append(f"| {o.cell_m:g} m | {check.length_m / o.cell_m:.4g} | {shown} | {_error(o.value, reference)} | "
+                     f"{o.wall_s:.3g} s |")
+    if est is not None:
+        order = f"{est.order:.2f}" if est.asymptotic else "outside [0.5, 3]: first order and 3·|z(h) − z(2h)| assumed"
+        lines += ["", f"Observed order {order}; extrapolated {est.extrapolated:.5g} ± {est.error:.2g}"
+                  + (f" ({_error(est.extrapolated, check.reference)} from the reference)." if check.reference else ".")]
+    finest = next((o for o in outcomes if o.status == "ok"), None)
+    row = {"check": check.name, "reference": f"{reference:.5g}" if reference is not None else "",
+           "finest": f"{finest.value:.5g} ({check.length_name}/{check.length_m / finest.cell_m:.3g})" if finest else "—",
+           "error": _error(finest.value, reference) if finest else "",
+           "order": f"{est.order:.2f}" if est is not None and est.asymptotic else ("—" if est is None else "1 (assumed)"),
+           "extrapolated": f"{est.extrapolated:.5g} ± {est.error:.2g}" if est is not None else "—",
+           "wall": f"{sum(o.wall_s for o in outcomes if math.isfinite(o.wall_s)):.0f} s"}
+    return "\n".join(lines), row
+
+
+def figure(path: Path, results: list[tuple[Check, list[Outcome]]]) -> Path:
+    """|error| against the relative cell size on log-log axes, one line per check."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 5), constrained_layout=True)
+    for check, outcomes in results:
+        est = estimate(check, outcomes)
+        reference = check.reference if check.reference is not None else (est.extrapolated if est else None)
+        points = [(o.cell_m / check.length_m, abs(o.value / reference - 1)) for o in outcomes
+                  if reference and o.status == "ok" and math.isfinite(o.value) and o.value != reference]
+        if points:
+            h, err = zip(*points)
+            ax.loglog(h, [100 * e for e in err], "o-", label=check.name.split(",")[0] + (
+                "" if check.reference is not None else " (vs extrapolated)"))
+    ax.set_xlabel("core cell / body size (h/B or h/D)")
+    ax.set_ylabel("|error| (%)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def write_page(path: Path, results: list[tuple[Check, list[Outcome]]], quick: bool, stamp: dict) -> Path:
+    sections, rows = zip(*(check_section(c, o) for c, o in results)) if results else ((), ())
+    figure(path.parent / FIGURE, results)
+    mode = "quick (coarse meshes, a subset: `dsmv-report --quick`)" if quick else "full (`dsmv-report`)"
+    lines = ["# Verification report", "",
+             "Generated by `dsmv-report` from runs; every figure on this page is measured, none typed by hand.", "",
+             f"- commit `{stamp['commit']}` ({stamp['tree']} tree)", f"- {stamp['date']}",
+             f"- machine: {stamp['machine']}", f"- mode: {mode}", "",
+             "Error: against the reference (the exact or published value; the landing's own extrapolated "
+             "value). Order: observed over the three finest meshes, Richardson extrapolation "
+             "([Outputs](../guide/outputs.md#the-mesh-error)). Wall time: the solve, compile time excluded.", "",
+             "## Summary", "",
+             "| check | reference | finest mesh | error | order | extrapolated | wall time |",
+             "|---|---|---|---|---|---|---|"]
+    lines += [f"| {r['check']} | {r['reference']} | {r['finest']} | {r['error']} | {r['order']} | {r['extrapolated']} | "
+              f"{r['wall']} |" for r in rows]
+    lines += ["", f"![|error| against the cell size, every check]({FIGURE})", "", "## The checks", ""]
+    lines += [s + "\n" for s in sections]
+    path.write_text("\n".join(lines))
+    return path
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="dsmv-report", description="Run the verification checks and write the "
+                                     "report, stamped with the commit (full: docs/verification/report.md).")
+    parser.add_argument("--quick", action="store_true", help="coarse meshes of a subset, written under runs/report/")
+    parser.add_argument("--only", nargs="*", help="only the checks whose name contains one of these words")
+    args = parser.parse_args(argv)
+    checks = [c for c in CHECKS if (c.quick_cells_m is not None or not args.quick)
+              and (not args.only or any(w.lower() in c.name.lower() for w in args.only))]
+    page = QUICK_DIR / "report.md" if args.quick else PAGE
+    page.parent.mkdir(parents=True, exist_ok=True)
+    stamp = provenance()
+    results, failed = [], 0
+    for check in checks:
+        cells = check.quick_cells_m if args.quick else check.cells_m
+        outcomes = []
+        for cell in cells:
+            start = time.perf_counter()
+            outcome = run(check, cell)
+            failed += outcome.status != "ok"
+            print(f"dsmv-report: {check.name} at {cell:g} m: {outcome.status} {check.metric} = {outcome.value:.6g} "
+                  f"({time.perf_counter() - start:.0f} s)", flush=True)
+            outcomes.append(outcome)
+        results.append((check, outcomes))
+    write_page(page, results, args.quick, stamp)
+    print(f"dsmv-report: wrote {page} ({len(checks)} checks, commit {stamp['commit'][:10]}, {stamp['tree']} tree)")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
