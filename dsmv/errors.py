@@ -5,6 +5,11 @@ class DsmvError(Exception):
     """Base class of errors caused by user input rather than by a bug."""
 
 
+class PluginError(DsmvError):
+    """A plugin broke its contract at run time (a soil law's strength factor negative or not
+    finite): the run ends ``failed`` with one line naming the plugin and what it was given."""
+
+
 class ConfigError(DsmvError):
     """A config value is wrong.
 

@@ -245,3 +245,44 @@ def test_a_law_state_variable_is_carried_with_the_material(run_cli, install_plug
     tresca_sinkage = json.loads((tmp_path / "run_tresca" / "result.json").read_text())["metrics"]["max_sinkage_m"]
     assert sinkages[0] == pytest.approx(sinkages[1], rel=1e-9)
     assert sinkages[0] > tresca_sinkage * 1.01  # the state did soften the soil
+
+
+def _negative_law():
+    """A broken law for the guard: its factor 1 − 40·ξ turns negative once ξ passes 0.025."""
+    from dsmv.soil_law import SoilLaw
+
+    class NegativeLaw(SoilLaw):
+        name = "negative_past_0p025"
+
+        @property
+        def softens(self):
+            return True
+
+        @staticmethod
+        def factor(xi, gamma_dot, s0, s1, p0, p1, p2, p3, p4, p5, p6, p7):
+            return 1.0 - 40.0 * xi
+
+        def strength_factor(self, xi, gamma_dot_per_s, *state):
+            return 1.0 - 40.0 * np.asarray(xi, dtype=float)
+
+    return NegativeLaw
+
+
+def test_a_law_whose_factor_turns_negative_fails_the_run_naming_it(compose_cfg, monkeypatch):
+    """A negative (or non-finite) factor is the plugin's fault: the run raises a one-line PluginError
+    naming soil.law and the cell's ξ and γ̇ (the runner records it as failed, exit code of failed),
+    never an ok run with a wrong answer."""
+    from dsmv.errors import PluginError
+
+    law = _negative_law()
+    real_load, real_check = registry.load, registry.check_name
+    monkeypatch.setattr(registry, "check_name", lambda kind, name, path: None if name == law.name
+                        else real_check(kind, name, path))
+    monkeypatch.setattr(registry, "load", lambda kind, name, path: law if name == law.name
+                        else real_load(kind, name, path))
+    scene = build_scene(compose_cfg([f"soil.law={law.name}", "mesh=coarse", "tracking=disabled",
+                                     "solver.progress=off"]))
+    solver = registry.load("solvers", "cel2d", "solver.name")(scene)
+    with pytest.raises(PluginError, match=rf"^soil.law = '{law.name}' returned a strength factor that is negative "
+                                          r"or not finite at cell \(\d+, \d+\) \(ξ = [0-9.e+-]+, γ̇ = "):
+        solver.solve()

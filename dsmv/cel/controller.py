@@ -260,6 +260,28 @@ class Progress:
 
 
 @dataclass
+class LawOutput:
+    """A soil law whose factor came back negative or not finite (the kernels store NaN as that cell's
+    strength): the plugin's fault, raised as a :class:`~dsmv.errors.PluginError` naming the law and
+    the cell's state that produced it."""
+
+    strength: Callable[[], np.ndarray]
+    describe: Callable[[tuple], str]  # one cell's state in words (ξ, γ̇, the law's state variables)
+    law: str
+
+    def after_chunk(self, run: Run) -> Optional[Ending]:
+        bad = np.argwhere(np.isnan(self.strength()))
+        if bad.size:
+            from dsmv.errors import PluginError
+
+            cell = tuple(int(i) for i in bad[0])
+            raise PluginError(f"soil.law = '{self.law}' returned a strength factor that is negative or not finite "
+                              f"at {self.describe(cell)} (t = {run.time_s:.4g} s); its factor() must return a "
+                              f"finite value ≥ 0")
+        return None
+
+
+@dataclass
 class NonFinite:
     """A NaN or infinity anywhere in the state: unstable."""
 

@@ -35,8 +35,8 @@ from dsmv.cel.config import Cel2DConfig, CelConfig, Economies  # noqa: F401  (th
 from dsmv.cel.contact import ContactRules, build_contact, touchdown_mass
 from dsmv.cel.kernels import DimensionKernels, for_dimension
 from dsmv.cel.layout import (
-    B_INFLOW, B_MAXDISP, B_TIME, B_VEL, N_BODY, NQ_BASE, Cells, Faces, Inflow, Mesh, Nodes, Params, SoilLawKernel,
-    split_cells,
+    B_INFLOW, B_MAXDISP, B_TIME, B_VEL, N_BODY, NQ_BASE, CellRows, Cells, Faces, Inflow, Mesh, Nodes, Params,
+    SoilLawKernel, split_cells,
 )
 from dsmv.cel.state import Elastic, geostatic_state, step_parameters
 from dsmv.errors import ConfigError
@@ -219,6 +219,9 @@ class CelSolver:
             trackers.append(C.Fields(self.field_recorder(state), lambda: self.snapshot(state), run_dir))
         v0 = state.body[B_VEL]
         speed_limit = 50.0 * (abs(v0) + landing.velocity_m_s + math.sqrt(max(landing.gravity_m_s2, 0.0) * B) + 1.0)
+        if state.law is not None:  # a plugin's factor is checked before anything reads its strength
+            trackers.append(C.LawOutput(lambda: state.cells.su, lambda cell: self.cell_state(state, cell),
+                                        scene.soil.law))
         trackers += [
             C.NonFinite(lambda: self.state_arrays(state), cfg.cfl),
             C.EnergyRunaway(lambda: self.soil_kinetic_energy(state), state.kinetic_in, state.scale, cfg.cfl),
@@ -497,6 +500,15 @@ class CelSolver:
         rate = self.kernels.shear_strain_rates(state.mesh, state.cells, state.faces, state.nodes, state.par,
                                                state.body[B_VEL])
         return state.cells.phi, state.cells.q, state.cells.su, rate, state.nodes.v
+
+    def cell_state(self, state: State, cell: tuple) -> str:
+        """One cell's state in words, as the soil law saw it: ξ, γ̇ and the law's state variables."""
+        rows = CellRows(self.dim)
+        _, _, _, rate, _ = self.snapshot(state)
+        q = state.cells.q
+        words = [f"ξ = {q[(rows.xi, *cell)]:.4g}", f"γ̇ = {rate[cell]:.4g} 1/s"]
+        words += [f"{name} = {q[(rows.base + k, *cell)]:.4g}" for k, name in enumerate(self.law.state_variables())]
+        return f"cell {cell} (" + ", ".join(words) + ")"
 
     # ------------------------------------------------------------------ state reductions
 

@@ -91,9 +91,12 @@ def donor_acceptor(phi_d, phi_a, volume_flux, donor_volume, acceptor_first):
 @njit(**INLINE)
 def law_factor(law, xi, gamma_dot, s0, s1):
     """The soil law's strength factor su/su_intact (-) at ξ, γ̇ (1/s) and state s0, s1
-    (``law``: a :class:`~dsmv.cel.layout.SoilLawKernel`)."""
+    (``law``: a :class:`~dsmv.cel.layout.SoilLawKernel`). A factor that is negative or not finite
+    comes back as NaN: the cell's strength (``cells.su``) then shows it, its stress takes no plastic
+    return, and the controller's law guard ends the run naming the law and the cell's state."""
     p = law.params
-    return law.factor(xi, gamma_dot, s0, s1, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7])
+    f = law.factor(xi, gamma_dot, s0, s1, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7])
+    return f if 0.0 <= f < math.inf else math.nan
 
 
 @njit(**INLINE)
