@@ -372,7 +372,16 @@ def train() -> None:
 def list_plugins(argv: list[str] | None = None) -> None:
     """``dsmv-plugins``: list installed plugins by entry-point group."""
     parser = argparse.ArgumentParser(prog="dsmv-plugins", description=list_plugins.__doc__)
-    parser.parse_args(argv)
+    parser.add_argument("--check", action="store_true",
+                        help="load every plugin and name those that do not load (exit 1 if any)")
+    args = parser.parse_args(argv)
+    if args.check:
+        problems = registry.broken()
+        for line in problems:
+            print(f"dsmv-plugins: broken: {line}", file=sys.stderr)
+        total = sum(len(registry.available(kind)) for kind in registry.GROUPS)
+        print(f"dsmv-plugins: {total - len(problems)} of {total} plugins load")
+        sys.exit(1 if problems else 0)
     for kind, group in registry.GROUPS.items():
         plugins = registry.available(kind)
         print(f"{group}:")

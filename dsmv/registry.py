@@ -44,6 +44,24 @@ def check_name(kind: str, name: str, config_path: str) -> None:
 
 
 def load(kind: str, name: str, config_path: str):
-    """Load the object registered as ``name`` in the group of ``kind``."""
+    """Load the object registered as ``name`` in the group of ``kind``; a target that does not import is
+    a ConfigError naming the entry point (a typo in a plugin's ``pyproject.toml`` fails at composition)."""
     check_name(kind, name, config_path)
-    return available(kind)[name].load()
+    entry = available(kind)[name]
+    try:
+        return entry.load()
+    except Exception as error:  # ImportError, AttributeError, or the plugin's own import-time bug
+        raise ConfigError(config_path, name, f"its entry point {entry.value} in {GROUPS[kind]} does not load: "
+                          f"{type(error).__name__}: {error}") from None
+
+
+def broken() -> list[str]:
+    """Every installed plugin that does not load, one line each (``dsmv-plugins --check``)."""
+    lines = []
+    for kind, group in GROUPS.items():
+        for name, entry in available(kind).items():
+            try:
+                load(kind, name, group)
+            except ConfigError as error:
+                lines.append(f"{group}:{name} = {entry.value}: {error.allowed}")
+    return lines

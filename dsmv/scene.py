@@ -336,6 +336,9 @@ def _validate(model: type[BaseModel], data: Any, prefix: str) -> BaseModel:
         if err["type"] == "missing":
             value = None
         message = err["msg"].replace("Input should be", "must be").replace("Value error, ", "")
+        if err["type"] == "missing" and len(err["loc"]) == 1:  # say what the missing key is
+            field = model.model_fields.get(str(err["loc"][0]))
+            message = "missing" + (f": {field.description}" if field is not None and field.description else "")
         if err["type"] == "extra_forbidden" and len(err["loc"]) == 1:  # a typo: name the closest key
             import difflib
 
@@ -343,6 +346,16 @@ def _validate(model: type[BaseModel], data: Any, prefix: str) -> BaseModel:
             if close:
                 message += f"; did you mean {prefix}.{close[0]}?"
         raise ConfigError(path, value, message) from None
+
+
+def _law_parameters(law_cls, soil: SoilConfig) -> SoilConfig:
+    """``soil.params`` validated against the law's declared parameters (``parameters_model``), with the
+    defaults filled in (so the config hash covers them); unchanged for a law that declares none."""
+    model = getattr(law_cls, "parameters_model", None)
+    if model is None:
+        return soil
+    params = _validate(model, dict(soil.params), "soil.params")
+    return soil.model_copy(update={"params": params.model_dump()})
 
 
 def _group(container: dict, name: str) -> Any:
@@ -356,7 +369,7 @@ def build_scene(cfg: DictConfig | dict) -> Scene:
     container = _to_container(cfg) if isinstance(cfg, DictConfig) else dict(cfg)
 
     soil = _validate(SoilConfig, _group(container, "soil"), "soil")
-    registry.check_name("soil_laws", soil.law, "soil.law")
+    soil = _law_parameters(registry.load("soil_laws", soil.law, "soil.law"), soil)
 
     geometry_data = _group(container, "geometry")
     kind = geometry_data.get("kind") if isinstance(geometry_data, dict) else None

@@ -28,6 +28,12 @@ plastic shear strain grew by ``dxi`` over ``dt`` seconds. The solver stores them
 material and advects them with it, exactly as it carries ξ and z0; soil entering the domain
 brings the initial values. A law without state ignores ``s0`` and ``s1``.
 
+A law with parameters of its own declares them as a :class:`LawParameters` model
+(``parameters_model``): each field a key of ``soil.params`` with its unit in the description, its
+range as bounds and a default where it has one. dsmv validates ``soil.params`` against it when a
+scene is composed (a bad, unknown or missing value is a one-line error naming
+``soil.params.<key>``, exit 2) and the law reads the validated values as ``self.params``.
+
 A law that neither softens nor depends on rate for the given soil says so (``softens``,
 ``rate_dependent``): the solvers then skip the call and the strain-rate arithmetic, so it
 costs exactly what Tresca costs.
@@ -38,6 +44,8 @@ from __future__ import annotations
 from typing import ClassVar
 
 import numpy as np
+
+from pydantic import BaseModel, ConfigDict
 
 from dsmv.scene import SoilConfig
 
@@ -56,13 +64,31 @@ def _signature(n_leading: int):
 _COMPILED: dict[tuple[type, str], object] = {}
 
 
+class LawParameters(BaseModel):
+    """Base of a law's declared parameters, the keys of ``soil.params``: a pydantic model whose fields
+    carry their unit in ``description``, their range as bounds (``Field(gt=0, le=1)``) and a default
+    where the law has one. Unknown keys, NaN and ±inf are refused; the values are frozen."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
 class SoilLaw:
     """Base class of soil laws. Subclasses set ``name`` and define ``factor`` and ``strength_factor``."""
 
     name: ClassVar[str]
+    #: the law's own parameters (``soil.params``), declared; None: the law reads none
+    parameters_model: ClassVar[type[LawParameters] | None] = None
 
     def __init__(self, soil: SoilConfig):
         self.soil = soil
+        #: the validated ``soil.params`` (an instance of ``parameters_model``), or None
+        self.params = None if self.parameters_model is None else self.parameters_model.model_validate(soil.params)
+
+    @classmethod
+    def runs_on_defaults(cls) -> bool:
+        """Whether every declared parameter has a default (the law runs with ``soil.params`` empty)."""
+        model = cls.parameters_model
+        return model is None or not any(f.is_required() for f in model.model_fields.values())
 
     #: True when the strength falls with ξ for this soil
     @property

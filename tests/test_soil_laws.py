@@ -27,17 +27,47 @@ def test_builtin_laws_are_registered():
     assert {"tresca", "einav_randolph"} <= set(LAWS)
 
 
-@pytest.mark.parametrize("name", LAWS)
+#: every installed law that runs with soil.params empty (each declared parameter has a default): a
+#: third-party law installed beside dsmv is held to the same contract
+LAWS_ON_DEFAULTS = [name for name in LAWS if registry.load("soil_laws", name, "soil.law").runs_on_defaults()]
+
+
+@pytest.mark.parametrize("name", LAWS_ON_DEFAULTS)
 @pytest.mark.parametrize("rate_law", ["power", "log"])
-def test_compiled_kernel_equals_numpy_twin(compose_cfg, name, rate_law):
-    law, _ = make_law(compose_cfg, name, f"soil.rate.law={rate_law}", "soil.rate.eta=0.1", "soil.rate.mu=0.15",
-                      "soil.sensitivity=4", "soil.xi95=15")
-    rng = np.random.default_rng(7)
-    xi = rng.uniform(0, 100, 500)
-    gamma_dot = 10 ** rng.uniform(-9, 3, 500)
-    kernel, params = law.compiled(), law.packed()
-    compiled = np.array([kernel.ctypes(a, b, 0.0, 0.0, *params) for a, b in zip(xi, gamma_dot)])
-    np.testing.assert_allclose(compiled, law.strength_factor(xi, gamma_dot), rtol=1e-13)
+def test_every_installed_law_keeps_the_plugin_contract(name, rate_law):
+    """dsmv.testing's checks, as a plugin's own tests call them: the compiled factor equals the NumPy
+    twin (1e-12), intact strength at rest, no effect the law does not declare, softening in ξ and
+    hardening in γ̇."""
+    from dsmv.testing import check_kernel_matches_twin, check_limits, check_monotone, make_law as make
+
+    law = make(name, f"soil.rate.law={rate_law}", "soil.rate.eta=0.1", "soil.rate.mu=0.15", "soil.sensitivity=4",
+               "soil.xi95=15")
+    check_kernel_matches_twin(law)
+    check_limits(law)
+    check_monotone(law)
+
+
+def test_the_checks_catch_a_law_that_breaks_the_contract():
+    """dsmv.testing names the point where a law breaks each part of the contract."""
+    from dsmv.testing import check_kernel_matches_twin, check_limits, check_monotone
+
+    law = _negative_law()(build_scene_default_soil())
+    with pytest.raises(AssertionError, match="negative or not finite at ξ = "):
+        check_kernel_matches_twin(law)
+    rising = _negative_law()
+    rising.strength_factor = lambda self, xi, g, *s: 1.0 + 0.01 * np.asarray(xi, dtype=float)
+    with pytest.raises(AssertionError, match="rises with ξ"):
+        check_monotone(rising(build_scene_default_soil()))
+    unsheared = _negative_law()
+    unsheared.strength_factor = lambda self, xi, g, *s: 0.9 + 0.0 * np.asarray(xi, dtype=float)
+    with pytest.raises(AssertionError, match="not 1"):
+        check_limits(unsheared(build_scene_default_soil()))
+
+
+def build_scene_default_soil():
+    from dsmv.testing import compose_scene
+
+    return compose_scene("soil.law=tresca").soil
 
 
 def test_einav_randolph_limits(compose_cfg):
@@ -143,38 +173,87 @@ def test_einav_randolph_landing_trends(compose_cfg):
 
 
 NEW_LAW = '''
-"""A linear-softening law, written as the README's plugin guide says."""
+"""A linear-softening law, written as the plugin guide says: su = su_intact·max(1 − a·ξ, 1/St)."""
 import numpy as np
-from dsmv.soil_law import SoilLaw
+from pydantic import Field
+from dsmv.soil_law import LawParameters, SoilLaw
+
+
+class Parameters(LawParameters):
+    slope: float = Field(0.05, gt=0, le=1, description="a (-): strength lost per unit of plastic shear strain")
 
 
 class LinearSofteningLaw(SoilLaw):
     name = "linear_softening"
+    parameters_model = Parameters
 
     @property
     def softens(self):
-        return True
+        return self.soil.sensitivity > 1.0
 
     def parameters(self):
-        return np.array([self.soil.params["slope"], 1.0 / self.soil.sensitivity])
+        return np.array([self.params.slope, 1.0 / self.soil.sensitivity])
 
     @staticmethod
     def factor(xi, gamma_dot, s0, s1, slope, floor, p2, p3, p4, p5, p6, p7):
         return max(1.0 - slope * xi, floor)
 
     def strength_factor(self, xi, gamma_dot_per_s, *state):
-        return np.maximum(1.0 - self.soil.params["slope"] * np.asarray(xi), 1.0 / self.soil.sensitivity)
+        xi, _ = np.broadcast_arrays(np.asarray(xi, dtype=float), np.asarray(gamma_dot_per_s, dtype=float))
+        return np.maximum(1.0 - self.params.slope * xi, 1.0 / self.soil.sensitivity)
 '''
 
 
 def test_a_new_law_in_its_own_package_is_picked_up_by_name(run_cli, install_plugin):
-    """One module, one entry-point line (and its parameters under soil.params): no change to dsmv/."""
+    """One module, one entry-point line: no change to dsmv/. Its declared parameter takes its default,
+    and a bad or misspelt value of it is one line and exit 2 naming soil.params.<key>."""
     install_plugin("my_soil_laws", NEW_LAW, "dsmv.soil_laws", "linear_softening", "LinearSofteningLaw")
     assert "linear_softening" in run_cli("dsmv-plugins").stdout
-    proc = run_cli("dsmv", "soil.law=linear_softening", "+soil.params.slope=0.05", "solver=cel2d", "mesh=coarse",
-                   "tracking=disabled")
+    common = ["soil.law=linear_softening", "solver=cel2d", "mesh=coarse", "tracking=disabled"]
+    proc = run_cli("dsmv", *common)
     assert proc.returncode == 0, proc.stderr
     assert "dsmv: ok" in proc.stdout and "(linear_softening)" in proc.stdout
+    for override, message in (("+soil.params.slope=1.5", "soil.params.slope = 1.5: must be less than or equal to 1"),
+                              ("+soil.params.slop=0.1", "did you mean soil.params.slope?")):
+        proc = run_cli("dsmv", *common, override)
+        assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+        assert message in proc.stderr
+
+
+def test_a_plugin_whose_target_does_not_load_is_named_by_the_check_and_refused_at_composition(run_cli,
+                                                                                            install_plugin):
+    install_plugin("my_soil_laws", NEW_LAW, "dsmv.soil_laws", "linear_softening", "LinearSofteningLaww")
+    proc = run_cli("dsmv-plugins", "--check")
+    assert proc.returncode == 1
+    assert "dsmv.soil_laws:linear_softening = my_soil_laws:LinearSofteningLaww" in proc.stderr
+    assert "AttributeError" in proc.stderr
+    proc = run_cli("dsmv", "soil.law=linear_softening", "tracking=disabled")
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "soil.law = 'linear_softening': its entry point my_soil_laws:LinearSofteningLaww" in proc.stderr
+
+
+def test_every_plugin_dsmv_ships_loads(run_cli):
+    proc = run_cli("dsmv-plugins", "--check")
+    assert proc.returncode == 0 and "plugins load" in proc.stdout, proc.stderr
+
+
+def test_a_missing_declared_parameter_without_default_is_one_line_naming_it():
+    from pydantic import Field
+
+    from dsmv.errors import ConfigError
+    from dsmv.scene import _law_parameters
+    from dsmv.soil_law import LawParameters
+    from dsmv.testing import compose_scene
+
+    class Needed(LawParameters):
+        r: float = Field(gt=0, le=1, description="the residual strength ratio (-)")
+
+    law = type("NeedsR", (), {"parameters_model": Needed})
+    soil = compose_scene("soil.law=tresca").soil
+    with pytest.raises(ConfigError, match=r"^soil.params.r = None: missing: the residual strength ratio \(-\)$"):
+        _law_parameters(law, soil)
+    filled = _law_parameters(law, soil.model_copy(update={"params": {"r": 0.4}}))
+    assert filled.params == {"r": 0.4}
 
 
 def test_fall_cone_implied_hansbo_factor(compose_cfg):
