@@ -38,6 +38,35 @@ def find_config_dir() -> Path:
 CONFIG_DIR = str(find_config_dir())
 
 
+def config_roots(argv: list[str], config_dir: str = CONFIG_DIR) -> list[Path]:
+    """Every config tree Hydra will search for this command line: dsmv's own, the plugin packages'
+    (entry points in ``dsmv.configs``), ``--config-dir``/``-cd`` and ``hydra.searchpath`` entries."""
+    import importlib.util
+
+    from dsmv import registry
+
+    roots = [Path(config_dir), *(Path(d) for d in registry.config_dirs())]
+    for i, arg in enumerate(argv):
+        if arg in ("--config-dir", "-cd") and i + 1 < len(argv):
+            roots.append(Path(argv[i + 1]))
+        elif arg.startswith("--config-dir="):
+            roots.append(Path(arg.partition("=")[2]))
+        elif arg.lstrip("+").startswith("hydra.searchpath="):
+            for entry in arg.partition("=")[2].strip("[]").split(","):
+                entry = entry.strip().strip("'\"")
+                if entry.startswith("file://"):
+                    roots.append(Path(entry[len("file://"):]))
+                elif entry.startswith("pkg://"):
+                    try:
+                        spec = importlib.util.find_spec(entry[len("pkg://"):].replace("/", "."))
+                    except (ImportError, ValueError):
+                        spec = None
+                    roots += [Path(d) for d in (spec.submodule_search_locations or [])] if spec else []
+                elif entry:
+                    roots.append(Path(entry))
+    return roots
+
+
 def check_group_choices(argv: list[str], program: str, config_dir: str = CONFIG_DIR) -> None:
     """Fail in one line (exit 2) on ``group=option`` naming no ``conf/<group>/<option>.yaml``.
 
@@ -48,13 +77,14 @@ def check_group_choices(argv: list[str], program: str, config_dir: str = CONFIG_
     from dsmv.errors import ConfigError
     from dsmv.runner import fail_user_error
 
+    roots = config_roots(argv, config_dir)
     for arg in argv:
         key, sep, value = arg.partition("=")
         group = key.lstrip("+")
-        folder = Path(config_dir) / group
-        if not sep or key.startswith("~") or "/" in group or "(" in value or not folder.is_dir():
+        folders = [root / group for root in roots if (root / group).is_dir()]
+        if not sep or key.startswith("~") or "/" in group or "(" in value or not folders:
             continue
-        options = sorted(p.stem for p in folder.glob("*.yaml"))
+        options = sorted({p.stem for folder in folders for p in folder.glob("*.yaml")})
         for choice in value.split(","):
             if choice not in options and choice != "null":
                 fail_user_error(ConfigError(group, choice, f"not a {group} option; available: {', '.join(options)}"),
@@ -149,7 +179,8 @@ def _check_overrides(args, program: str, config_name: str, scene: bool, config_d
 
             # the keys that exist: the defaults with the chosen groups, each swept choice in turn
             variants = _group_variants(groups)
-            trees = [composed(variant) for variant in variants]
+            search = [o.input_line for o in keys if o.key_or_group == "hydra.searchpath"]  # where options are found
+            trees = [composed(variant + search) for variant in variants]
             known: set[str] = set()
             for tree in trees:
                 known |= set(_paths(OmegaConf.to_container(tree, resolve=False)))
@@ -343,6 +374,7 @@ def simulate() -> None:
 
     # MLflow's messages go to the job's log (dsmv.joblog), not to a console handler of MLflow's own
     os.environ.setdefault("MLFLOW_CONFIGURE_LOGGING", "false")
+    sys.argv[1:] = registry.with_plugin_configs(sys.argv[1:])
     try:
         check_command_line(sys.argv[1:], "dsmv", "config", scene=True)
         _simulate_app()
@@ -365,16 +397,34 @@ def _train_app(cfg: DictConfig) -> None:
 
 def train() -> None:
     """``dsmv-train``: train and evaluate a surrogate on a study's tracked runs."""
+    sys.argv[1:] = registry.with_plugin_configs(sys.argv[1:])
     check_command_line(sys.argv[1:], "dsmv-train", "train")
     _train_app()
 
 
 def list_plugins(argv: list[str] | None = None) -> None:
-    """``dsmv-plugins``: list installed plugins by entry-point group."""
-    parser = argparse.ArgumentParser(prog="dsmv-plugins", description=list_plugins.__doc__)
+    """``dsmv-plugins``: list installed plugins by entry-point group; ``--check`` loads them; ``new`` writes one."""
+    parser = argparse.ArgumentParser(prog="dsmv-plugins", description=list_plugins.__doc__,
+                                     epilog="dsmv-plugins new soil-law NAME [--dir DIR]: write a soil-law package "
+                                            "(the law, a soil profile, its tests) into DIR/NAME-law")
     parser.add_argument("--check", action="store_true",
                         help="load every plugin and name those that do not load (exit 1 if any)")
+    parser.add_argument("new", nargs="*", metavar="new soil-law NAME", help="write a new plugin package")
+    parser.add_argument("--dir", default=".", help="with new: the folder to write the package into (default .)")
     args = parser.parse_args(argv)
+    if args.new:
+        if len(args.new) != 3 or args.new[:2] != ["new", "soil-law"]:
+            parser.error("expected: dsmv-plugins new soil-law NAME")
+        from dsmv.errors import ConfigError
+        from dsmv.template import write_package
+
+        try:
+            root = write_package(args.new[2], Path(args.dir))
+        except ConfigError as error:
+            print(f"dsmv-plugins: error: {error}", file=sys.stderr)
+            sys.exit(2)
+        print(f"dsmv-plugins: wrote {root}; install it with: pip install -e {root}")
+        return
     if args.check:
         problems = registry.broken()
         for line in problems:

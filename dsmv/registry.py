@@ -35,6 +35,45 @@ def available(kind: str) -> dict[str, EntryPoint]:
     return dict(sorted(found.items()))
 
 
+#: plugin packages that ship config groups (soil profiles, …): entry-point name → the package holding them
+CONFIG_GROUP = "dsmv.configs"
+
+
+def config_packages() -> dict[str, str]:
+    """The packages plugins register under ``dsmv.configs`` (each holds config groups as folders)."""
+    return {ep.name: ep.value for ep in sorted(entry_points(group=CONFIG_GROUP), key=lambda ep: ep.name)}
+
+
+def config_dirs() -> list[str]:
+    """The folders of the plugin packages' config trees (those that import), for listing their options."""
+    import importlib.util
+
+    folders = []
+    for name, package in config_packages().items():
+        try:
+            spec = importlib.util.find_spec(package)
+        except (ImportError, ValueError):
+            spec = None
+        if spec is None or not spec.submodule_search_locations:
+            warnings.warn(f"dsmv plugin {CONFIG_GROUP}:{name} names {package!r}, not an importable package",
+                          stacklevel=2)
+            continue
+        folders += list(spec.submodule_search_locations)
+    return folders
+
+
+def with_plugin_configs(overrides: list[str]) -> list[str]:
+    """Hydra overrides with the plugin packages' config trees on the search path, after any the user
+    gave (``hydra.searchpath=[…]``, Hydra's own override): ``soil=<a plugin's profile>`` then composes
+    as dsmv's own options do (the ``dsmv`` and ``dsmv-train`` commands, :func:`dsmv.bench.compose_scene`)."""
+    packages = [f"pkg://{p}" for p in config_packages().values()]
+    if not packages:
+        return list(overrides)
+    given = [o for o in overrides if o.lstrip("+").startswith("hydra.searchpath=")]
+    entries = [e.strip() for o in given for e in o.partition("=")[2].strip("[]").split(",") if e.strip()]
+    return [*(o for o in overrides if o not in given), f"hydra.searchpath=[{','.join([*entries, *packages])}]"]
+
+
 def check_name(kind: str, name: str, config_path: str) -> None:
     """Raise a ConfigError listing what is installed when ``name`` is not a plugin of ``kind``."""
     names = available(kind)
@@ -64,4 +103,13 @@ def broken() -> list[str]:
                 load(kind, name, group)
             except ConfigError as error:
                 lines.append(f"{group}:{name} = {entry.value}: {error.allowed}")
+    import importlib.util
+
+    for name, package in config_packages().items():
+        try:
+            found = importlib.util.find_spec(package) is not None
+        except (ImportError, ValueError):
+            found = False
+        if not found:
+            lines.append(f"{CONFIG_GROUP}:{name} = {package}: not an importable package")
     return lines

@@ -1,6 +1,7 @@
 """Every registered soil law against its own NumPy twin, closed forms, limits and monotonicity."""
 
 import json
+import os
 import math
 
 import numpy as np
@@ -365,3 +366,51 @@ def test_a_law_whose_factor_turns_negative_fails_the_run_naming_it(compose_cfg, 
     with pytest.raises(PluginError, match=rf"^soil.law = '{law.name}' returned a strength factor that is negative "
                                           r"or not finite at cell \(\d+, \d+\) \(ξ = [0-9.e+-]+, γ̇ = "):
         solver.solve()
+
+
+def _install_generated(root, site):
+    """Install a generated package as pip would for the CLI subprocesses: its folder on PYTHONPATH and
+    a dist-info whose entry points are those of its pyproject.toml."""
+    import os
+    import tomllib
+
+    project = tomllib.loads((root / "pyproject.toml").read_text())["project"]
+    dist = site / f"{project['name'].replace('-', '_')}-{project['version']}.dist-info"
+    dist.mkdir(parents=True)
+    (dist / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {project['name']}\nVersion: {project['version']}\n")
+    (dist / "entry_points.txt").write_text("".join(
+        f"[{group}]\n" + "".join(f"{k} = {v}\n" for k, v in points.items()) + "\n"
+        for group, points in project["entry-points"].items()))
+    return os.pathsep.join([str(site), str(root), os.environ.get("PYTHONPATH", "")])
+
+
+def test_the_template_writes_a_law_package_that_installs_runs_and_passes_its_tests(run_cli, tmp_path, monkeypatch):
+    """dsmv-plugins new soil-law: the law with a declared parameter, a soil profile of its own (found
+    through the dsmv.configs entry point) and tests on dsmv.testing. Installed, it is listed and
+    loads, lands ok selected by its profile and by soil.law, its generated tests pass, and so do
+    dsmv's own contract checks, which now include it."""
+    import subprocess
+    import sys
+
+    proc = run_cli("dsmv-plugins", "new", "soil-law", "my_clay", "--dir", str(tmp_path / "pkgs"))
+    assert proc.returncode == 0, proc.stderr
+    root = tmp_path / "pkgs" / "my-clay-law"
+    monkeypatch.setenv("PYTHONPATH", _install_generated(root, tmp_path / "site"))
+    assert run_cli("dsmv-plugins", "--check").returncode == 0
+    proc = run_cli("dsmv", "-m", "soil=my_clay_clay,nodule_field", "soil.law=my_clay", "mesh=coarse",
+                   "tracking=disabled", "output.plots=false")
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.count("ok: max sinkage") == 2 and "sweep done: 2 ok" in proc.stdout, proc.stdout
+    env = dict(os.environ, NUMBA_NUM_THREADS="1")
+    generated = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(root / "tests")],
+                               cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert generated.returncode == 0 and "5 passed" in generated.stdout, generated.stdout + generated.stderr
+    ours = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", f"{__file__}::"
+                           "test_every_installed_law_keeps_the_plugin_contract"], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert ours.returncode == 0 and "6 passed" in ours.stdout, ours.stdout + ours.stderr  # 3 laws × 2 rate forms
+
+
+def test_the_template_refuses_a_name_that_is_not_an_identifier(run_cli, tmp_path):
+    proc = run_cli("dsmv-plugins", "new", "soil-law", "My-Law", "--dir", str(tmp_path))
+    assert proc.returncode == 2 and "NAME = 'My-Law': must be a lower-case Python identifier" in proc.stderr
