@@ -2,6 +2,7 @@
 
 import json
 import os
+from pathlib import Path
 import math
 
 import numpy as np
@@ -414,3 +415,19 @@ def test_the_template_writes_a_law_package_that_installs_runs_and_passes_its_tes
 def test_the_template_refuses_a_name_that_is_not_an_identifier(run_cli, tmp_path):
     proc = run_cli("dsmv-plugins", "new", "soil-law", "My-Law", "--dir", str(tmp_path))
     assert proc.returncode == 2 and "NAME = 'My-Law': must be a lower-case Python identifier" in proc.stderr
+
+
+@pytest.mark.parametrize("how", ["--config-dir", "hydra.searchpath"])
+def test_a_profile_in_a_config_dir_of_ones_own_is_a_soil_option(run_cli, tmp_path, how):
+    """Hydra's own ways to add configs: the option is found, not refused as 'not a soil option'."""
+    from dsmv.cli import CONFIG_DIR
+
+    folder = tmp_path / "my_conf" / "soil"
+    folder.mkdir(parents=True)
+    text = (Path(CONFIG_DIR) / "soil" / "nodule_field.yaml").read_text().replace("name: nodule_field", "name: my_site")
+    (folder / "my_site.yaml").write_text(text)
+    where = (["--config-dir", str(tmp_path / "my_conf")] if how == "--config-dir"
+             else [f"hydra.searchpath=[file://{tmp_path / 'my_conf'}]"])
+    proc = run_cli("dsmv", *where, "soil=my_site", "--cfg", "job")
+    assert proc.returncode == 0, proc.stderr
+    assert "name: my_site" in proc.stdout
