@@ -440,3 +440,8 @@ def list_plugins(argv: list[str] | None = None) -> None:
         for name, ep in plugins.items():
             dist = f"  [{ep.dist.name} {ep.dist.version}]" if ep.dist else ""
             print(f"  {name:<20} {ep.value}{dist}")
+    configs = registry.config_packages()
+    if configs:  # packages whose config groups are on Hydra's search path
+        print(f"{registry.CONFIG_GROUP}:")
+        for name, package in configs.items():
+            print(f"  {name:<20} {package}")
