@@ -405,21 +405,21 @@ def train() -> None:
 def list_plugins(argv: list[str] | None = None) -> None:
     """``dsmv-plugins``: list installed plugins by entry-point group; ``--check`` loads them; ``new`` writes one."""
     parser = argparse.ArgumentParser(prog="dsmv-plugins", description=list_plugins.__doc__,
-                                     epilog="dsmv-plugins new soil-law NAME [--dir DIR]: write a soil-law package "
-                                            "(the law, a soil profile, its tests) into DIR/NAME-law")
+                                     epilog="dsmv-plugins new soil-law|surrogate NAME [--dir DIR]: write a plugin "
+                                            "package (the plugin, its config option, its tests) into DIR")
     parser.add_argument("--check", action="store_true",
                         help="load every plugin and name those that do not load (exit 1 if any)")
-    parser.add_argument("new", nargs="*", metavar="new soil-law NAME", help="write a new plugin package")
+    parser.add_argument("new", nargs="*", metavar="new soil-law|surrogate NAME", help="write a new plugin package")
     parser.add_argument("--dir", default=".", help="with new: the folder to write the package into (default .)")
     args = parser.parse_args(argv)
     if args.new:
-        if len(args.new) != 3 or args.new[:2] != ["new", "soil-law"]:
-            parser.error("expected: dsmv-plugins new soil-law NAME")
         from dsmv.errors import ConfigError
-        from dsmv.template import write_package
+        from dsmv.template import KINDS, write_package
 
+        if len(args.new) != 3 or args.new[0] != "new" or args.new[1] not in KINDS:
+            parser.error(f"expected: dsmv-plugins new {{{'|'.join(KINDS)}}} NAME")
         try:
-            root = write_package(args.new[2], Path(args.dir))
+            root = write_package(args.new[1], args.new[2], Path(args.dir))
         except ConfigError as error:
             print(f"dsmv-plugins: error: {error}", file=sys.stderr)
             sys.exit(2)

@@ -1,9 +1,11 @@
-"""``dsmv-plugins new soil-law NAME``: a complete soil-law package that installs and passes as written.
+"""``dsmv-plugins new soil-law|surrogate NAME``: a complete plugin package that installs and passes as written.
 
-The package holds the law (linear softening with a declared parameter, to edit), a soil profile
-of its own that Hydra finds through the ``dsmv.configs`` entry point (``soil=NAME_clay``), and
-tests that call :mod:`dsmv.testing`. ``pip install -e NAME`` and it runs:
-``dsmv soil=NAME_clay``, ``dsmv soil.law=NAME``, ``pytest NAME/tests``.
+A soil-law package holds the law (linear softening with a declared parameter, to edit), a soil
+profile of its own that Hydra finds through the ``dsmv.configs`` entry point (``soil=NAME_clay``),
+and tests that call :mod:`dsmv.testing`: ``pip install -e NAME-law``, then ``dsmv soil=NAME_clay``,
+``dsmv soil.law=NAME``, ``pytest NAME-law/tests``. A surrogate package holds the plugin
+(extremely randomised trees, to edit), its ``surrogate`` option (``dsmv-train surrogate=NAME``)
+and its tests.
 """
 
 from __future__ import annotations
@@ -148,13 +150,107 @@ pytest {dist}/tests
 '''
 
 
-def package_files(name: str) -> dict[str, str]:
-    """The files of the package for law ``name`` (a Python identifier), by relative path."""
+SURROGATE_PYPROJECT = '''[build-system]
+requires = ["setuptools>=77"]
+build-backend = "setuptools.build_meta"
+
+[project]
+name = "{dist}"
+version = "0.1.0"
+description = "The {name} surrogate for dsmv"
+requires-python = ">=3.11"
+dependencies = ["dsmv", "scikit-learn"]
+
+[project.optional-dependencies]
+test = ["pytest"]
+
+# the plugin, by the name its config uses (name: {name})
+[project.entry-points."dsmv.surrogates"]
+{name} = "{package}.model:{cls}"
+
+# its surrogate option, found by Hydra beside dsmv's own (dsmv-train surrogate={name})
+[project.entry-points."dsmv.configs"]
+{name} = "{package}.conf"
+
+[tool.setuptools]
+packages = ["{package}", "{package}.conf", "{package}.conf.surrogate"]
+
+[tool.setuptools.package-data]
+"*" = ["*.yaml"]
+'''
+
+SURROGATE = '''"""The {name} surrogate: extremely randomised trees (scikit-learn), a bagged cousin of the random forest.
+
+Edit ``make``: it returns an unfitted regressor with fit(X, y), predict(X) and feature_importances_.
+"""
+
+from dsmv.surrogate.base import Surrogate
+
+
+class {cls}(Surrogate):
+    name = "{name}"
+    flavor = "mlflow.sklearn"
+    # MLflow saves scikit-learn models with skops, which refuses types it cannot vouch for: the trees
+    # are fitted in this process, so their node storage is trusted
+    log_model_kwargs = {{"skops_trusted_types": ["sklearn.tree._tree.Tree"]}}
+
+    def make(self, **params):
+        from sklearn.ensemble import ExtraTreesRegressor  # heavy imports inside the call
+
+        return ExtraTreesRegressor(random_state=self.seed, n_jobs=self.n_jobs, **params)
+'''
+
+SURROGATE_OPTION = '''# The {name} surrogate: dsmv-train surrogate={name}
+name: {name}
+registered_model: dsmv-sinkage-{name}
+params: {{}}                 # fixed hyper-parameters, passed to every fit
+grid:                      # grid-searched hyper-parameters
+  n_estimators: [100, 300]
+  max_depth: [9, null]
+grid_cv_folds: 5
+'''
+
+SURROGATE_TESTS = '''"""The {name} surrogate against dsmv's plugin contract (dsmv.testing)."""
+
+from dsmv.testing import check_surrogate, compose_config
+
+
+def test_the_surrogate_keeps_the_plugin_contract():
+    check_surrogate("{name}", n_estimators=20)
+
+
+def test_its_option_selects_it():
+    cfg = compose_config("train", "surrogate={name}")
+    assert cfg.surrogate.name == "{name}"
+'''
+
+
+def _identifier(name: str) -> str:
     if not re.fullmatch(r"[a-z][a-z0-9_]*", name) or keyword.iskeyword(name):
-        raise ConfigError("NAME", name, "must be a lower-case Python identifier (letters, digits, _), e.g. my_clay_law")
-    package, dist = f"{name}_law", f"{name}-law".replace("_", "-")
-    cls = "".join(part.capitalize() for part in name.split("_")) + "Law"
+        raise ConfigError("NAME", name, "must be a lower-case Python identifier (letters, digits, _), e.g. my_clay")
+    return name
+
+
+#: what ``new`` writes: kind → (package suffix, class suffix)
+KINDS = {"soil-law": ("law", "Law"), "surrogate": ("surrogate", "Surrogate")}
+
+
+def package_files(kind: str, name: str) -> dict[str, str]:
+    """The files of the ``kind`` package for plugin ``name`` (a Python identifier), by relative path."""
+    suffix, cls_suffix = KINDS[kind]
+    package, dist = f"{_identifier(name)}_{suffix}", f"{name}-{suffix}".replace("_", "-")
+    cls = "".join(part.capitalize() for part in name.split("_")) + cls_suffix
     fill = dict(name=name, package=package, dist=dist, cls=cls)
+    if kind == "surrogate":
+        return {
+            "pyproject.toml": SURROGATE_PYPROJECT.format(**fill),
+            f"{package}/__init__.py": f'"""The {name} surrogate for dsmv."""\n',
+            f"{package}/model.py": SURROGATE.format(**fill),
+            f"{package}/conf/__init__.py": "",
+            f"{package}/conf/surrogate/__init__.py": "",
+            f"{package}/conf/surrogate/{name}.yaml": SURROGATE_OPTION.format(**fill),
+            f"tests/test_{name}.py": SURROGATE_TESTS.format(**fill),
+        }
     return {
         "pyproject.toml": PYPROJECT.format(**fill),
         "README.md": README.format(**fill),
@@ -167,10 +263,10 @@ def package_files(name: str) -> dict[str, str]:
     }
 
 
-def write_package(name: str, parent: Path) -> Path:
-    """Write the package into ``parent/<dist>``; refuse to overwrite anything."""
-    files = package_files(name)
-    root = Path(parent) / f"{name}-law".replace("_", "-")
+def write_package(kind: str, name: str, parent: Path) -> Path:
+    """Write the ``kind`` package into ``parent/<dist>``; refuse to overwrite anything."""
+    files = package_files(kind, name)
+    root = Path(parent) / f"{name}-{KINDS[kind][0]}".replace("_", "-")
     if root.exists():
         raise ConfigError("NAME", name, f"{root} exists already; choose another name or folder")
     for relative, text in files.items():

@@ -1,4 +1,4 @@
-"""Checks for soil-law plugins, shipped with dsmv: a plugin's own tests call them in one line each.
+"""Checks for plugins, shipped with dsmv: a plugin's own tests call them in one line each.
 
 ```python
 from dsmv.testing import check_kernel_matches_twin, check_limits, check_monotone, make_law
@@ -10,7 +10,10 @@ def test_my_law():
     check_monotone(law)              # strength never rises with ξ, never falls with γ̇
 ```
 
-Each check raises ``AssertionError`` naming the point where the law broke its contract. They need
+A surrogate's tests call ``check_surrogate("my_model", n_estimators=20)``: it fits on a known
+function, predicts it back, exposes feature importances and repeats itself for a given seed.
+
+Each check raises ``AssertionError`` naming the point where the plugin broke its contract. They need
 no pytest fixture and no knowledge of the solver: :func:`make_law` composes the default scene with
 the overrides given (exactly as the ``dsmv`` command does, so ``soil.params.<key>`` is validated
 against the law's declared parameters) and returns the law as the solvers construct it.
@@ -32,6 +35,23 @@ def compose_scene(*overrides: str):
     from dsmv.bench import compose_scene as compose
 
     return compose([*overrides, "tracking=disabled"])
+
+
+def compose_config(config_name: str, *overrides: str):
+    """The composed (unvalidated) config ``config_name`` (``config``: a scene, ``train``: a surrogate's
+    training) with ``overrides``, the plugin packages' config groups on the search path."""
+    from hydra import compose, initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+
+    from dsmv.cli import CONFIG_DIR
+    from dsmv.registry import with_plugin_configs
+
+    GlobalHydra.instance().clear()
+    try:
+        with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):
+            return compose(config_name, overrides=with_plugin_configs(list(overrides)))
+    finally:
+        GlobalHydra.instance().clear()
 
 
 def make_law(name: str, *overrides: str) -> SoilLaw:
@@ -106,3 +126,26 @@ def check_monotone(law: SoilLaw, samples: int = 200) -> None:
         falls = np.diff(f) < -1e-12 * np.abs(f[:-1])
         assert not falls.any(), (f"{law.name}: the factor falls with γ̇ at γ̇ = {gamma_dot[1:][falls][0]:.4g} 1/s, "
                                  f"ξ = {strain:g}")
+
+
+def check_surrogate(name: str, samples: int = 300, seed: int = 3, **params) -> None:
+    """The installed surrogate ``name`` (entry point in ``dsmv.surrogates``) makes a regressor that
+    fits a smooth function of six features (R² ≥ 0.8 on its own training set), predicts finite
+    values of the right shape, exposes one importance per feature with the informative ones
+    first, and gives the same predictions when refitted with the same seed."""
+    from dsmv import registry
+
+    cls = registry.load("surrogates", name, "surrogate.name")
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(0.0, 1.0, (samples, 6))
+    y = 0.3 + 0.2 * x[:, 0] + 0.1 * np.sin(3.0 * x[:, 1])  # features 2–5 carry nothing
+    fitted = cls(seed=0).make(**params).fit(x, y)
+    predicted = np.asarray(fitted.predict(x), dtype=float)
+    assert predicted.shape == (samples,) and np.isfinite(predicted).all(), f"{name}: predict() gave {predicted!r}"
+    r2 = 1.0 - ((predicted - y) ** 2).sum() / ((y - y.mean()) ** 2).sum()
+    assert r2 >= 0.8, f"{name}: R² {r2:.3f} on its own training set"
+    importances = np.asarray(fitted.feature_importances_, dtype=float)
+    assert importances.shape == (6,), f"{name}: {importances.shape[0]} importances for 6 features"
+    assert importances[:2].min() > importances[2:].max(), f"{name}: importances {importances} miss the signal"
+    again = np.asarray(cls(seed=0).make(**params).fit(x, y).predict(x), dtype=float)
+    assert np.array_equal(predicted, again), f"{name}: the same seed gives other predictions"

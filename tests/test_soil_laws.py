@@ -433,3 +433,19 @@ def test_a_profile_in_a_config_dir_of_ones_own_is_a_soil_option(run_cli, tmp_pat
     proc = run_cli("dsmv", *where, "soil=my_site", "--cfg", "job")
     assert proc.returncode == 0, proc.stderr
     assert "name: my_site" in proc.stdout
+
+
+def test_the_template_writes_a_surrogate_package_that_installs_and_passes_its_tests(run_cli, tmp_path, monkeypatch):
+    """dsmv-plugins new surrogate: the plugin, its surrogate option (found through dsmv.configs) and
+    tests on dsmv.testing; installed, it loads and its generated tests pass."""
+    import subprocess
+    import sys
+
+    proc = run_cli("dsmv-plugins", "new", "surrogate", "my_trees", "--dir", str(tmp_path / "pkgs"))
+    assert proc.returncode == 0, proc.stderr
+    root = tmp_path / "pkgs" / "my-trees-surrogate"
+    monkeypatch.setenv("PYTHONPATH", _install_generated(root, tmp_path / "site"))
+    assert run_cli("dsmv-plugins", "--check").returncode == 0
+    generated = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(root / "tests")],
+                               cwd=tmp_path, env=dict(os.environ), capture_output=True, text=True, timeout=300)
+    assert generated.returncode == 0 and "2 passed" in generated.stdout, generated.stdout + generated.stderr

@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from dsmv import registry
 from dsmv.surrogate import design
 from dsmv.surrogate.dataset import PARAMETERS, TARGET_METRIC, Dataset, build_dataset, load_dataset, table_hash
 from dsmv.surrogate.features import LeakFreeFeatures, StudyFeatures, energy_ratio, target
@@ -416,3 +417,12 @@ def test_full_study_trains_on_the_table3_dataset(surrogate, features):
     result = fit_and_evaluate(plugin, config, settings, data)
     assert time.perf_counter() - started < 300
     assert result.metrics["cv_r2_mean"] > 0.8
+
+
+@pytest.mark.parametrize("name", sorted(registry.available("surrogates")))
+def test_every_installed_surrogate_keeps_the_plugin_contract(name):
+    """dsmv.testing's check, as a plugin's own tests call it: fits a known function, one importance per
+    feature with the informative ones first, the same predictions for the same seed."""
+    from dsmv.testing import check_surrogate
+
+    check_surrogate(name, n_estimators=20)
