@@ -112,7 +112,7 @@ TESTS = '''"""The {name} law against dsmv's plugin contract (dsmv.testing) and i
 
 import pytest
 
-from dsmv.testing import check_kernel_matches_twin, check_limits, check_monotone, make_law
+from dsmv.testing import check_kernel_matches_twin, check_limits, check_monotone, check_simple_shear, make_law
 
 
 @pytest.mark.parametrize("slope", [0.01, 0.1, 1.0])
@@ -121,6 +121,7 @@ def test_the_law_keeps_the_plugin_contract(slope):
     check_kernel_matches_twin(law)
     check_limits(law)
     check_monotone(law)
+    check_simple_shear(law)
 
 
 def test_the_closed_form():

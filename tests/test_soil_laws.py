@@ -9,12 +9,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scipy.optimize import brentq
 
 from dsmv import registry
-from dsmv.cel.kernels.plane import update_stress
-from dsmv.cel.layout import NQ_BASE, SXY, SoilLawKernel
-from dsmv.cel.state import Elastic, body_free_state, step_parameters
 from dsmv.scene import build_scene
 
 LAWS = list(registry.available("soil_laws"))
@@ -106,46 +102,18 @@ def test_einav_randolph_monotone_in_strain_and_rate(st_, xi95, eta, n, xi, dxi, 
     assert law.strength_factor(xi, g * 10**dg_decades) >= law.strength_factor(xi, g) * (1 - 1e-12)  # faster: stronger
 
 
-def simple_shear(law, soil, gamma_dot, gamma_total, n_steps=4000):
-    """Drive one cell in simple shear at constant γ̇ through the CEL stress kernel; return γ and τ."""
-    h = 1.0
-    x = np.array([0.0, h])
-    y = np.array([0.0, h])
-    n_state = len(law.initial_state())
-    q = np.zeros((NQ_BASE + n_state, 1, 1))
-    q[NQ_BASE:, 0, 0] = law.initial_state()
-    elastic = Elastic.of(soil)
-    dt = gamma_total / gamma_dot / n_steps
-    mesh, cells, faces, nodes, *_ = body_free_state(x, y, np.ones((1, 1)), q, np.ones((1, 1)))
-    nodes.v[0] = [0.0, gamma_dot * h, 0.0, gamma_dot * h]  # nodes (i, j) at i·2 + j: the top row moves
-    par = step_parameters(dt=dt, density=soil.density_kg_m3, elastic=elastic, h=h, gravity=0.0, su0=soil.su0_pa,
-                          ks=0.0, hourglass=0.0, bulk_linear=0.0, bulk_quadratic=0.0, stress_cutoff=0.01,
-                          axisymmetric=False, advection_order=2, drop=False, inflow=False, remap=True, tresca=True,
-                          law_active=law.active)
-    kernel = SoilLawKernel(law.compiled(), law.packed(), law.compiled_evolve())
-    out = np.zeros(2)
-    gammas, taus = [], []
-    for step in range(n_steps):
-        update_stress(mesh, cells, faces, nodes, par, 0.0, kernel, out)
-        gammas.append((step + 1) * gamma_dot * dt)
-        taus.append(q[SXY, 0, 0])
-    return np.array(gammas), np.array(taus), elastic.shear_pa
-
-
 @pytest.mark.parametrize("overrides", [["soil.sensitivity=4", "soil.xi95=2", "soil.rate.eta=0"],
                                        ["soil.sensitivity=3", "soil.xi95=3", "soil.rate.eta=0.1"],
                                        ["soil.sensitivity=2", "soil.xi95=2", "soil.rate.law=log", "soil.rate.mu=0.1"]])
 def test_single_element_simple_shear_follows_the_closed_form(compose_cfg, overrides):
-    """τ(γ) solves τ = su0·f(ξ = γ − τ/G, γ̇): the law's strength curve along the applied strain."""
-    law, scene = make_law(compose_cfg, "einav_randolph", "soil.youngs_modulus_pa=2.5e6", *overrides)
-    soil, gamma_dot = scene.soil, 0.5
-    gammas, taus, G = simple_shear(law, soil, gamma_dot, gamma_total=6.0)
-    for gamma, tau in zip(gammas[::200], taus[::200]):
-        exact = brentq(lambda t: t - min(G * gamma, soil.su0_pa * float(law.strength_factor(max(gamma - t / G, 0.0),
-                                                                                             gamma_dot))),
-                       -1.0, 10 * soil.su0_pa)
-        assert tau == pytest.approx(exact, rel=0.01, abs=1e-3 * soil.su0_pa)
-    assert taus[-1] < taus.max()  # it softened
+    """τ(γ) solves τ = su0·f(ξ = γ − τ/G, γ̇): the law's strength curve along the applied strain
+    (dsmv.testing.check_simple_shear, 1 %), and the element softened."""
+    from dsmv.testing import check_simple_shear, simple_shear
+
+    law, _ = make_law(compose_cfg, "einav_randolph", "soil.youngs_modulus_pa=2.5e6", *overrides)
+    check_simple_shear(law)
+    _, taus, _ = simple_shear(law, 0.5, 6.0)
+    assert taus[-1] < taus.max()
 
 
 def test_einav_randolph_at_st1_eta0_lands_like_tresca(compose_cfg):
