@@ -35,14 +35,17 @@ LAWS_ON_DEFAULTS = [name for name in LAWS if registry.load("soil_laws", name, "s
 def test_every_installed_law_keeps_the_plugin_contract(name, rate_law):
     """dsmv.testing's checks, as a plugin's own tests call them: the compiled factor equals the NumPy
     twin (1e-12), intact strength at rest, no effect the law does not declare, softening in ξ and
-    hardening in γ̇."""
-    from dsmv.testing import check_kernel_matches_twin, check_limits, check_monotone, make_law as make
+    hardening in γ̇, and one cell in simple shear through the kernel on the twin's curve (1 %)."""
+    from dsmv.testing import check_kernel_matches_twin, check_limits, check_monotone, check_simple_shear
+    from dsmv.testing import make_law as make
 
     law = make(name, f"soil.rate.law={rate_law}", "soil.rate.eta=0.1", "soil.rate.mu=0.15", "soil.sensitivity=4",
                "soil.xi95=15")
     check_kernel_matches_twin(law)
     check_limits(law)
     check_monotone(law)
+    if not law.state_variables():
+        check_simple_shear(law)
 
 
 def test_the_checks_catch_a_law_that_breaks_the_contract():
