@@ -358,6 +358,12 @@ def unwritable(path: Path) -> str | None:
     if not os.access(probe, os.W_OK | os.X_OK):
         return ("is not writable: give a directory dsmv can write in" if probe == path.absolute() else
                 f"cannot be created: {probe} is not writable")
+    import tempfile
+
+    try:  # permissions can say yes where the file system says no (root on /proc, a read-only mount)
+        os.rmdir(tempfile.mkdtemp(prefix=".dsmv-probe-", dir=probe))
+    except OSError as error:
+        return f"cannot be created in {probe}: {error.strerror}"
     return None
 
 
