@@ -158,7 +158,7 @@ def _unwritable_runs_dirs(tmp_path: Path) -> list[tuple[Path, str]]:
         read_only = tmp_path / "read_only"
         read_only.mkdir(mode=0o555)
         cases.append((read_only, "is not writable"))
-    elif Path("/proc/self").is_dir():  # root may write anywhere the permissions say, but not where the file system refuses
+    elif Path("/proc/self").is_dir():  # root writes wherever permissions allow, not where the file system refuses
         cases.append((Path("/proc/dsmv_runs"), "cannot be created in /proc: No such file or directory"))
     return cases
 
