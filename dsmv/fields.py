@@ -237,7 +237,8 @@ class FieldRecorder:
         corners = [node[tuple(slice(None, -1) if o == 0 else slice(1, None) for o in offset)]
                    for offset in K.corner_offsets(dim)]
         cells_of = np.stack(corners, axis=-1).reshape(-1, 2**dim)
-        cells = {name: [np.ascontiguousarray(v, dtype=np.float32).ravel()] for name, v in self.cell_fields(snap).items()}
+        cells = {name: [np.ascontiguousarray(v, dtype=np.float32).ravel()]
+                 for name, v in self.cell_fields(snap).items()}
         grid_v = snap.v[:, : points.shape[0]]  # the grid's nodes come first, split nodes after
         velocity = np.vstack([grid_v, np.zeros((3 - dim, grid_v.shape[1]))]).T.astype(np.float32)
         kind = "quad" if dim == 2 else "hexahedron"

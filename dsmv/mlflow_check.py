@@ -3,8 +3,9 @@
 ``make mlflow-screenshots`` (or ``python -m dsmv.mlflow_check OUTDIR``) runs two landings as a
 sweep into a fresh store, starts ``mlflow ui`` on a free loopback port, and saves three PNGs
 into OUTDIR: the experiment's runs list (``runs_list.png``), one run's page (``run.png``) and
-the sweep's overlaid sinkage histories (``histories.png``; the x axis "Step" is simulated time in µs). It needs Chromium (Debian's
-``chromium`` package; ``apt-get install chromium``) and exits 2 with one line if it is missing.
+the sweep's overlaid sinkage histories (``histories.png``; the x axis "Step" is simulated time
+in µs). It needs Chromium (Debian's ``chromium`` package; ``apt-get install chromium``) and exits
+2 with one line if it is missing.
 """
 
 from __future__ import annotations
@@ -87,8 +88,9 @@ def main(argv: list[str] | None = None) -> int:
             pages = {
                 "runs_list.png": (f"{base}/#/experiments/{eid}/runs?{CLASSIC}&{jobs_filter}", 1000),
                 "run.png": (f"{base}/#/experiments/{eid}/runs/{jobs[0].info.run_id}?{CLASSIC}", 2600),
-                "histories.png": (f"{base}/#/metric/?runs={ids}&metric=%22history.sinkage_m%22&experiments=[%22{eid}%22]"
-                                  f"&plot_metric_keys=%5B%22history.sinkage_m%22%5D&x_axis=step&{CLASSIC}", 1000),
+                "histories.png": (f"{base}/#/metric/?runs={ids}&metric=%22history.sinkage_m%22"
+                                  f"&experiments=[%22{eid}%22]&plot_metric_keys=%5B%22history.sinkage_m%22%5D"
+                                  f"&x_axis=step&{CLASSIC}", 1000),
             }
             for name, (url, height_px) in pages.items():
                 screenshot(chromium, url, out / name, Path(tmp) / "profile", height_px)
