@@ -421,7 +421,7 @@ def plot(path: Path, rows: list[Row], figures: dict) -> None:
     rate_ax.set_ylabel("M cell-updates / s (1 thread)")
     rate_ax.set_title(f"throughput; cost exponent {figures['cost_exponent']:.2f}", fontsize=9)
     rate_ax.grid(alpha=0.3, which="both")
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
 
 

@@ -104,7 +104,7 @@ def plot_fall_cone(sweep_dir: Path, path: Path) -> Path | None:
     ax.set_ylim(0, top)
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return Path(path)
 

@@ -132,7 +132,7 @@ def one_at_a_time(sweep_dir: Path, path: Path) -> Path | None:
         ax.grid(alpha=0.3)
     fig.suptitle(f"{config.get('study', '')}: max sinkage, one parameter at a time around the default scene "
                  f"({config.soil.law}, core cells {config.mesh.cell_size_m} m)", fontsize=9)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return Path(path)
 
@@ -202,7 +202,7 @@ def compare_analytic(sweep_dir: Path, path: Path) -> Path | None:
     right.set_ylabel("difference (%)")
     right.legend(fontsize=8)
     right.grid(alpha=0.3, axis="y")
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return Path(path)
 
@@ -262,7 +262,7 @@ def mesh_study(sweep_dir: Path, path: Path) -> Path | None:
     time_ax.set_ylabel("wall time (s)")
     for ax in (sinkage_ax, curve_ax, error_ax, time_ax):
         ax.grid(alpha=0.3)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return Path(path)
 
@@ -362,7 +362,7 @@ def bearing_curves(sweep_dir: Path, path: Path) -> Path | None:
     ax.set_ylabel("q / su (-)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return Path(path)
 

@@ -146,7 +146,7 @@ def plot_kendall(tau: pd.DataFrame, path: Path) -> Path:
             ax.text(j, i, f"{tau.iat[i, j]:.2f}", ha="center", va="center", fontsize=7)
     fig.colorbar(image, ax=ax, label="Kendall τ")
     ax.set_title("Kendall rank correlation (Figure 15)")
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return Path(path)
 
@@ -162,7 +162,7 @@ def plot_grid_curves(curves: dict[str, pd.Series], path: Path) -> Path:
         ax.grid(alpha=0.3)
     axes[0][0].set_ylabel("best mean CV R²")
     fig.suptitle("Grid search: accuracy against each hyper-parameter (Figure 16)", fontsize=10)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return Path(path)
 
@@ -186,7 +186,7 @@ def plot_predicted(y_train, p_train, y_test, p_test, path: Path, label: str) -> 
     right.set_ylabel("residual (predicted − CEL)")
     right.legend()
     right.grid(alpha=0.3)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return Path(path)
 
@@ -213,7 +213,7 @@ def plot_resampled(cv: Resampled, mc: Resampled, path: Path) -> Path:
     right.set_title(f"{len(mc.frame)} random re-splits")
     right.legend()
     right.grid(alpha=0.3)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return Path(path)
 
@@ -224,6 +224,6 @@ def plot_importance(importance: pd.Series, path: Path) -> Path:
     ax.barh(importance.index[::-1], importance.to_numpy()[::-1])
     ax.set_xlabel("feature importance (normalised)")
     ax.grid(alpha=0.3, axis="x")
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return Path(path)
