@@ -73,9 +73,6 @@ class Cel3DSolver(CelSolver):
         body, cfg = scene.geometry, scene.solver
         if body.kind not in cls.bodies:
             raise ConfigError("geometry.kind", body.kind, f"{cls.name} runs {', '.join(cls.bodies)} bodies")
-        if scene.landing.initial_depth_m != 0.0:
-            raise ConfigError("landing.initial_depth_m", scene.landing.initial_depth_m,
-                              f"{cls.name} starts a body on the mudline for now (0)")
         return ContactRules.of(scene, False)
 
     # ------------------------------------------------------------------ geometry
@@ -105,13 +102,17 @@ class Cel3DSolver(CelSolver):
         B = self.characteristic_width_m(travel)
         h, n_half = self.core_cell_size(0.5 * B)
         margin = cfg.core_margin_widths * B
+        # a body wished in place at depth d0: the mudline lies d0 above the base (rounded to a node
+        # layer of the uniform core, as in 2D)
+        self.mudline = h * round(scene.landing.initial_depth_m / h)
         half_length = self.half_length_m() if not self.slab else 0.5 * B
         core = (h * math.ceil((0.5 * B + margin) / h), h * math.ceil((half_length + margin) / h))
         far = (max(cfg.domain_half_width_widths * B, core[0] + h),
                max(half_length + (cfg.domain_half_width_widths - 0.5) * B, core[1] + h))
         grid = build_solid_grid(h=h, core=core, far=far, core_depth=margin,
                                 depth=max(cfg.domain_depth_widths * B, margin + h),
-                                void_height=1.3 * travel + 0.25 * B + 3 * h, ratio=scene.mesh.growth_ratio,
+                                void_height=self.mudline + 1.3 * travel + 0.25 * B + 3 * h,
+                                ratio=scene.mesh.growth_ratio,
                                 h_max=scene.mesh.max_cell_size_m, slab=self.slab)
         symmetry = cfg.economies.symmetry
         mirrored = (symmetry == "full", symmetry != "quarter" and not self.slab)  # the axes modelled both sides
@@ -152,7 +153,7 @@ class Cel3DSolver(CelSolver):
                                            wall_area=math.pi / 4 if isinstance(shape, Disc) else 1.0)
         footprint = body_contact.solid[:, :, k_base]
         self.footprint_m2 = float((np.diff(grid.x)[:, None] * np.diff(grid.y)[None, :])[footprint].sum())
-        fill, depth = layers_below(grid.z, 0.0)
+        fill, depth = layers_below(grid.z, self.mudline)
         open_frac = body_contact.openings.open_frac
         phi = fill[None, None, :] * open_frac
         initial_law_state = self.law.initial_state()
@@ -168,7 +169,7 @@ class Cel3DSolver(CelSolver):
         faces = solid_faces(body_contact.solid)
         ghost = np.zeros((q.shape[0], *shape3[:2]))
         ghost[NQ_BASE:] = initial_law_state[:, None, None]  # soil entering at the base brings the initial state
-        inflow = Inflow(ghost, np.full(shape3[:2], -(grid.z[0] - 0.5 * (grid.z[1] - grid.z[0]))))
+        inflow = Inflow(ghost, np.full(shape3[:2], self.mudline - (grid.z[0] - 0.5 * (grid.z[1] - grid.z[0]))))
         cells = Cells(phi, q, np.zeros(shape3), body_contact.strength_factor, body_contact.solid, open_frac,
                       body_contact.gap, np.full(shape3, np.nan))
         n_nodes = body_contact.n_nodes
