@@ -53,8 +53,11 @@ def run_job(cfg: DictConfig) -> dict:
     hydra_cfg = HydraConfig.get()
     run_dir = Path(hydra_cfg.runtime.output_dir)
     multirun = hydra_cfg.mode == RunMode.MULTIRUN
-    if multirun and "joblib" in str(hydra_cfg.launcher.get("_target_", "")):
+    launcher = str(hydra_cfg.launcher.get("_target_", "")) if multirun else ""
+    if "joblib" in launcher:  # jobs share the machine's cores
         pin_numba_threads(1)
+    elif "submitit" in launcher:  # a job owns the cpus its task was given
+        pin_numba_threads(int(hydra_cfg.launcher.get("cpus_per_task") or 1))
 
     with job_output():
         if not multirun:

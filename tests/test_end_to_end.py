@@ -59,11 +59,15 @@ def test_python_dash_m_is_the_same_app(run_cli, tmp_path):
     assert "dsmv: ok" in proc.stdout
 
 
-@pytest.mark.parametrize("launcher", ["basic", "joblib"])
+@pytest.mark.parametrize("launcher", ["basic", "joblib", "dsmv_local"])
 def test_2x2_multirun_leaves_one_parent_and_four_finished_children(run_cli, tmp_path, launcher):
+    """Hydra's basic launcher (one process), joblib's (a pool) and submitit's through dsmv_local (a
+    worker process per job): the same parent run, four FINISHED children, every metric arrived."""
     args = ["-m", "landing.velocity_m_s=0.5,1.0", "soil.su0_pa=4000,6000", "output.plots=false"]
     if launcher == "joblib":
         args += ["hydra/launcher=joblib", "hydra.launcher.n_jobs=2"]
+    elif launcher == "dsmv_local":
+        args += ["hydra/launcher=dsmv_local"]
     proc = run_cli("dsmv", *args)
     assert proc.returncode == 0, proc.stderr
     jobs = job_dirs(tmp_path)
@@ -219,3 +223,12 @@ def test_a_push_summary_reports_its_depth_and_bearing_factors(compose_cfg, capsy
     assert capsys.readouterr().out.strip().endswith("ok: max sinkage 0.1220 m")
     print_summary(push, SolveResult("unstable", "NaN in the velocities", {}), tmp_path, None, multirun=True)
     assert capsys.readouterr().out.strip().endswith("unstable: NaN in the velocities")
+
+
+def test_the_slurm_launcher_composes_with_dsmv_s_defaults(compose_cfg):
+    """hydra/launcher=dsmv_slurm: submitit's SLURM launcher, one cpu and one Numba thread per job."""
+    cfg = compose_cfg(["hydra/launcher=dsmv_slurm", "hydra.launcher.partition=long"], return_hydra_config=True)
+    launcher = cfg.hydra.launcher
+    assert launcher._target_.endswith("submitit_launcher.SlurmLauncher")
+    assert launcher.partition == "long" and launcher.cpus_per_task == 1
+    assert list(launcher.setup) == ["export NUMBA_NUM_THREADS=1"]
