@@ -77,6 +77,8 @@ def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, sweep_dir: Path | None, caug
         return {"status": result.status, "metrics": {}}
     try:
         scene = build_scene(cfg)
+        if multirun and cfg.get("resume") and (earlier := tracking.finished_run(cfg, scene)) is not None:
+            return _reuse(earlier, scene, run_dir, names)
         parent = tracking.parent_run_id(Path(hydra_cfg.sweep.dir)) if multirun else None
         # named from the scene; a sweep's job adds what it varies, so that no two of its runs read alike
         swept = tracking.scene_overrides(hydra_cfg.overrides.task) if multirun else ""
@@ -133,6 +135,18 @@ def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, sweep_dir: Path | None, caug
     if not multirun and EXIT_CODES[result.status] != 0:
         sys.exit(EXIT_CODES[result.status])
     return {"status": result.status, "metrics": result.metrics}
+
+
+def _reuse(run, scene: Scene, run_dir: Path, names: tuple[str, str]) -> dict:
+    """``resume=true``: the job's identity already has a finished run with an answer. Start no run; write
+    its result.json from that run (its status, metrics, and a message naming it) and note its id."""
+    metrics = {k: v for k, v in run.data.metrics.items() if not k.startswith("history.")}
+    status, message = run.data.tags["dsmv.status"], run.data.tags.get("dsmv.message", "")
+    result = SolveResult(status, f"reused run {run.info.run_id} (resume=true): {message}", metrics)
+    write_result(run_dir, result, *names, scene.config_hash)
+    tracking.record_job_run(run_dir, run.info.run_id, reused=True)
+    print(f"[{run_dir.name}] {status}: reused run {run.info.run_id}")
+    return {"status": status, "metrics": metrics}
 
 
 #: what Hydra writes into a job's dir before the job starts

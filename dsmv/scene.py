@@ -389,6 +389,8 @@ def build_scene(cfg: DictConfig | dict) -> Scene:
     study = str(container.get("study", "default"))
     from dsmv.plots import SWEEP_PLOTS
 
+    if not isinstance(container.get("resume", False), bool):
+        raise ConfigError("resume", container["resume"], "must be true or false")
     if container.get("sweep_plot") not in (None, *SWEEP_PLOTS):
         raise ConfigError("sweep_plot", container["sweep_plot"], f"must be null or one of {', '.join(SWEEP_PLOTS)}")
 

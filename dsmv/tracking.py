@@ -32,6 +32,10 @@ from dsmv.results import HISTORY_COLUMNS, SolveResult
 from dsmv.scene import TrackingConfig, build_tracking
 
 PARENT_RUN_FILE = "mlflow_parent_run.json"
+#: a job's MLflow run id, in its job dir (``reused``: a run of an earlier sweep, resume=true)
+JOB_RUN_FILE = "mlflow_run.json"
+#: statuses that are the solver's answer: a finished run with one of these is not run again on resume
+ANSWER_STATUSES = ("ok", "bearing_failure", "out_of_domain", "unstable")
 SWEEP_SUMMARY_FILE = "sweep_summary.csv"
 MAX_HISTORY_POINTS = 1000  # per curve logged to MLflow; the CSV artifact keeps every sample
 
@@ -41,7 +45,7 @@ def experiment_name(study: str) -> str:
 
 
 #: command-line overrides that say where and how a run is kept, not what it computes: left out of run names
-BOOKKEEPING_KEYS = ("paths", "tracking", "hydra", "output")
+BOOKKEEPING_KEYS = ("paths", "tracking", "hydra", "output", "resume")
 
 
 def scene_overrides(overrides) -> str:
@@ -191,6 +195,41 @@ def _history_metrics(history: dict, timestamp_ms: int) -> list:
     return out
 
 
+def code_hash() -> str:
+    """The hash of the solver code whose results a run records (every source file of ``dsmv.cel``,
+    the kernels' own cache key): runs of other code are never taken for this code's."""
+    from dsmv.numba_cache import source_hash
+
+    return source_hash()
+
+
+def identity(scene) -> str:
+    """What makes two jobs the same computation: the scene's config hash (keys that do not change
+    results left out) and the solver code's hash."""
+    return f"{scene.config_hash}-{code_hash()}"
+
+
+def finished_run(cfg: DictConfig, scene):
+    """The latest FINISHED run in the store with this scene's identity and an answer status (None
+    when tracking is off or there is none): what ``resume=true`` reuses."""
+    tracking = build_tracking(cfg)
+    if not tracking.enabled:
+        return None
+    client = _client(tracking)
+    experiment = client.get_experiment_by_name(experiment_name(scene.study))
+    if experiment is None:
+        return None
+    runs = client.search_runs([experiment.experiment_id], order_by=["attributes.start_time DESC"], max_results=20,
+                              filter_string=f"tags.`dsmv.identity` = '{identity(scene)}' "
+                                            f"and attributes.status = 'FINISHED'")
+    return next((r for r in runs if r.data.tags.get("dsmv.status") in ANSWER_STATUSES), None)
+
+
+def record_job_run(run_dir: Path, run_id: str, reused: bool) -> None:
+    """Note a job's MLflow run id in its job dir (the sweep summary lists it)."""
+    (Path(run_dir) / JOB_RUN_FILE).write_text(json.dumps({"run_id": run_id, "reused": reused}))
+
+
 def start_job(cfg: DictConfig, scene, run_dir: Path, run_name: str, parent_run_id: str | None) -> JobTracker | None:
     """Open the MLflow run of a job, or return None when tracking is disabled."""
     tracking = build_tracking(cfg)
@@ -206,10 +245,14 @@ def start_job(cfg: DictConfig, scene, run_dir: Path, run_name: str, parent_run_i
         "dsmv.solver": scene.solver.name,
         "dsmv.geometry": scene.geometry.name,
         "dsmv.config_hash": scene.config_hash,
+        "dsmv.code_hash": code_hash(),
+        "dsmv.identity": identity(scene),
         "dsmv.run_dir": str(run_dir.resolve()),
         "dsmv.status": "running",
     }
-    return JobTracker(tracking, scene.study, run_name, params, tags)
+    tracker = JobTracker(tracking, scene.study, run_name, params, tags)
+    record_job_run(run_dir, tracker.run_id, reused=False)
+    return tracker
 
 
 def parent_run_id(sweep_dir: Path) -> str | None:
@@ -372,6 +415,9 @@ def summarize_sweep(sweep_dir: Path) -> list[dict]:
     rows = []
     for job in sweep_jobs(sweep_dir):
         row = {"job": job.name, "overrides": " ".join(job.overrides), "status": job.result["status"]}
+        recorded = job.path / JOB_RUN_FILE
+        if recorded.exists():  # the MLflow run that holds the job, and whether an earlier sweep made it
+            row |= json.loads(recorded.read_text())
         row |= job.result["metrics"]
         row["message"] = job.result["message"]
         rows.append(row)

@@ -232,3 +232,27 @@ def test_the_slurm_launcher_composes_with_dsmv_s_defaults(compose_cfg):
     assert launcher._target_.endswith("submitit_launcher.SlurmLauncher")
     assert launcher.partition == "long" and launcher.cpus_per_task == 1
     assert list(launcher.setup) == ["export NUMBA_NUM_THREADS=1"]
+
+
+def test_a_resumed_sweep_runs_only_the_jobs_not_yet_finished(run_cli, tmp_path):
+    """Half a 2×2 sweep first; the whole sweep again with resume=true runs only the two missing jobs
+    (four job runs in the store, not six), reuses the others' runs without starting new ones, and its
+    summary lists every job with the run that holds it. Every job run carries the solver code's hash."""
+    common = ["mesh=coarse", "output.plots=false"]
+    first = run_cli("dsmv", "-m", "landing.mass_kg=4500", "soil.su0_pa=4000,6000", *common)
+    assert first.returncode == 0, first.stderr
+    again = run_cli("dsmv", "-m", "landing.mass_kg=4500,6500", "soil.su0_pa=4000,6000", *common, "resume=true")
+    assert again.returncode == 0, again.stderr
+    assert again.stdout.count("reused run") == 2
+    runs = mlflow_runs(tmp_path)
+    jobs = [r for r in runs if r.data.tags.get("dsmv.role") != "sweep"]
+    assert len(jobs) == 4 and all(r.info.status == "FINISHED" for r in jobs)
+    assert len({r.data.tags["dsmv.code_hash"] for r in jobs}) == 1
+    assert all(r.data.tags["dsmv.identity"].endswith(r.data.tags["dsmv.code_hash"]) for r in jobs)
+    import csv
+
+    (summary,) = sorted(tmp_path.glob("runs/multirun/*/*/sweep_summary.csv"))[-1:]
+    rows = list(csv.DictReader(summary.open()))
+    assert len(rows) == 4 and {row["run_id"] for row in rows} == {r.info.run_id for r in jobs}
+    assert sorted(row["reused"] for row in rows) == ["False", "False", "True", "True"]
+    assert all("resume" not in r.info.run_name for r in jobs)
