@@ -23,23 +23,23 @@ build-backend = "setuptools.build_meta"
 [project]
 name = "{dist}"
 version = "0.1.0"
-description = "The {name} soil law for dsmv"
+description = "The {name} {what} for dsmv"
 requires-python = ">=3.11"
-dependencies = ["dsmv"]
+dependencies = [{dependencies}]
 
 [project.optional-dependencies]
 test = ["pytest"]
 
-# the law, by the name configs use (soil.law={name})
-[project.entry-points."dsmv.soil_laws"]
-{name} = "{package}.law:{cls}"
+# the plugin, by the name its config uses ({selects})
+[project.entry-points."{group}"]
+{name} = "{package}.{module}:{cls}"
 
-# the package's config groups, found by Hydra beside dsmv's own (soil={name}_clay)
+# the package's config groups, found by Hydra beside dsmv's own ({option})
 [project.entry-points."dsmv.configs"]
 {name} = "{package}.conf"
 
 [tool.setuptools]
-packages = ["{package}", "{package}.conf", "{package}.conf.soil"]
+packages = ["{package}", "{package}.conf", "{package}.conf.{config_group}"]
 
 [tool.setuptools.package-data]
 "*" = ["*.yaml"]
@@ -151,35 +151,6 @@ pytest {dist}/tests
 '''
 
 
-SURROGATE_PYPROJECT = '''[build-system]
-requires = ["setuptools>=77"]
-build-backend = "setuptools.build_meta"
-
-[project]
-name = "{dist}"
-version = "0.1.0"
-description = "The {name} surrogate for dsmv"
-requires-python = ">=3.11"
-dependencies = ["dsmv", "scikit-learn"]
-
-[project.optional-dependencies]
-test = ["pytest"]
-
-# the plugin, by the name its config uses (name: {name})
-[project.entry-points."dsmv.surrogates"]
-{name} = "{package}.model:{cls}"
-
-# its surrogate option, found by Hydra beside dsmv's own (dsmv-train surrogate={name})
-[project.entry-points."dsmv.configs"]
-{name} = "{package}.conf"
-
-[tool.setuptools]
-packages = ["{package}", "{package}.conf", "{package}.conf.surrogate"]
-
-[tool.setuptools.package-data]
-"*" = ["*.yaml"]
-'''
-
 SURROGATE = '''"""The {name} surrogate: extremely randomised trees (scikit-learn), a bagged cousin of the random forest.
 
 Edit ``make``: it returns an unfitted regressor with fit(X, y), predict(X) and feature_importances_.
@@ -243,8 +214,11 @@ def package_files(kind: str, name: str) -> dict[str, str]:
     cls = "".join(part.capitalize() for part in name.split("_")) + cls_suffix
     fill = dict(name=name, package=package, dist=dist, cls=cls)
     if kind == "surrogate":
+        project = dict(what="surrogate", dependencies='"dsmv", "scikit-learn"', selects=f"name: {name}",
+                       group="dsmv.surrogates", module="model", option=f"dsmv-train surrogate={name}",
+                       config_group="surrogate")
         return {
-            "pyproject.toml": SURROGATE_PYPROJECT.format(**fill),
+            "pyproject.toml": PYPROJECT.format(**fill, **project),
             f"{package}/__init__.py": f'"""The {name} surrogate for dsmv."""\n',
             f"{package}/model.py": SURROGATE.format(**fill),
             f"{package}/conf/__init__.py": "",
@@ -252,8 +226,10 @@ def package_files(kind: str, name: str) -> dict[str, str]:
             f"{package}/conf/surrogate/{name}.yaml": SURROGATE_OPTION.format(**fill),
             f"tests/test_{name}.py": SURROGATE_TESTS.format(**fill),
         }
+    project = dict(what="soil law", dependencies='"dsmv"', selects=f"soil.law={name}", group="dsmv.soil_laws",
+                   module="law", option=f"soil={name}_clay", config_group="soil")
     return {
-        "pyproject.toml": PYPROJECT.format(**fill),
+        "pyproject.toml": PYPROJECT.format(**fill, **project),
         "README.md": README.format(**fill),
         f"{package}/__init__.py": f'"""The {name} soil law for dsmv."""\n',
         f"{package}/law.py": LAW.format(**fill),

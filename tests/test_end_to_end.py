@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from dsmv.results import HISTORY_COLUMNS
-from tests.conftest import mlflow_runs
+from tests.conftest import mlflow_runs, mlflow_server
 
 RESULT_KEYS = {"status", "message", "solver", "soil_law", "metrics", "units", "dsmv_version", "config_hash"}
 
@@ -141,43 +141,11 @@ def test_dsmv_plugins_lists_groups_and_builtins(run_cli):
         assert line in out
 
 
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return sock.getsockname()[1]
-
-
 def test_tracking_server_option_logs_to_a_local_server(run_cli, tmp_path):
     """tracking=server with tracking.uri pointing at an MLflow server on the loopback address."""
-    import subprocess
-    import sys
-    import time
-    import urllib.request
-
     from mlflow.tracking import MlflowClient
 
-    port = _free_port()
-    env = dict(os.environ, MLFLOW_SERVER_ENABLE_JOB_EXECUTION="false")
-    server = subprocess.Popen(
-        [str(Path(sys.executable).parent / "mlflow"), "server", "--host", "127.0.0.1", "--port", str(port),
-         "--workers", "1", "--backend-store-uri", f"sqlite:///{tmp_path / 'server.db'}",
-         "--artifacts-destination", str(tmp_path / "server_artifacts")],
-        cwd=tmp_path, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )
-    uri = f"http://127.0.0.1:{port}"
-    try:
-        # a fresh virtualenv compiles the server's modules on first start: allow for it
-        deadline = time.time() + 240
-        while True:
-            try:
-                urllib.request.urlopen(f"{uri}/health", timeout=1)
-                break
-            except OSError:
-                if time.time() > deadline or server.poll() is not None:
-                    pytest.fail("the MLflow server did not start within 240 s")
-                time.sleep(0.5)
+    with mlflow_server(f"sqlite:///{tmp_path / 'server.db'}", tmp_path) as uri:
         proc = run_cli("dsmv", "tracking=server", f"tracking.uri={uri}")
         assert proc.returncode == 0, proc.stderr
         assert f"browse  : {uri}" in proc.stdout
@@ -186,9 +154,6 @@ def test_tracking_server_option_logs_to_a_local_server(run_cli, tmp_path):
         (run,) = client.search_runs([experiment.experiment_id])
         assert run.info.status == "FINISHED" and run.data.tags["dsmv.status"] == "ok"
         assert {"result.json", "history.csv"} <= {a.path for a in client.list_artifacts(run.info.run_id)}
-    finally:
-        server.terminate()
-        server.wait(timeout=30)
 
 
 def test_a_wrong_job_in_a_sweep_is_recorded_and_the_others_run(run_cli, tmp_path):

@@ -21,6 +21,20 @@ CELL_FIELDS = {
     "mobilised_strength", "plastic_shear_strain", "shear_strain_rate_per_s", "plastic_shear_strain_rate_per_s",
     "initial_depth_m", "hourglass_velocity_m_s", "body",
 }
+def keep_state(monkeypatch, solver_cls) -> dict:
+    """The state the solver's run starts from, kept in the returned dict under "state" (the run then
+    changes it in place: at the end it is the final state)."""
+    captured = {}
+    real = solver_cls.initial_state
+
+    def keep(self):
+        captured["state"] = real(self)
+        return captured["state"]
+
+    monkeypatch.setattr(solver_cls, "initial_state", keep)
+    return captured
+
+
 #: soil compressed by its load holds a little more than its cell at rest (φ > 1): the bulk
 #: strain of a few tens of kPa on K ≈ 40 MPa (E = 500·su0, ν = 0.49) is about 1e-3
 PHI_COMPRESSED = 1.01
@@ -99,14 +113,7 @@ def test_the_fields_show_the_kernels_own_strength(compose_cfg, tmp_path, monkeyp
     su cell by cell (float32 of it) and the interface cells that yield read a mobilised strength of 1."""
     from dsmv.cel.solver import Cel2DSolver
 
-    captured = {}
-    real = Cel2DSolver.initial_state
-
-    def keep(self):
-        captured["state"] = real(self)
-        return captured["state"]
-
-    monkeypatch.setattr(Cel2DSolver, "initial_state", keep)
+    captured = keep_state(monkeypatch, Cel2DSolver)
     scene = build_scene(compose_cfg(["experiment=verify_tbar", "hydra.mode=RUN", "geometry.roughness=0.5",
                                      "mesh.cell_size_m=0.05", "landing.displacement_m=0.05", "solver.progress=off",
                                      "tracking=disabled", "output.plots=false", "output.fields=true",
@@ -212,14 +219,7 @@ def test_a_3d_run_writes_hexahedra_and_both_sections(compose_cfg, tmp_path, monk
     from dsmv.runner import write_outputs
     from tests.test_cel3d import SMALL_STRAIN_PUSH
 
-    captured = {}
-    real = Cel3DSolver.initial_state
-
-    def keep(self):
-        captured["state"] = real(self)
-        return captured["state"]
-
-    monkeypatch.setattr(Cel3DSolver, "initial_state", keep)
+    captured = keep_state(monkeypatch, Cel3DSolver)
     overrides = [*SMALL_STRAIN_PUSH, "geometry=rectangular_plate", "geometry.width_m=1", "geometry.contact_length_m=1",
                  "mesh.cell_size_m=0.2", "solver.remap=true", "landing.displacement_m=0.05", "output.plots=true",
                  "output.fields=true", "output.field_frames=2"]

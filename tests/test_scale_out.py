@@ -10,27 +10,20 @@ from __future__ import annotations
 
 import os
 import shutil
-import socket
 import subprocess
-import sys
 import tempfile
-import time
-import urllib.request
 from pathlib import Path
 
 import pytest
+
+from dsmv.mlflow_check import free_port
+from tests.conftest import mlflow_server
 
 pytestmark = pytest.mark.server
 
 #: eight jobs at once: two workers' worth of four rounds, all writing to the server together
 MASSES_KG = (4000, 4500, 5000, 5500)
 SU0_PA = (4000, 6000)
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _as_postgres(*command: str) -> list[str]:
@@ -47,7 +40,7 @@ def postgres():
     folder = Path(tempfile.mkdtemp(prefix="dsmv-pg-"))
     if os.geteuid() == 0:
         shutil.chown(folder, "postgres", "postgres")
-    data, port = folder / "data", _free_port()
+    data, port = folder / "data", free_port()
     subprocess.run(_as_postgres("initdb", "-D", str(data), "-A", "trust", "-U", "postgres"), check=True,
                    capture_output=True)
     options = f"-p {port} -k {folder} -c listen_addresses=127.0.0.1"
@@ -63,42 +56,22 @@ def postgres():
 
 
 @pytest.fixture
-def mlflow_server(postgres, tmp_path):
-    """An MLflow server on loopback, its backend store the database, its artifacts in a folder; its URI."""
-    port = _free_port()
-    env = dict(os.environ, MLFLOW_SERVER_ENABLE_JOB_EXECUTION="false")
-    server = subprocess.Popen(
-        [str(Path(sys.executable).parent / "mlflow"), "server", "--host", "127.0.0.1", "--port", str(port),
-         "--workers", "2", "--backend-store-uri", postgres, "--artifacts-destination", str(tmp_path / "artifacts")],
-        cwd=tmp_path, env=env, stdout=subprocess.DEVNULL, stderr=(tmp_path / "server.log").open("w"),
-    )
-    uri = f"http://127.0.0.1:{port}"
-    try:
-        deadline = time.time() + 240
-        while True:
-            try:
-                urllib.request.urlopen(f"{uri}/health", timeout=1)
-                break
-            except OSError:
-                if time.time() > deadline or server.poll() is not None:
-                    pytest.fail("the MLflow server did not start: " + (tmp_path / "server.log").read_text()[-2000:])
-                time.sleep(0.5)
+def server_on_postgres(postgres, tmp_path):
+    """An MLflow server whose backend store is the database; its URI."""
+    with mlflow_server(postgres, tmp_path, workers=2) as uri:
         yield uri
-    finally:
-        server.terminate()
-        server.wait(timeout=30)
 
 
-def test_eight_worker_processes_log_every_run_and_metric_to_a_server_on_postgresql(run_cli, tmp_path, mlflow_server):
+def test_eight_worker_processes_log_every_run_and_metric_to_a_server_on_postgresql(run_cli, server_on_postgres):
     from mlflow.tracking import MlflowClient
 
     masses, su0s = ",".join(map(str, MASSES_KG)), ",".join(map(str, SU0_PA))
     proc = run_cli("dsmv", "-m", "hydra/launcher=dsmv_local", f"landing.mass_kg={masses}", f"soil.su0_pa={su0s}",
-                   "mesh=coarse", "tracking=server", f"tracking.uri={mlflow_server}", timeout=600)
+                   "mesh=coarse", "tracking=server", f"tracking.uri={server_on_postgres}", timeout=600)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "sweep done: 8 ok" in proc.stdout
 
-    client = MlflowClient(mlflow_server)
+    client = MlflowClient(server_on_postgres)
     (experiment,) = [e for e in client.search_experiments() if e.name == "dsmv-default_scene"]
     runs = client.search_runs([experiment.experiment_id], max_results=100)
     (parent,) = [r for r in runs if r.data.tags.get("dsmv.role") == "sweep"]

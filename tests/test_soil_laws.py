@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from dsmv import registry
 from dsmv.scene import build_scene
+from dsmv.template import package_files
 
 LAWS = list(registry.available("soil_laws"))
 
@@ -145,36 +146,9 @@ def test_einav_randolph_landing_trends(compose_cfg):
     assert sinkage("soil.rate.eta=0.15") < sinkage("soil.rate.eta=0")
 
 
-NEW_LAW = '''
-"""A linear-softening law, written as the plugin guide says: su = su_intact·max(1 − a·ξ, 1/St)."""
-import numpy as np
-from pydantic import Field
-from dsmv.soil_law import LawParameters, SoilLaw
-
-
-class Parameters(LawParameters):
-    slope: float = Field(0.05, gt=0, le=1, description="a (-): strength lost per unit of plastic shear strain")
-
-
-class LinearSofteningLaw(SoilLaw):
-    name = "linear_softening"
-    parameters_model = Parameters
-
-    @property
-    def softens(self):
-        return self.soil.sensitivity > 1.0
-
-    def parameters(self):
-        return np.array([self.params.slope, 1.0 / self.soil.sensitivity])
-
-    @staticmethod
-    def factor(xi, gamma_dot, s0, s1, slope, floor, p2, p3, p4, p5, p6, p7):
-        return max(1.0 - slope * xi, floor)
-
-    def strength_factor(self, xi, gamma_dot_per_s, *state):
-        xi, _ = np.broadcast_arrays(np.asarray(xi, dtype=float), np.asarray(gamma_dot_per_s, dtype=float))
-        return np.maximum(1.0 - self.params.slope * xi, 1.0 / self.soil.sensitivity)
-'''
+#: the template's law (dsmv-plugins new soil-law), as a one-module plugin: linear softening with its
+#: declared parameter soil.params.slope
+NEW_LAW = package_files("soil-law", "linear_softening")["linear_softening_law/law.py"]
 
 
 def test_a_new_law_in_its_own_package_is_picked_up_by_name(run_cli, install_plugin):
