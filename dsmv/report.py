@@ -9,7 +9,9 @@ and draws the errors against the cell size on one figure.
 ``dsmv-report`` runs the full set and writes ``docs/verification/report.md`` (the site's page) and
 its figure beside it. ``dsmv-report --quick`` runs coarse meshes of a subset in a few minutes and
 writes under ``runs/report/``, never over the committed page. Exit codes: 0 written, 1 a check did
-not end ``ok`` (the page is still written, the run marked), 2 bad arguments.
+not end ``ok`` (the page is still written, the run marked), 2 bad arguments; SIGINT or SIGTERM stops
+the report after the run under way, writes the checks done to ``runs/report/report.interrupted.md``
+and exits with the code of ``interrupted``.
 """
 
 from __future__ import annotations
@@ -239,6 +241,13 @@ def main(argv: list[str] | None = None) -> int:
             print(f"dsmv-report: {check.name} at {cell:g} m: {outcome.status} {check.metric} = {outcome.value:.6g} "
                   f"({time.perf_counter() - start:.0f} s)", flush=True)
             outcomes.append(outcome)
+            if outcome.status == "interrupted":  # a signal stopped the run: stop the report, keep what it has
+                results.append((check, outcomes))
+                partial = write_page(QUICK_DIR / "report.interrupted.md", results, args.quick, stamp)
+                print(f"dsmv-report: interrupted; the checks done so far are in {partial}", file=sys.stderr)
+                from dsmv.results import EXIT_CODES
+
+                return EXIT_CODES["interrupted"]
         results.append((check, outcomes))
     write_page(page, results, args.quick, stamp)
     print(f"dsmv-report: wrote {page} ({len(checks)} checks, commit {stamp['commit'][:10]}, {stamp['tree']} tree)")
