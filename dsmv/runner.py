@@ -145,7 +145,7 @@ def _reuse(run, scene: Scene, run_dir: Path, names: tuple[str, str]) -> dict:
     result = SolveResult(status, f"reused run {run.info.run_id} (resume=true): {message}", metrics)
     write_result(run_dir, result, *names, scene.config_hash)
     tracking.record_job_run(run_dir, run.info.run_id, reused=True)
-    print(f"[{run_dir.name}] {status}: reused run {run.info.run_id}")
+    print(f"[{run_dir.name}] {status}: reused run {run.info.run_id}{tracking.sweep_progress(run_dir.parent)}")
     return {"status": status, "metrics": metrics}
 
 
@@ -276,7 +276,7 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
     """A short human summary: status, what the run found (with units), where outputs and MLflow are."""
     what = _answer(scene, result)
     if multirun:
-        print(f"[{run_dir.name}] {result.status}: {what}")
+        print(f"[{run_dir.name}] {result.status}: {what}{tracking.sweep_progress(run_dir.parent)}")
         return
     print(f"\ndsmv: {result.status} — {what}")
     print(f"  scene   : {scene_label(scene)}, solver {scene.solver.name}")

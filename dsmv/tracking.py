@@ -32,6 +32,8 @@ from dsmv.results import HISTORY_COLUMNS, SolveResult
 from dsmv.scene import TrackingConfig, build_tracking
 
 PARENT_RUN_FILE = "mlflow_parent_run.json"
+#: how many jobs a sweep has, in its sweep dir (written before they start), for the jobs' progress
+SWEEP_SIZE_FILE = "sweep_size.json"
 #: a job's MLflow run id, in its job dir (``reused``: a run of an earlier sweep, resume=true)
 JOB_RUN_FILE = "mlflow_run.json"
 #: statuses that are the solver's answer: a finished run with one of these is not run again on resume
@@ -225,6 +227,37 @@ def finished_run(cfg: DictConfig, scene):
     return next((r for r in runs if r.data.tags.get("dsmv.status") in ANSWER_STATUSES), None)
 
 
+def write_sweep_size(sweep_dir: Path, jobs: int | None) -> None:
+    """Note the number of a sweep's jobs (None: unknown) for the jobs' progress line."""
+    if jobs is not None:
+        (Path(sweep_dir) / SWEEP_SIZE_FILE).write_text(json.dumps({"jobs": jobs}))
+
+
+def basic_sweep_size(overrides: list[str]) -> int | None:
+    """The jobs of Hydra's basic sweeper over these overrides: the product of each sweep's values
+    (None for a sweep whose values it cannot count)."""
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+
+    try:
+        parsed = OverridesParser.create().parse_overrides(list(overrides))
+        size = 1
+        for o in parsed:
+            if o.is_sweep_override():
+                size *= len(list(o.sweep_string_iterator()))
+        return size
+    except Exception:  # an interval or a custom sweep: the size is the sweeper's to know
+        return None
+
+
+def sweep_progress(sweep_dir: Path) -> str:
+    """`` (5 of 8 jobs done)``: the jobs that wrote result.json so far, of the sweep's size ('' if unknown)."""
+    path = Path(sweep_dir) / SWEEP_SIZE_FILE
+    if not path.exists():
+        return ""
+    done = sum(1 for _ in Path(sweep_dir).glob("*/result.json"))
+    return f" ({done} of {json.loads(path.read_text())['jobs']} jobs done)"
+
+
 def record_job_run(run_dir: Path, run_id: str, reused: bool) -> None:
     """Note a job's MLflow run id in its job dir (the sweep summary lists it)."""
     (Path(run_dir) / JOB_RUN_FILE).write_text(json.dumps({"run_id": run_id, "reused": reused}))
@@ -282,6 +315,8 @@ class MlflowSweepCallback(Callback):
         self.signals.install()
         _sweep_log(sweep_dir)
         _active_sweep.update(sweep_dir=sweep_dir, config=config)
+        if "cases" not in str(config.hydra.sweeper.get("_target_", "")):  # the case sweeper counts its own
+            write_sweep_size(sweep_dir, basic_sweep_size(list(config.hydra.overrides.task)))
         tracking = build_tracking(config)
         if not tracking.enabled:
             return
