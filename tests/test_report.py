@@ -25,6 +25,10 @@ def test_a_sequence_that_converges_at_second_order_extrapolates_to_its_limit(tmp
     assert "| 0.025 m | 40 | 5.025 | +0.50 % |" in text  # 5 + 40·0.025² = 5.025
     assert "Observed order 2.00; extrapolated 5 ± " in text
     assert (tmp_path / report.FIGURE).stat().st_size > 10_000
+    import json
+
+    numbers = json.loads((tmp_path / "report.json").read_text())
+    assert numbers["stamp"]["commit"] == "0123abc" and numbers["checks"][0]["outcomes"][0]["value"] == 5.025
 
 
 def test_without_a_reference_the_error_is_against_the_extrapolated_value():
