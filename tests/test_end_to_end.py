@@ -59,7 +59,8 @@ def test_python_dash_m_is_the_same_app(run_cli, tmp_path):
     assert "dsmv: ok" in proc.stdout
 
 
-@pytest.mark.parametrize("launcher", ["basic", "joblib", "dsmv_local"])
+@pytest.mark.parametrize("launcher", ["basic", "joblib",
+                                      pytest.param("dsmv_local", marks=pytest.mark.server)])  # with the scale-out tests
 def test_2x2_multirun_leaves_one_parent_and_four_finished_children(run_cli, tmp_path, launcher):
     """Hydra's basic launcher (one process), joblib's (a pool) and submitit's through dsmv_local (a
     worker process per job): the same parent run, four FINISHED children, every metric arrived."""
