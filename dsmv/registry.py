@@ -71,7 +71,11 @@ def with_plugin_configs(overrides: list[str]) -> list[str]:
         return list(overrides)
     given = [o for o in overrides if o.lstrip("+").startswith("hydra.searchpath=")]
     entries = [e.strip() for o in given for e in o.partition("=")[2].strip("[]").split(",") if e.strip()]
-    return [*(o for o in overrides if o not in given), f"hydra.searchpath=[{','.join([*entries, *packages])}]"]
+    rest = [o for o in overrides if o not in given]
+    # beside the other overrides: Hydra's command line takes its overrides as one run of arguments
+    # (``--cfg job`` after them leaves no room for another)
+    last = max((i for i, o in enumerate(rest) if "=" in o and not o.startswith("-")), default=len(rest) - 1)
+    return [*rest[:last + 1], f"hydra.searchpath=[{','.join([*entries, *packages])}]", *rest[last + 1:]]
 
 
 def check_name(kind: str, name: str, config_path: str) -> None:
