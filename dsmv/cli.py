@@ -84,11 +84,12 @@ def check_group_choices(argv: list[str], program: str, config_dir: str = CONFIG_
         folders = [root / group for root in roots if (root / group).is_dir()]
         if not sep or key.startswith("~") or "/" in group or "(" in value or not folders:
             continue
-        options = sorted({p.stem for folder in folders for p in folder.glob("*.yaml")})
+        own = sorted(p.stem for p in (roots[0] / group).glob("*.yaml"))  # dsmv's, then those of plugins and dirs
+        others = sorted({p.stem for folder in folders for p in folder.glob("*.yaml")} - set(own))
+        listing = ", ".join(own) + (f"; from plugins and config dirs: {', '.join(others)}" if others else "")
         for choice in value.split(","):
-            if choice not in options and choice != "null":
-                fail_user_error(ConfigError(group, choice, f"not a {group} option; available: {', '.join(options)}"),
-                                program)
+            if choice not in own and choice not in others and choice != "null":
+                fail_user_error(ConfigError(group, choice, f"not a {group} option; available: {listing}"), program)
 
 
 #: Hydra flags after which the command does not compose and run a job: left to Hydra entirely
