@@ -113,11 +113,12 @@ def compose_scene(overrides: list[str]):
     from dsmv.cli import CONFIG_DIR
     from dsmv.scene import build_scene
 
-    from dsmv.registry import with_plugin_configs
+    from dsmv.registry import register_plugin_configs
 
+    register_plugin_configs()
     GlobalHydra.instance().clear()
     with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):
-        cfg = compose("config", overrides=with_plugin_configs(list(overrides)))
+        cfg = compose("config", overrides=list(overrides))
     GlobalHydra.instance().clear()
     return build_scene(cfg)
 

@@ -381,7 +381,7 @@ def simulate() -> None:
 
     # MLflow's messages go to the job's log (dsmv.joblog), not to a console handler of MLflow's own
     os.environ.setdefault("MLFLOW_CONFIGURE_LOGGING", "false")
-    sys.argv[1:] = registry.with_plugin_configs(sys.argv[1:])
+    registry.register_plugin_configs()
     try:
         check_command_line(sys.argv[1:], "dsmv", "config", scene=True)
         _simulate_app()
@@ -404,7 +404,7 @@ def _train_app(cfg: DictConfig) -> None:
 
 def train() -> None:
     """``dsmv-train``: train and evaluate a surrogate on a study's tracked runs."""
-    sys.argv[1:] = registry.with_plugin_configs(sys.argv[1:])
+    registry.register_plugin_configs()
     check_command_line(sys.argv[1:], "dsmv-train", "train")
     _train_app()
 

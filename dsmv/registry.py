@@ -62,20 +62,31 @@ def config_dirs() -> list[str]:
     return folders
 
 
-def with_plugin_configs(overrides: list[str]) -> list[str]:
-    """Hydra overrides with the plugin packages' config trees on the search path, after any the user
-    gave (``hydra.searchpath=[…]``, Hydra's own override): ``soil=<a plugin's profile>`` then composes
-    as dsmv's own options do (the ``dsmv`` and ``dsmv-train`` commands, :func:`dsmv.bench.compose_scene`)."""
-    packages = [f"pkg://{p}" for p in config_packages().values()]
-    if not packages:
-        return list(overrides)
-    given = [o for o in overrides if o.lstrip("+").startswith("hydra.searchpath=")]
-    entries = [e.strip() for o in given for e in o.partition("=")[2].strip("[]").split(",") if e.strip()]
-    rest = [o for o in overrides if o not in given]
-    # beside the other overrides: Hydra's command line takes its overrides as one run of arguments
-    # (``--cfg job`` after them leaves no room for another)
-    last = max((i for i, o in enumerate(rest) if "=" in o and not o.startswith("-")), default=len(rest) - 1)
-    return [*rest[:last + 1], f"hydra.searchpath=[{','.join([*entries, *packages])}]", *rest[last + 1:]]
+def register_plugin_configs() -> None:
+    """Put the plugin packages' config trees (entry points in ``dsmv.configs``) on Hydra's search path,
+    after dsmv's own, for every composition in this process (the commands, ``--help``, the compose
+    API): a search-path plugin registered with Hydra by hand, since Hydra's own discovery of
+    ``hydra_plugins`` cannot see into editable installs. Idempotent."""
+    from hydra.core.plugins import Plugins
+
+    Plugins.instance().register(_plugin_config_search_path())
+
+
+def _plugin_config_search_path():
+    from hydra.plugins.search_path_plugin import SearchPathPlugin
+
+    global _SEARCH_PATH_PLUGIN
+    if _SEARCH_PATH_PLUGIN is None:
+        class PluginConfigs(SearchPathPlugin):
+            def manipulate_search_path(self, search_path) -> None:
+                for name, package in config_packages().items():
+                    search_path.append(provider=f"dsmv-plugin:{name}", path=f"pkg://{package}")
+
+        _SEARCH_PATH_PLUGIN = PluginConfigs
+    return _SEARCH_PATH_PLUGIN
+
+
+_SEARCH_PATH_PLUGIN = None
 
 
 def check_name(kind: str, name: str, config_path: str) -> None:

@@ -45,12 +45,13 @@ def compose_config(config_name: str, *overrides: str):
     from hydra.core.global_hydra import GlobalHydra
 
     from dsmv.cli import CONFIG_DIR
-    from dsmv.registry import with_plugin_configs
+    from dsmv.registry import register_plugin_configs
 
+    register_plugin_configs()
     GlobalHydra.instance().clear()
     try:
         with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):
-            return compose(config_name, overrides=with_plugin_configs(list(overrides)))
+            return compose(config_name, overrides=list(overrides))
     finally:
         GlobalHydra.instance().clear()
 
