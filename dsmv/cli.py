@@ -41,8 +41,6 @@ CONFIG_DIR = str(find_config_dir())
 def config_roots(argv: list[str], config_dir: str = CONFIG_DIR) -> list[Path]:
     """Every config tree Hydra will search for this command line: dsmv's own, the plugin packages'
     (entry points in ``dsmv.configs``), ``--config-dir``/``-cd`` and ``hydra.searchpath`` entries."""
-    import importlib.util
-
     from dsmv import registry
 
     roots = [Path(config_dir), *(Path(d) for d in registry.config_dirs())]
@@ -57,11 +55,7 @@ def config_roots(argv: list[str], config_dir: str = CONFIG_DIR) -> list[Path]:
                 if entry.startswith("file://"):
                     roots.append(Path(entry[len("file://"):]))
                 elif entry.startswith("pkg://"):
-                    try:
-                        spec = importlib.util.find_spec(entry[len("pkg://"):].replace("/", "."))
-                    except (ImportError, ValueError):
-                        spec = None
-                    roots += [Path(d) for d in (spec.submodule_search_locations or [])] if spec else []
+                    roots += [Path(d) for d in registry.package_folders(entry[len("pkg://"):].replace("/", ".")) or []]
                 elif entry:
                     roots.append(Path(entry))
     return roots

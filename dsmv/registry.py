@@ -8,6 +8,7 @@ ones. Plugins load lazily: listing them imports nothing.
 
 from __future__ import annotations
 
+import functools
 import warnings
 from importlib.metadata import EntryPoint, entry_points
 
@@ -44,21 +45,27 @@ def config_packages() -> dict[str, str]:
     return {ep.name: ep.value for ep in sorted(entry_points(group=CONFIG_GROUP), key=lambda ep: ep.name)}
 
 
-def config_dirs() -> list[str]:
-    """The folders of the plugin packages' config trees (those that import), for listing their options."""
+def package_folders(package: str) -> list[str] | None:
+    """The folders of an importable package (a dotted name), or None when it does not import."""
     import importlib.util
 
+    try:
+        spec = importlib.util.find_spec(package)
+    except (ImportError, ValueError):
+        return None
+    return list(spec.submodule_search_locations) if spec is not None and spec.submodule_search_locations else None
+
+
+def config_dirs() -> list[str]:
+    """The folders of the plugin packages' config trees (those that import), for listing their options."""
     folders = []
     for name, package in config_packages().items():
-        try:
-            spec = importlib.util.find_spec(package)
-        except (ImportError, ValueError):
-            spec = None
-        if spec is None or not spec.submodule_search_locations:
+        found = package_folders(package)
+        if found is None:
             warnings.warn(f"dsmv plugin {CONFIG_GROUP}:{name} names {package!r}, not an importable package",
                           stacklevel=2)
             continue
-        folders += list(spec.submodule_search_locations)
+        folders += found
     return folders
 
 
@@ -72,21 +79,17 @@ def register_plugin_configs() -> None:
     Plugins.instance().register(_plugin_config_search_path())
 
 
+@functools.cache
 def _plugin_config_search_path():
+    """The search-path plugin class, made once (Hydra is imported only when dsmv composes)."""
     from hydra.plugins.search_path_plugin import SearchPathPlugin
 
-    global _SEARCH_PATH_PLUGIN
-    if _SEARCH_PATH_PLUGIN is None:
-        class PluginConfigs(SearchPathPlugin):
-            def manipulate_search_path(self, search_path) -> None:
-                for name, package in config_packages().items():
-                    search_path.append(provider=f"dsmv-plugin:{name}", path=f"pkg://{package}")
+    class PluginConfigs(SearchPathPlugin):
+        def manipulate_search_path(self, search_path) -> None:
+            for name, package in config_packages().items():
+                search_path.append(provider=f"dsmv-plugin:{name}", path=f"pkg://{package}")
 
-        _SEARCH_PATH_PLUGIN = PluginConfigs
-    return _SEARCH_PATH_PLUGIN
-
-
-_SEARCH_PATH_PLUGIN = None
+    return PluginConfigs
 
 
 def check_name(kind: str, name: str, config_path: str) -> None:
@@ -118,13 +121,7 @@ def broken() -> list[str]:
                 load(kind, name, group)
             except ConfigError as error:
                 lines.append(f"{group}:{name} = {entry.value}: {error.allowed}")
-    import importlib.util
-
     for name, package in config_packages().items():
-        try:
-            found = importlib.util.find_spec(package) is not None
-        except (ImportError, ValueError):
-            found = False
-        if not found:
+        if package_folders(package) is None:
             lines.append(f"{CONFIG_GROUP}:{name} = {package}: not an importable package")
     return lines
