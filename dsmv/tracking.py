@@ -11,7 +11,7 @@ A multirun gets one parent run, created by :class:`MlflowSweepCallback` before t
 start; each job, in whatever process a launcher puts it, finds the parent's id in the
 sweep dir and tags itself with ``mlflow.parentRunId`` (nested runs only work within one
 process). Everything goes through ``MlflowClient`` with explicit run ids: no global
-"active run" state. ``mlflow`` is imported lazily (it costs about a second).
+"active run" state. ``mlflow`` is imported lazily, and a job's run is opened beside its solve.
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ import logging
 import os
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 from typing import Any, Iterable
@@ -143,43 +144,72 @@ def _chunks(items: list, size: int) -> Iterable[list]:
 
 
 class JobTracker:
-    """The MLflow run of one job."""
+    """The MLflow run of one job.
 
-    def __init__(self, tracking: TrackingConfig, study: str, run_name: str, params: dict[str, str], tags: dict):
-        from mlflow.entities import Param, RunTag
+    The run is opened in a background thread: importing MLflow and opening its store cost seconds, more
+    than a small solve, and they overlap the solve (whose compiled chunks release the GIL). ``client`` and
+    ``run_id`` wait for it; an error opening the run is raised there, in the job's thread.
+    """
 
-        self.client = _client(tracking)
-        self.experiment_id = _experiment_id(self.client, experiment_name(study), tracking.artifact_location)
-        tags = {k: str(v) for k, v in tags.items() if v is not None}
-        run = self.client.create_run(self.experiment_id, tags=tags, run_name=run_name)
-        self.run_id = run.info.run_id
-        params_list = [Param(k, v[:6000]) for k, v in params.items()]
-        for chunk in _chunks(params_list, 100):
-            self.client.log_batch(self.run_id, params=chunk)
-        self._tag = RunTag
+    def __init__(self, tracking: TrackingConfig, study: str, run_name: str, params: dict[str, str], tags: dict,
+                 run_dir: Path):
+        self._opening = threading.Thread(target=self._open, name="dsmv-mlflow-open", daemon=True,
+                                         args=(tracking, study, run_name, params, tags, run_dir))
+        self._error: BaseException | None = None
+        self._opening.start()
+
+    def _open(self, tracking, study, run_name, params, tags, run_dir) -> None:
+        try:
+            from mlflow.entities import Param
+
+            self._client = _client(tracking)
+            experiment_id = _experiment_id(self._client, experiment_name(study), tracking.artifact_location)
+            tags = {k: str(v) for k, v in (tags | {"mlflow.source.git.commit": _git_sha()}).items() if v is not None}
+            self._run_id = self._client.create_run(experiment_id, tags=tags, run_name=run_name).info.run_id
+            record_job_run(run_dir, self._run_id, reused=False)
+            params_list = [Param(k, v[:6000]) for k, v in params.items()]
+            for chunk in _chunks(params_list, 100):
+                self._client.log_batch(self._run_id, params=chunk)
+        except BaseException as error:  # raised again where the job asks for the run
+            self._error = error
+
+    def _opened(self) -> None:
+        self._opening.join()
+        if self._error is not None:
+            raise self._error
+
+    @property
+    def client(self):
+        self._opened()
+        return self._client
+
+    @property
+    def run_id(self) -> str:
+        self._opened()
+        return self._run_id
 
     def finish(self, result: SolveResult, files: list[Path], error: str | None = None, note: str = "") -> None:
         """Log the outcome and close the run: FINISHED unless the code raised. ``note`` becomes the run's
         description in the MLflow UI (the summary's answer line)."""
-        from mlflow.entities import Metric, Param
+        from mlflow.entities import Metric, Param, RunTag
 
+        client, run_id = self.client, self.run_id
         now = int(time.time() * 1000)
         metrics = [Metric(k, float(v), now, 0) for k, v in result.metrics.items()]
         if result.history is not None:
             metrics += _history_metrics(result.history, now)
         for chunk in _chunks(metrics, 1000):
-            self.client.log_batch(self.run_id, metrics=chunk)
-        tags = [self._tag("dsmv.status", result.status), self._tag("dsmv.message", result.message[:5000])]
+            client.log_batch(run_id, metrics=chunk)
+        tags = [RunTag("dsmv.status", result.status), RunTag("dsmv.message", result.message[:5000])]
         if error:
-            tags.append(self._tag("dsmv.error", error[:5000]))
+            tags.append(RunTag("dsmv.error", error[:5000]))
         if note:
-            tags.append(self._tag("mlflow.note.content", note[:5000]))
-        self.client.log_batch(self.run_id, params=[Param("status", result.status)], tags=tags)
+            tags.append(RunTag("mlflow.note.content", note[:5000]))
+        client.log_batch(run_id, params=[Param("status", result.status)], tags=tags)
         for path in files:
-            self.client.log_artifact(self.run_id, str(path))
+            client.log_artifact(run_id, str(path))
         # FAILED: the code raised; KILLED: a signal stopped the run (its reason is the message)
-        self.client.set_terminated(self.run_id, "FAILED" if error else
-                                   ("KILLED" if result.status == "interrupted" else "FINISHED"))
+        client.set_terminated(run_id, "FAILED" if error else ("KILLED" if result.status == "interrupted" else "FINISHED"))
 
 
 def _history_metrics(history: dict, timestamp_ms: int) -> list:
@@ -272,7 +302,6 @@ def start_job(cfg: DictConfig, scene, run_dir: Path, run_name: str, parent_run_i
     params = flatten({k: v for k, v in container.items() if k not in ("tracking", "paths")})
     tags = {
         "mlflow.parentRunId": parent_run_id,
-        "mlflow.source.git.commit": _git_sha(),
         "dsmv.study": scene.study,
         "dsmv.soil_law": scene.soil.law,
         "dsmv.solver": scene.solver.name,
@@ -283,9 +312,7 @@ def start_job(cfg: DictConfig, scene, run_dir: Path, run_name: str, parent_run_i
         "dsmv.run_dir": str(run_dir.resolve()),
         "dsmv.status": "running",
     }
-    tracker = JobTracker(tracking, scene.study, run_name, params, tags)
-    record_job_run(run_dir, tracker.run_id, reused=False)
-    return tracker
+    return JobTracker(tracking, scene.study, run_name, params, tags, run_dir)
 
 
 def parent_run_id(sweep_dir: Path) -> str | None:
