@@ -56,13 +56,14 @@ def test_wall_adhesion_raises_the_load_with_alpha_and_the_audit_counts_the_slip(
 
 
 def test_a_landing_sinks_deeper_the_less_the_track_adheres(compose_cfg):
-    base = ["solver=cel2d", "mesh=coarse", "solver.progress=off", "soil.su0_pa=3000"]
+    # 0.04 m cells: on 0.08 m cells the walls' share (0.2 % of the sinkage) is below the mesh's resolution
+    base = ["solver=cel2d", "mesh=medium", "solver.progress=off", "soil.su0_pa=3000"]
     sinkage = []
     for r in ("rough", 0.3, "smooth"):
         result = Cel2DSolver(build_scene(compose_cfg([*base, f"geometry.roughness={r}"]))).solve()
         assert result.status == "ok" and result.metrics["energy_error"] < 0.02, result.message
         sinkage.append(result.metrics["max_sinkage_m"])
-    assert sinkage[0] < sinkage[1] < sinkage[2], sinkage  # coarse mesh, su0 3 kPa: 0.2452, 0.2535, 0.2558 m
+    assert sinkage[0] < sinkage[1] < sinkage[2], sinkage  # medium mesh, su0 3 kPa: 0.1298, 0.1300, 0.1309 m
 
 
 def test_a_cone_refuses_limited_adhesion(compose_cfg):
@@ -89,7 +90,7 @@ def test_a_face_grips_a_partly_filled_cell_in_proportion_to_its_fill():
 
     def grip():
         state = Cells(phi, np.zeros((6, 2, 2)), np.where(phi > 0.0, su_pa, 0.0), np.ones((2, 2)), solid,
-                      1.0 - solid, np.zeros((2, 2), dtype=bool), np.full((2, 2), np.nan))
+                      1.0 - solid, np.zeros((2, 2), dtype=bool), np.full((2, 2), np.nan), np.ones((2, 2)))
         return grip_strength(contact, state, 0)
 
     assert grip() == pytest.approx(0.5 * (1.0 + 0.2) * su_pa)

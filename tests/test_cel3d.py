@@ -62,7 +62,7 @@ def test_a_geostatic_column_stays_at_rest():
     n = 4 * 3 * 7
     mesh = SolidMesh(x, y, z, vol, structured_corners(shape), n, np.zeros(shape, dtype=bool))
     cells = Cells(phi, q, np.zeros(shape), np.ones(shape), np.zeros(shape, dtype=bool), np.ones(shape),
-                  np.zeros(shape, dtype=bool), np.full(shape, np.nan))
+                  np.zeros(shape, dtype=bool), np.full(shape, np.nan), np.ones(shape))
     nodes = Nodes(np.zeros((3, n)), np.zeros((3, n)), np.zeros(n), np.zeros((3, n)))
     fixed_node, fixed_axis = fixed_velocities((4, 3, 7))
     none = np.zeros(0, dtype=np.int64)

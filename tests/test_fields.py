@@ -290,7 +290,7 @@ def test_3d_field_measures_of_known_states():
     mesh = SolidMesh(x, y, z, cell_volumes(x, y, z), corner, corner.max() + 1, split_cells(corner))
     solid = np.zeros(shape, bool)
     cells = Cells(np.ones(shape), np.zeros((SOLID.base, *shape)), np.zeros(shape), np.ones(shape), solid,
-                  np.ones(shape), np.zeros(shape), np.full(shape, np.nan))
+                  np.ones(shape), np.zeros(shape), np.full(shape, np.nan), np.ones(shape))
     X, Y, Z = np.meshgrid(x, y, z, indexing="ij")
     nodes = Nodes(np.zeros((3, X.size)), np.zeros((3, X.size)), np.zeros(X.size), np.zeros((3, X.size)))
     a = 0.7

@@ -37,7 +37,7 @@ def slab():
     phi[:, :, -1] = 0.5  # the top layer half full
     cells = Cells(phi, np.zeros((8, *cell_shape)), np.zeros(cell_shape), np.ones(cell_shape),
                   np.zeros(cell_shape, dtype=bool), np.ones(cell_shape), np.zeros(cell_shape, dtype=bool),
-                  np.full(cell_shape, np.nan))
+                  np.full(cell_shape, np.nan), np.ones(cell_shape))
     mesh = Mesh(AXES[0], AXES[2], vol, structured_corners(cell_shape), N_NODES, np.zeros(cell_shape, dtype=bool))
     nodes = Nodes(np.zeros((3, N_NODES)), np.zeros((3, N_NODES)), np.zeros(N_NODES), np.zeros((3, N_NODES)))
     return mesh, cells, nodes
@@ -132,3 +132,20 @@ def test_the_controller_steers_chunks_for_any_state():
     assert run.history["sinkage_m"][0] == 0.0 and run.history["velocity_m_s"][0] == 0.5
     assert 0.2 <= run.sinkage_m < 0.2 + 0.025  # within a chunk of the target
     assert np.all(np.diff(run.history["time_s"]) > 0)
+
+
+@pytest.mark.parametrize("ndim", [2, 3])
+def test_the_hourglass_force_acts_around_cut_cells_only(ndim):
+    """solver.hourglass_region: cut_cells keeps the force in the cells a curved body cuts (0 < open
+    fraction < 1) and their neighbours, in any number of axes; solid and open cells elsewhere get none."""
+    from dsmv.cel.state import hourglass_factor
+
+    open_frac = np.ones((7,) * ndim)
+    open_frac[(slice(0, 2),) * ndim] = 0.0   # a solid corner block: no cut cell
+    centre = (3,) * ndim
+    open_frac[centre] = 0.4                  # one cut cell
+    factor = hourglass_factor(open_frac, "cut_cells")
+    expected = np.zeros_like(open_frac)
+    expected[(slice(2, 5),) * ndim] = 1.0
+    assert np.array_equal(factor, expected)
+    assert np.array_equal(hourglass_factor(open_frac, "everywhere"), np.ones_like(open_frac))

@@ -40,6 +40,9 @@ class CelConfig(Schema):
 
     cfl: Number = Field(gt=0, le=1, description="time step as a fraction of the CFL limit (-)")
     hourglass: Number = Field(ge=0, le=1, description="viscous hourglass coefficient (-)")
+    hourglass_region: Literal["cut_cells", "everywhere"] = Field(description=(
+        "cut_cells: the hourglass force acts only in the cells a curved body cuts and their neighbours; "
+        "everywhere: in every cell"))
     bulk_viscosity_linear: Number = Field(ge=0, description="linear bulk viscosity b1 (-)")
     bulk_viscosity_quadratic: Number = Field(ge=0, description="quadratic bulk viscosity b2 (-)")
     advection_order: Literal[1, 2] = Field(description="1: donor cell, 2: van Leer MUSCL")

@@ -92,7 +92,8 @@ class Cells(NamedTuple):
     """Cell state: volume fraction φ, transported state q (:class:`CellRows`), current strength su
     (Pa, written by the stress update), the strength factor (α in a curved body's interface
     layer), the body's share (solid cells, open fraction), the gap cells of contact separation,
-    and the volumetric strain rate a merged sliver pair shares (NaN elsewhere)."""
+    the volumetric strain rate a merged sliver pair shares (NaN elsewhere), and the factor on the
+    hourglass coefficient (1 where the hourglass force acts, 0 elsewhere)."""
 
     phi: np.ndarray
     q: np.ndarray
@@ -102,6 +103,7 @@ class Cells(NamedTuple):
     open_frac: np.ndarray
     gap: np.ndarray
     shared_divergence: np.ndarray
+    hourglass_factor: np.ndarray
 
 
 class Faces(NamedTuple):

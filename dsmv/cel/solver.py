@@ -38,7 +38,7 @@ from dsmv.cel.layout import (
     B_INFLOW, B_MAXDISP, B_TIME, B_VEL, N_BODY, NQ_BASE, CellRows, Cells, Faces, Inflow, Mesh, Nodes, Params,
     SoilLawKernel, split_cells,
 )
-from dsmv.cel.state import Elastic, geostatic_state, step_parameters
+from dsmv.cel.state import Elastic, geostatic_state, hourglass_factor, step_parameters
 from dsmv.errors import ConfigError
 from dsmv.results import SolveResult
 from dsmv.scene import Scene
@@ -631,7 +631,8 @@ class Cel2DSolver(CelSolver):
         shared[merge[:, 0], merge[:, 1]] = 0.0
         shared[merge[:, 2], merge[:, 3]] = 0.0
         cells = Cells(phi, q, np.zeros((nx, ny)), body_contact.strength_factor, body_contact.solid,
-                      openings.open_frac, body_contact.gap, shared)
+                      openings.open_frac, body_contact.gap, shared,
+                      hourglass_factor(openings.open_frac, cfg.hourglass_region))
         faces = Faces(openings.aperture_x, openings.aperture_y, np.zeros((nx + 1, ny)), np.zeros((ny + 1, nx)))
         n_nodes = body_contact.n_nodes
         nodes = Nodes(np.zeros((2, n_nodes)), np.zeros((2, n_nodes)), np.zeros(n_nodes), np.zeros((2, n_nodes)))

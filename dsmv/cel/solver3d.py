@@ -27,7 +27,7 @@ from dsmv.cel.grid import SolidGrid, build_solid_grid
 from dsmv.cel.kernels.hexahedra import NQ_BASE, SOLID
 from dsmv.cel.layout import N_BODY, Cells, Inflow, Nodes, SolidFaces, SolidMesh, split_cells
 from dsmv.cel.solver import CelSolver, State, in_sweep
-from dsmv.cel.state import Elastic, layers_below, step_parameters
+from dsmv.cel.state import Elastic, hourglass_factor, layers_below, step_parameters
 from dsmv.errors import ConfigError
 from dsmv.scene import Scene
 
@@ -171,7 +171,7 @@ class Cel3DSolver(CelSolver):
         ghost[NQ_BASE:] = initial_law_state[:, None, None]  # soil entering at the base brings the initial state
         inflow = Inflow(ghost, np.full(shape3[:2], self.mudline - (grid.z[0] - 0.5 * (grid.z[1] - grid.z[0]))))
         cells = Cells(phi, q, np.zeros(shape3), body_contact.strength_factor, body_contact.solid, open_frac,
-                      body_contact.gap, np.full(shape3, np.nan))
+                      body_contact.gap, np.full(shape3, np.nan), hourglass_factor(open_frac, cfg.hourglass_region))
         n_nodes = body_contact.n_nodes
         nodes = Nodes(np.zeros((3, n_nodes)), np.zeros((3, n_nodes)), np.zeros(n_nodes), np.zeros((3, n_nodes)))
         scale = self.model_scale()

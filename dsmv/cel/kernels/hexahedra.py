@@ -117,7 +117,7 @@ def walsh_transposed(c0, c1, c2, c3, c4, c5, c6, c7):
 
 
 @njit(**JIT)
-def slab_forces(i, x, y, z, corner, split, v, phi, q, fn, par):
+def slab_forces(i, x, y, z, corner, split, v, phi, q, hourglass_factor, fn, par):
     """The nodal forces of the cells of slab i (all j, k), added into ``fn``; returns the slab's
     hourglass and bulk-viscosity power (W). A slab's cells touch the nodes of planes i and i + 1
     only (split nodes included: a copy sits on its parent's plane).
@@ -164,7 +164,9 @@ def slab_forces(i, x, y, z, corner, split, v, phi, q, fn, par):
             szz = q[SZZ, i, j, k] - qb
             sxy, syz, szx = q[SXY, i, j, k], q[SYZ, i, j, k], q[SZX, i, j, k]
             wx, wy, wz = vol * f * ix, vol * f * iy, vol * f * iz
-            coef = HOURGLASS_SCALE * par.hourglass * rho * f * c_wave * vol ** (2.0 / 3.0) if hourglass else 0.0
+            coef = 0.0
+            if hourglass:
+                coef = HOURGLASS_SCALE * par.hourglass * hourglass_factor[i, j, k] * rho * f * c_wave * vol ** (2.0 / 3.0)
             for a in range(3):
                 if a == 0:
                     sx, sy, sz = sxx, sxy, szx
@@ -191,8 +193,9 @@ def slab_forces(i, x, y, z, corner, split, v, phi, q, fn, par):
 @njit(**PARALLEL)
 def nodal_forces(mesh, cells, nodes, par, work):
     """Internal nodal forces (N) from the cell stresses: f_a = −V·φ·σ·∇N_a at the centre; viscous
-    hourglass control on the four hourglass vectors (coefficient ``par.hourglass``); linear and
-    quadratic bulk viscosity in compression. ``work`` accumulates the power of hourglass [0] and
+    hourglass control on the four hourglass vectors (coefficient ``par.hourglass`` times the cell's
+    ``hourglass_factor``); linear and quadratic bulk viscosity in compression. ``work`` accumulates
+    the power of hourglass [0] and
     bulk viscosity [1] (W). Cells without soil are skipped.
 
     Parallel over slabs of constant i in two colours: the even slabs, then the odd ones. Slabs of
@@ -207,7 +210,7 @@ def nodal_forces(mesh, cells, nodes, par, work):
         for s in prange((nx - colour + 1) // 2):
             i = 2 * s + colour
             power[0, i], power[1, i] = slab_forces(i, mesh.x, mesh.y, mesh.z, mesh.corner, mesh.split, nodes.v,
-                                                   cells.phi, cells.q, fn, par)
+                                                   cells.phi, cells.q, cells.hourglass_factor, fn, par)
     for i in range(nx):
         work[0] += power[0, i]
         work[1] += power[1, i]

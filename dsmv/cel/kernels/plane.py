@@ -109,9 +109,9 @@ def nodal_forces(mesh, cells, faces, nodes, par, v_body, work):
     """Internal nodal forces (N per unit thickness or per radian) from the cell stresses.
 
     One-point quadrature at the cell centre, f_a = −V·φ·σ·∇N_a with ∇N_a = (±1/2dx, ±1/2dy);
-    viscous hourglass control with coefficient ``par.hourglass`` (Flanagan–Belytschko form, force
-    ∝ ρ·c·√A·hourglass velocity, on the mode Γ = (1, −1, 1, −1)); linear and quadratic bulk
-    viscosity in compression. ``work`` accumulates the power dissipated by hourglass [0] and bulk
+    viscous hourglass control with coefficient ``par.hourglass`` times the cell's ``hourglass_factor``
+    (Flanagan–Belytschko form, force ∝ ρ·c·√A·hourglass velocity, on the mode Γ = (1, −1, 1, −1));
+    linear and quadratic bulk viscosity in compression. ``work`` accumulates the power dissipated by hourglass [0] and bulk
     viscosity [1] (W), to be multiplied by Δt by the caller, and [2] the vertical force the cut
     cells' mean stress puts on the body's arc (N, up +). Cells without soil give no force and are
     skipped; ``par.skip_void=False`` does their (null) arithmetic anyway, only to measure what
@@ -121,6 +121,7 @@ def nodal_forces(mesh, cells, faces, nodes, par, v_body, work):
     """
     x, y, corner, split, v = mesh.x, mesh.y, mesh.corner, mesh.split, nodes.v
     phi, q, open_frac, shared = cells.phi, cells.q, cells.open_frac, cells.shared_divergence
+    hourglass_factor = cells.hourglass_factor
     fn = nodes.f
     fn[:] = 0.0
     rho, axisym, c_wave = par.density, par.axisymmetric, par.wave_speed
@@ -184,10 +185,10 @@ def nodal_forces(mesh, cells, faces, nodes, par, v_body, work):
                 fn[0, n1] -= hoop
                 fn[0, n2] -= hoop
                 fn[0, n3] -= hoop
-            if par.hourglass > 0.0:
+            if par.hourglass > 0.0 and hourglass_factor[i, j] > 0.0:
                 gx = vx0 - vx1 + vx2 - vx3
                 gy = vy0 - vy1 + vy2 - vy3
-                c = 0.25 * par.hourglass * rho * f * c_wave * math.sqrt(area) * (vol / area)
+                c = 0.25 * par.hourglass * hourglass_factor[i, j] * rho * f * c_wave * math.sqrt(area) * (vol / area)
                 hx = c * gx
                 hy = c * gy
                 fn[0, n0] -= hx
