@@ -17,7 +17,8 @@ Three parts, every timing a median of repeats and every ratio measured in the sa
 Writes ``bench.md`` (the tables), ``bench.csv`` (every run) and ``bench.png`` under
 ``--out`` (default ``runs/bench``). ``--quick`` runs a short version (coarser levels, one
 repeat) in under three minutes; ``--3d`` the 3D solver's throughput, threads, cold start and
-memory per cell instead (``bench_3d.md``).
+memory per cell instead (``bench_3d.md``); ``--sweeps`` what tracking and the launchers cost a job
+(:mod:`dsmv.bench_sweeps`).
 """
 
 from __future__ import annotations
@@ -437,7 +438,14 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--scenes", nargs="*", help="with --regression: only these scenes")
     parser.add_argument("--3d", dest="solid", action="store_true", help="instead: the 3D solver's throughput, "
                         "threads, cold start and memory (bench_3d.md under --out)")
+    parser.add_argument("--sweeps", action="store_true", help="instead: what MLflow tracking and the launchers "
+                        "cost a job (bench_sweeps.md under --out)")
     args = parser.parse_args(argv)
+    if args.sweeps:
+        from dsmv import bench_sweeps
+
+        bench_sweeps.main(Path(args.out), args.quick)
+        return
     if args.regression:
         from dsmv import regression
 

@@ -122,7 +122,7 @@ def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, sweep_dir: Path | None, caug
         sys.exit(EXIT_CODES["interrupted"])
     finally:
         if tracker is not None and end_status is not None:  # never leave a run RUNNING
-            tracker.client.set_terminated(tracker.run_id, end_status)
+            tracker.terminate(end_status)
 
     if multirun and result.status == "interrupted":
         interrupts.mark(sweep_dir, f"job {run_dir.name} {result.message}")
@@ -286,7 +286,7 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
     print(f"  message : {result.message}")
     print(f"  outputs : {run_dir}")
     if tracker is not None:
-        uri = tracker.client.tracking_uri
+        uri = tracker.uri
         print(f"  MLflow  : {uri}  (experiment {tracking.experiment_name(scene.study)}, run {tracker.run_id})")
         if uri.startswith("http"):
             print(f"  browse  : {uri}")

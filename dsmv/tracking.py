@@ -21,15 +21,16 @@ import logging
 import os
 import subprocess
 import sys
-import threading
 import time
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 from hydra.experimental.callback import Callback
 from omegaconf import DictConfig, OmegaConf
 
 from dsmv.results import HISTORY_COLUMNS, SolveResult
+from dsmv.run_writer import experiment_id as _experiment_id
+from dsmv.run_writer import open_client, resolve_uri, writer  # noqa: F401  (resolve_uri: the surrogates' too)
 from dsmv.scene import TrackingConfig, build_tracking
 
 PARENT_RUN_FILE = "mlflow_parent_run.json"
@@ -59,51 +60,8 @@ def scene_overrides(overrides) -> str:
     return " ".join(o for o in overrides if key(o) not in BOOKKEEPING_KEYS)
 
 
-def resolve_uri(uri: str) -> str:
-    """Make a relative ``sqlite:///`` store absolute, so every process and the UI agree."""
-    prefix = "sqlite:///"
-    if uri.startswith(prefix) and not uri.startswith(prefix + "/"):
-        path = Path(uri[len(prefix) :]).resolve()
-        path.parent.mkdir(parents=True, exist_ok=True)
-        return prefix + str(path)
-    return uri
-
-
 def _client(tracking: TrackingConfig):
-    from mlflow.tracking import MlflowClient
-
-    return MlflowClient(tracking_uri=resolve_uri(tracking.uri))
-
-
-#: MLflow 3's UI opens an experiment by its kind: without it, an experiment of plain runs opens on
-#: the GenAI overview (traces), and a newcomer sees no runs
-EXPERIMENT_KIND = {"mlflow.experimentKind": "custom_model_development"}
-
-
-def experiment_description(name: str) -> str:
-    """What an experiment holds, in the words the MLflow UI shows under its name."""
-    return (f"{name}: one run per dsmv job. Params: the resolved config (dotted keys); metrics: the result "
-            f"contract, SI units in the names; tag dsmv.status: ok, bearing_failure, out_of_domain, unstable, "
-            f"failed or interrupted. The history.* curves are logged with step = simulated time in "
-            f"microseconds. Surrogate runs carry dsmv.role = surrogate.")
-
-
-def _experiment_id(client, name: str, artifact_location: str | None) -> str:
-    """The experiment's id, created (with its kind and description) if it does not exist yet."""
-    found = client.get_experiment_by_name(name)
-    if found is not None:
-        return found.experiment_id
-    location = None
-    if artifact_location:
-        location = Path(artifact_location).resolve().as_uri() if "://" not in artifact_location else artifact_location
-    tags = EXPERIMENT_KIND | {"mlflow.note.content": experiment_description(name)}
-    try:
-        return client.create_experiment(name, artifact_location=location, tags=tags)
-    except Exception:  # created meanwhile by a parallel job
-        found = client.get_experiment_by_name(name)
-        if found is None:
-            raise
-        return found.experiment_id
+    return open_client(tracking.uri)
 
 
 def flatten(tree: Any, prefix: str = "") -> dict[str, str]:
@@ -138,84 +96,54 @@ def _git_sha(package_dir: Path | None = None) -> str | None:
     return out.stdout.strip() or None
 
 
-def _chunks(items: list, size: int) -> Iterable[list]:
-    for start in range(0, len(items), size):
-        yield items[start : start + size]
-
-
 class JobTracker:
-    """The MLflow run of one job.
-
-    The run is opened in a background thread: importing MLflow and opening its store cost seconds, more
-    than a small solve, and they overlap the solve (whose compiled chunks release the GIL). ``client`` and
-    ``run_id`` wait for it; an error opening the run is raised there, in the job's thread.
-    """
+    """The MLflow run of one job, written by this process's writer (:mod:`dsmv.run_writer`): MLflow's
+    import and store set-up overlap the solve. ``run_id`` waits for the run to exist; an error of the
+    store is raised there or in :meth:`finish`."""
 
     def __init__(self, tracking: TrackingConfig, study: str, run_name: str, params: dict[str, str], tags: dict,
                  run_dir: Path):
-        self._opening = threading.Thread(target=self._open, name="dsmv-mlflow-open", daemon=True,
-                                         args=(tracking, study, run_name, params, tags, run_dir))
-        self._error: BaseException | None = None
-        self._opening.start()
-
-    def _open(self, tracking, study, run_name, params, tags, run_dir) -> None:
-        try:
-            from mlflow.entities import Param
-
-            self._client = _client(tracking)
-            experiment_id = _experiment_id(self._client, experiment_name(study), tracking.artifact_location)
-            tags = {k: str(v) for k, v in (tags | {"mlflow.source.git.commit": _git_sha()}).items() if v is not None}
-            self._run_id = self._client.create_run(experiment_id, tags=tags, run_name=run_name).info.run_id
-            record_job_run(run_dir, self._run_id, reused=False)
-            params_list = [Param(k, v[:6000]) for k, v in params.items()]
-            for chunk in _chunks(params_list, 100):
-                self._client.log_batch(self._run_id, params=chunk)
-        except BaseException as error:  # raised again where the job asks for the run
-            self._error = error
-
-    def _opened(self) -> None:
-        self._opening.join()
-        if self._error is not None:
-            raise self._error
-
-    @property
-    def client(self):
-        self._opened()
-        return self._client
+        self.uri = resolve_uri(tracking.uri)
+        self.run_dir = run_dir
+        self.writer = writer()
+        tags = {k: str(v)[:5000] for k, v in tags.items() if v is not None}
+        self._opened = self.writer.ask("open", self.uri, tracking.artifact_location, experiment_name(study), run_name,
+                                       {k: v[:6000] for k, v in params.items()}, tags)
+        self._run_id: str | None = None
 
     @property
     def run_id(self) -> str:
-        self._opened()
+        if self._run_id is None:
+            self._run_id = self.writer.answer(self._opened)
+            record_job_run(self.run_dir, self._run_id, reused=False)
         return self._run_id
 
     def finish(self, result: SolveResult, files: list[Path], error: str | None = None, note: str = "") -> None:
         """Log the outcome and close the run: FINISHED unless the code raised. ``note`` becomes the run's
         description in the MLflow UI (the summary's answer line)."""
-        from mlflow.entities import Metric, Param, RunTag
-
-        client, run_id = self.client, self.run_id
         now = int(time.time() * 1000)
-        metrics = [Metric(k, float(v), now, 0) for k, v in result.metrics.items()]
+        metrics = [(k, float(v), now, 0) for k, v in result.metrics.items()]
         if result.history is not None:
             metrics += _history_metrics(result.history, now)
-        for chunk in _chunks(metrics, 1000):
-            client.log_batch(run_id, metrics=chunk)
-        tags = [RunTag("dsmv.status", result.status), RunTag("dsmv.message", result.message[:5000])]
+        tags = {"dsmv.status": result.status, "dsmv.message": result.message[:5000]}
         if error:
-            tags.append(RunTag("dsmv.error", error[:5000]))
+            tags["dsmv.error"] = error[:5000]
         if note:
-            tags.append(RunTag("mlflow.note.content", note[:5000]))
-        client.log_batch(run_id, params=[Param("status", result.status)], tags=tags)
-        for path in files:
-            client.log_artifact(run_id, str(path))
+            tags["mlflow.note.content"] = note[:5000]
         # FAILED: the code raised; KILLED: a signal stopped the run (its reason is the message)
-        client.set_terminated(run_id, "FAILED" if error else ("KILLED" if result.status == "interrupted" else "FINISHED"))
+        end_status = "FAILED" if error else ("KILLED" if result.status == "interrupted" else "FINISHED")
+        self.writer.answer(self.writer.ask("finish", self.uri, self.run_id, metrics, {"status": result.status}, tags,
+                                           [str(path) for path in files], end_status))
+
+    def terminate(self, end_status: str) -> None:
+        """Close the run without its outcome (the job was stopped while writing it)."""
+        self.writer.answer(self.writer.ask("terminate", self.uri, self.run_id, end_status))
 
 
 def _history_metrics(history: dict, timestamp_ms: int) -> list:
-    """Histories as metric steps: step = simulated time in µs, at most MAX_HISTORY_POINTS each."""
+    """Histories as metric steps (key, value, timestamp, step): step = simulated time in µs, at most
+    MAX_HISTORY_POINTS each."""
     import numpy as np
-    from mlflow.entities import Metric
 
     time_s = np.asarray(history["time_s"], dtype=float)
     keep = np.unique(np.linspace(0, len(time_s) - 1, min(len(time_s), MAX_HISTORY_POINTS)).round().astype(int))
@@ -223,7 +151,7 @@ def _history_metrics(history: dict, timestamp_ms: int) -> list:
     out = []
     for column in HISTORY_COLUMNS[1:]:
         values = np.asarray(history[column], dtype=float)[keep]
-        out += [Metric(f"history.{column}", float(v), timestamp_ms, int(s)) for v, s in zip(values, steps)]
+        out += [(f"history.{column}", float(v), timestamp_ms, int(s)) for v, s in zip(values, steps)]
     return out
 
 
@@ -302,6 +230,7 @@ def start_job(cfg: DictConfig, scene, run_dir: Path, run_name: str, parent_run_i
     params = flatten({k: v for k, v in container.items() if k not in ("tracking", "paths")})
     tags = {
         "mlflow.parentRunId": parent_run_id,
+        "mlflow.source.git.commit": _git_sha(),
         "dsmv.study": scene.study,
         "dsmv.soil_law": scene.soil.law,
         "dsmv.solver": scene.solver.name,
