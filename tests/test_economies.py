@@ -9,6 +9,7 @@ directionally split remap (tolerance 1e-3 relative).
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from dsmv.cel.solver import Cel2DSolver
@@ -54,7 +55,12 @@ def test_stopping_at_rest_keeps_the_max_sinkage_and_time_to_rest(landing_result)
     before = on.history["time_s"] < at_rest
     for column in ("time_s", "sinkage_m", "velocity_m_s", "force_n"):
         assert (off.history[column][: before.sum()] == on.history[column][before]).all(), column
-    assert on.metrics["max_sinkage_m"] == pytest.approx(on.history["sinkage_m"].max(), rel=1e-6)  # the step before
+    # the deepest point lies after the deepest sample, by at most what the decelerating body travels
+    # over one sampling interval at that sample's speed
+    deepest = int(on.history["sinkage_m"].argmax())
+    interval = np.diff(on.history["time_s"])[min(deepest, len(on.history["time_s"]) - 2)]
+    beyond = on.metrics["max_sinkage_m"] - on.history["sinkage_m"][deepest]
+    assert 0.0 <= beyond <= abs(on.history["velocity_m_s"][deepest]) * interval
     assert off.metrics["max_sinkage_m"] >= on.metrics["max_sinkage_m"]
     assert off.metrics["steps"] > 1.9 * on.metrics["steps"]  # it did run on, to twice the time at rest
     assert off.metrics["energy_error"] < 0.02
