@@ -58,6 +58,9 @@ def run_job(cfg: DictConfig) -> dict:
         pin_numba_threads(1)
     elif "submitit" in launcher:  # a job owns the cpus its task was given
         pin_numba_threads(int(hydra_cfg.launcher.get("cpus_per_task") or 1))
+    elif "ray" in launcher.lower():  # a Ray task holds the cpus it asked for: one unless ray.remote says more
+        remote = hydra_cfg.launcher.get("ray", {}).get("remote", {}) or {}
+        pin_numba_threads(int(remote.get("num_cpus") or 1))
 
     with job_output():
         if not multirun:

@@ -1,4 +1,5 @@
-"""Sweeps beyond one process into a shared tracking server on a real database (``-m server``).
+"""Sweeps beyond one process into a shared tracking server on a real database, and on a local Ray
+cluster (``-m server``).
 
 The test starts a PostgreSQL server (the system's ``initdb`` and ``pg_ctl``; as the ``postgres``
 user when run as root, which ``initdb`` refuses) and an MLflow server whose backend store is that
@@ -17,7 +18,7 @@ from pathlib import Path
 import pytest
 
 from dsmv.mlflow_check import free_port
-from tests.conftest import mlflow_server
+from tests.conftest import mlflow_runs, mlflow_server
 
 pytestmark = pytest.mark.server
 
@@ -87,3 +88,19 @@ def test_eight_worker_processes_log_every_run_and_metric_to_a_server_on_postgres
         history = client.get_metric_history(run.info.run_id, "history.sinkage_m")
         assert len(history) > 10
         assert {"result.json", "history.csv"} <= {a.path for a in client.list_artifacts(run.info.run_id)}
+
+
+def test_a_sweep_runs_on_a_local_ray_cluster(run_cli, tmp_path):
+    """hydra/launcher=ray (pip install dsmv[ray]) starts a local Ray cluster of two cpus; each job is a
+    Ray task with one Numba thread, tracked like any other job."""
+    pytest.importorskip("hydra_plugins.hydra_ray_launcher", reason="hydra/launcher=ray needs pip install dsmv[ray]")
+
+    proc = run_cli("dsmv", "-m", "hydra/launcher=ray", "+hydra.launcher.ray.init.num_cpus=2",
+                   "landing.velocity_m_s=1.0,1.5", "mesh=coarse", "output.plots=false", timeout=600)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "sweep done: 2 ok" in proc.stdout
+    runs = mlflow_runs(tmp_path)
+    children = [r for r in runs if "mlflow.parentRunId" in r.data.tags]
+    assert len(runs) == 3 and len(children) == 2
+    assert all(r.info.status == "FINISHED" and r.data.tags["dsmv.status"] == "ok" for r in children)
+    assert sorted(float(r.data.params["landing.velocity_m_s"]) for r in children) == [1.0, 1.5]
