@@ -65,6 +65,12 @@ CHECKS = (
           (*SMALL_STRAIN, "geometry.roughness=smooth", "soil.ks_pa_per_m=40000", "soil.youngs_modulus_pa=1e7",
            "landing.displacement_m=0.04", "solver.initial_travel_m=0.1"),
           (0.025, 0.05, 0.1), (0.05, 0.1, 0.2), 1.0),
+    *(Check(f"Davis & Booker: rough strip, su = su0 + k·z, k·B/su0 = {k}, small strain, q/su0 at 0.02 B",
+            "nc_at_0p02B", reference, f"Davis & Booker (1973), their chart read: about {reference}",
+            (*SMALL_STRAIN, "soil.ks_pa_per_m=" + str(10000 * k), "soil.youngs_modulus_pa=1e7",
+             "landing.displacement_m=0.04", "solver.initial_travel_m=0.1"),
+            (0.025, 0.05, 0.1), None, 1.0)
+      for k, reference in ((2, 7.57), (4, 9.0), (6, 10.5))),
     Check("Circular plate: rough, axisymmetric, small strain, q/su at 0.1 B", "nc_at_0p1B", 6.05,
           "Cox, Eason & Hopkins (1961): 6.05",
           (*SMALL_STRAIN, "solver=cel2d", "geometry=circular_plate", "landing.displacement_m=0.11"),
