@@ -369,6 +369,11 @@ def _simulate_app(cfg: DictConfig) -> None:
     run_job(cfg)
 
 
+#: flags after which dsmv prints and runs nothing (no MLflow writer is started for them)
+INFO_FLAGS = {"--help", "-h", "--hydra-help", "--cfg", "-c", "--info", "-i", "--resolve", "--package", "-p",
+              "--shell-completion", "-sc", "--version"}
+
+
 def simulate() -> None:
     """``dsmv``: run one scene, or a sweep with ``-m``."""
     import os
@@ -376,10 +381,10 @@ def simulate() -> None:
     # MLflow's messages go to the job's log (dsmv.joblog), not to a console handler of MLflow's own
     os.environ.setdefault("MLFLOW_CONFIGURE_LOGGING", "false")
     args = sys.argv[1:]
-    if not any(a.startswith("-") for a in args) and "tracking=disabled" not in args:
+    if not set(args) & INFO_FLAGS and "tracking=disabled" not in args:
         from dsmv.run_writer import writer
 
-        writer()  # a single run: MLflow is imported on the other core while Hydra composes and the job solves
+        writer()  # MLflow is imported on the other core while Hydra composes and the job solves
     registry.register_plugin_configs()
     try:
         check_command_line(args, "dsmv", "config", scene=True)

@@ -82,11 +82,10 @@ def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, sweep_dir: Path | None, caug
         scene = build_scene(cfg)
         if multirun and cfg.get("resume") and (earlier := tracking.finished_run(cfg, scene)) is not None:
             return _reuse(earlier, scene, run_dir, names)
-        parent = tracking.parent_run_id(Path(hydra_cfg.sweep.dir)) if multirun else None
         # named from the scene; a sweep's job adds what it varies, so that no two of its runs read alike
         swept = tracking.scene_overrides(hydra_cfg.overrides.task) if multirun else ""
         run_name = scene_label(scene) + (f" [{swept}]" if swept else "")
-        tracker = tracking.start_job(cfg, scene, run_dir, run_name, parent)
+        tracker = tracking.start_job(cfg, scene, run_dir, run_name, sweep_dir)
     except DsmvError as error:
         if not multirun:  # (dsmv.cli.check_command_line refuses most before Hydra makes the run dir)
             print(f"dsmv: error: {error}", file=sys.stderr)

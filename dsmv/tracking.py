@@ -30,7 +30,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from dsmv.results import HISTORY_COLUMNS, SolveResult
 from dsmv.run_writer import experiment_id as _experiment_id
-from dsmv.run_writer import open_client, resolve_uri, writer  # noqa: F401  (resolve_uri: the surrogates' too)
+from dsmv.run_writer import for_job, open_client, resolve_uri, serve_sweep  # noqa: F401  (resolve_uri: the surrogates' too)
 from dsmv.scene import TrackingConfig, build_tracking
 
 PARENT_RUN_FILE = "mlflow_parent_run.json"
@@ -102,13 +102,14 @@ class JobTracker:
     store is raised there or in :meth:`finish`."""
 
     def __init__(self, tracking: TrackingConfig, study: str, run_name: str, params: dict[str, str], tags: dict,
-                 run_dir: Path):
+                 run_dir: Path, sweep_dir: Path | None = None):
         self.uri = resolve_uri(tracking.uri)
         self.run_dir = run_dir
-        self.writer = writer()
+        self.writer = for_job(sweep_dir)
         tags = {k: str(v)[:5000] for k, v in tags.items() if v is not None}
+        parent_file = str(Path(sweep_dir) / PARENT_RUN_FILE) if sweep_dir is not None else None
         self._opened = self.writer.ask("open", self.uri, tracking.artifact_location, experiment_name(study), run_name,
-                                       {k: v[:6000] for k, v in params.items()}, tags)
+                                       {k: v[:6000] for k, v in params.items()}, tags, parent_file)
         self._run_id: str | None = None
 
     @property
@@ -221,15 +222,15 @@ def record_job_run(run_dir: Path, run_id: str, reused: bool) -> None:
     (Path(run_dir) / JOB_RUN_FILE).write_text(json.dumps({"run_id": run_id, "reused": reused}))
 
 
-def start_job(cfg: DictConfig, scene, run_dir: Path, run_name: str, parent_run_id: str | None) -> JobTracker | None:
-    """Open the MLflow run of a job, or return None when tracking is disabled."""
+def start_job(cfg: DictConfig, scene, run_dir: Path, run_name: str, sweep_dir: Path | None) -> JobTracker | None:
+    """Open the MLflow run of a job (a child of its sweep's parent run), or return None when tracking is
+    disabled."""
     tracking = build_tracking(cfg)
     if not tracking.enabled:
         return None
     container = OmegaConf.to_container(cfg, resolve=True)
     params = flatten({k: v for k, v in container.items() if k not in ("tracking", "paths")})
     tags = {
-        "mlflow.parentRunId": parent_run_id,
         "mlflow.source.git.commit": _git_sha(),
         "dsmv.study": scene.study,
         "dsmv.soil_law": scene.soil.law,
@@ -241,7 +242,7 @@ def start_job(cfg: DictConfig, scene, run_dir: Path, run_name: str, parent_run_i
         "dsmv.run_dir": str(run_dir.resolve()),
         "dsmv.status": "running",
     }
-    return JobTracker(tracking, scene.study, run_name, params, tags, run_dir)
+    return JobTracker(tracking, scene.study, run_name, params, tags, run_dir, sweep_dir)
 
 
 def parent_run_id(sweep_dir: Path) -> str | None:
@@ -256,6 +257,8 @@ SWEEP_LOG_FILE = "sweep.log"
 
 #: the sweep running in this process, for :func:`abort_sweep`
 _active_sweep: dict = {}
+#: per sweep dir: the writer opening its parent run, the request's ticket and the store's URI
+_parent_runs: dict = {}
 
 
 class MlflowSweepCallback(Callback):
@@ -276,20 +279,21 @@ class MlflowSweepCallback(Callback):
         tracking = build_tracking(config)
         if not tracking.enabled:
             return
-        client = _client(tracking)  # creates the store here, before parallel jobs race for it
+        # the parent run is opened by the sweep's writer, which then serves the jobs' runs too
+        writer = serve_sweep(sweep_dir)
         study = str(config.get("study", "default"))
-        experiment_id = _experiment_id(client, experiment_name(study), tracking.artifact_location)
         tags = {"dsmv.study": study, "dsmv.sweep_dir": str(sweep_dir.resolve()), "dsmv.role": "sweep"}
         sha = _git_sha()
         if sha:
             tags["mlflow.source.git.commit"] = sha
         varied = scene_overrides(config.hydra.overrides.task)
         name = f"sweep {study}: {varied}" if varied else f"sweep {study} {sweep_dir.name}"
-        run = client.create_run(experiment_id, tags=tags, run_name=name[:250])
         overrides = list(config.hydra.overrides.task)
-        if overrides:
-            client.log_param(run.info.run_id, "sweep.overrides", " ".join(overrides)[:6000])
-        (sweep_dir / PARENT_RUN_FILE).write_text(json.dumps({"run_id": run.info.run_id, "uri": client.tracking_uri}))
+        params = {"sweep.overrides": " ".join(overrides)[:6000]} if overrides else {}
+        uri = resolve_uri(tracking.uri)
+        ticket = writer.ask("open", uri, tracking.artifact_location, experiment_name(study), name[:250], params, tags,
+                            None, str(sweep_dir / PARENT_RUN_FILE))
+        _parent_runs[str(sweep_dir)] = (writer, ticket, uri)  # (not on self: Hydra pickles its callbacks)
 
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
         """Summarise the sweep, close its parent run, print the tally and exit with the code of its
@@ -301,25 +305,22 @@ class MlflowSweepCallback(Callback):
             self.signals.uninstall()
         _active_sweep.clear()
         _sweep_log(sweep_dir, config)  # jobs run in this process (the basic launcher) took the root logger over
-        run_id = parent_run_id(sweep_dir)
-        tracking = build_tracking(config)
-        client = _client(tracking) if run_id is not None and tracking.enabled else None
-        status, rows = "FAILED", []
+        writer, ticket, uri = _parent_runs.pop(str(sweep_dir), (None, None, None))
+        run_id = writer.answer(ticket) if writer is not None else None
+        status, rows, metrics, files = "FAILED", [], [], []
         try:
             rows = summarize_sweep(sweep_dir)
             plot = sweep_plot(config, sweep_dir)
-            if client is not None:
-                counts = {s: sum(r["status"] == s for r in rows) for s in {r["status"] for r in rows}}
-                for job_status, count in counts.items():
-                    client.log_metric(run_id, f"jobs_{job_status}", count)
-                client.log_metric(run_id, "jobs_total", len(rows))
-                for path in (sweep_dir / SWEEP_SUMMARY_FILE, plot):
-                    if path is not None and Path(path).exists():
-                        client.log_artifact(run_id, str(path))
+            now = int(time.time() * 1000)
+            counts = {s: sum(r["status"] == s for r in rows) for s in {r["status"] for r in rows}}
+            metrics = [(f"jobs_{job_status}", float(count), now, 0) for job_status, count in counts.items()]
+            metrics.append(("jobs_total", float(len(rows)), now, 0))
+            files = [str(path) for path in (sweep_dir / SWEEP_SUMMARY_FILE, plot)
+                     if path is not None and Path(path).exists()]
             status = "KILLED" if interrupted(sweep_dir) else "FINISHED"
         finally:  # the parent run never stays RUNNING
-            if client is not None:
-                client.set_terminated(run_id, status)
+            if run_id is not None:
+                writer.answer(writer.ask("finish", uri, run_id, metrics, {}, {}, files, status))
         tally, code = sweep_exit_code([r["status"] for r in rows])
         line = f"dsmv: sweep done: {tally} — see {sweep_dir / SWEEP_SUMMARY_FILE}"
         print(line)
