@@ -94,6 +94,9 @@ CHECKS = (
     Check("Default landing: max sinkage (m), Einav–Randolph, no exact answer", "max_sinkage_m", None,
           "its own value extrapolated from the three finest meshes", ("solver=cel2d",),
           (0.005, 0.01, 0.02, 0.04), (0.02, 0.04, 0.08), 0.6),  # the track's B
+    Check("Default landing on Tresca soil: max sinkage (m), no exact answer", "max_sinkage_m", None,
+          "its own value extrapolated from the three finest meshes", ("solver=cel2d", "soil.law=tresca"),
+          (0.005, 0.01, 0.02, 0.04), None, 0.6),
 )
 
 
