@@ -7,7 +7,7 @@ load changes both sides alike):
    (created beforehand) and with ``tracking=disabled``.
 2. **Tracking's cost per job over a sweep**: 16 jobs on two joblib workers (8 per worker), tracked
    and untracked, the difference divided by 16.
-3. **Launchers**: 8 landings on the standard ``medium`` mesh (0.04 m) through
+3. **Launchers**: 8 landings on the ``medium`` (0.04 m) and the ``standard`` (0.02 m) mesh through
    ``hydra/launcher=dsmv_local`` (submitit: a process per job, all jobs at once, one Numba thread
    each) against ``hydra/launcher=joblib`` with two workers, both tracked.
 
@@ -30,6 +30,9 @@ from pathlib import Path
 VELOCITIES_M_S = "1.0,1.25,1.5,1.75,2.0,2.25,2.5,2.75"
 VELOCITIES_16_M_S = "1.0,1.1,1.2,1.3,1.4,1.5,1.6,1.7,1.8,1.9,2.0,2.1,2.2,2.3,2.4,2.5"
 QUIET = ["solver.progress=off", "output.plots=false"]
+#: the launchers' sweeps: on the medium mesh (0.04 m core cells, a 0.3 s solve) a job's own start
+#: weighs most; on the standard mesh (0.02 m, the studies' and the dataset's) less
+MESHES = ("medium", "standard")
 LAUNCHERS = {
     "joblib, 2 workers": ["hydra/launcher=joblib", "hydra.launcher.n_jobs=2"],
     "dsmv_local (submitit)": ["hydra/launcher=dsmv_local"],
@@ -77,19 +80,22 @@ def measure(repeats: int, scratch: Path) -> dict:
              "hydra.launcher.n_jobs=2"]
     per_job = interleaved({"tracked": sweep, "untracked": [*sweep, "tracking=disabled"]}, max(1, repeats // 2), scratch)
 
-    print("8 medium-mesh landings through each launcher", flush=True)
-    base = [_dsmv(), "-m", *store, *QUIET, "mesh=medium", f"landing.velocity_m_s={VELOCITIES_M_S}"]
-    launchers = interleaved({name: [*base, *extra] for name, extra in LAUNCHERS.items()}, max(1, repeats // 2),
-                            scratch)
+    launchers = {}
+    for mesh in MESHES:
+        print(f"8 landings on the {mesh} mesh through each launcher", flush=True)
+        base = [_dsmv(), "-m", *store, *QUIET, f"mesh={mesh}", f"landing.velocity_m_s={VELOCITIES_M_S}"]
+        launchers[mesh] = interleaved({name: [*base, *extra] for name, extra in LAUNCHERS.items()},
+                                      max(1, repeats // 2), scratch)
 
     med = {part: {k: statistics.median(v) for k, v in walls.items()}
-           for part, walls in (("single", one), ("sweep", per_job), ("launchers", launchers))}
+           for part, walls in (("single", one), ("sweep", per_job), *((f"launchers {m}", w) for m, w in launchers.items()))}
     return {
         "walls_s": {"single": one, "sweep": per_job, "launchers": launchers},
         "median_s": med,
         "single_run_overhead_s": med["single"]["tracked"] - med["single"]["untracked"],
         "sweep_overhead_per_job_s": (med["sweep"]["tracked"] - med["sweep"]["untracked"]) / 16,
-        "dsmv_local_over_joblib": med["launchers"]["dsmv_local (submitit)"] / med["launchers"]["joblib, 2 workers"],
+        "dsmv_local_over_joblib": {m: med[f"launchers {m}"]["dsmv_local (submitit)"] /
+                                   med[f"launchers {m}"]["joblib, 2 workers"] for m in MESHES},
     }
 
 
@@ -108,9 +114,10 @@ def report(figures: dict, repeats: int) -> str:
         f"| 16 jobs on two joblib workers (8 each) | {med['sweep']['tracked']:.2f} s | "
         f"{med['sweep']['untracked']:.2f} s | "
         f"{figures['sweep_overhead_per_job_s']:+.3f} s per job tracked |",
-        f"| 8 medium-mesh landings, tracked: dsmv_local against joblib (2 workers) | "
-        f"{med['launchers']['dsmv_local (submitit)']:.2f} s | {med['launchers']['joblib, 2 workers']:.2f} s | "
-        f"{figures['dsmv_local_over_joblib']:.2f}× |",
+        *(f"| 8 landings on the {mesh} mesh, tracked: dsmv_local against joblib (2 workers) | "
+          f"{med[f'launchers {mesh}']['dsmv_local (submitit)']:.2f} s | "
+          f"{med[f'launchers {mesh}']['joblib, 2 workers']:.2f} s | {figures['dsmv_local_over_joblib'][mesh]:.2f}× |"
+          for mesh in MESHES),
         "",
         "A job's MLflow run is written by a writer process (`dsmv.run_writer`) that imports MLflow while the job "
         "composes its scene and solves; a sweep has one writer on its machine, which its jobs reach through a Unix "

@@ -92,19 +92,19 @@ def _plugin_config_search_path():
     return PluginConfigs
 
 
-def check_name(kind: str, name: str, config_path: str) -> None:
-    """Raise a ConfigError listing what is installed when ``name`` is not a plugin of ``kind``."""
+def check_name(kind: str, name: str, config_path: str) -> EntryPoint:
+    """The entry point of ``name``; a ConfigError listing what is installed when it is not a plugin of ``kind``."""
     names = available(kind)
     if name not in names:
         listing = ", ".join(names) or "none installed"
         raise ConfigError(config_path, name, f"not an installed {kind[:-1].replace('_', ' ')}; available: {listing}")
+    return names[name]
 
 
 def load(kind: str, name: str, config_path: str):
     """Load the object registered as ``name`` in the group of ``kind``; a target that does not import is
     a ConfigError naming the entry point (a typo in a plugin's ``pyproject.toml`` fails at composition)."""
-    check_name(kind, name, config_path)
-    entry = available(kind)[name]
+    entry = check_name(kind, name, config_path)
     try:
         return entry.load()
     except Exception as error:  # ImportError, AttributeError, or the plugin's own import-time bug
