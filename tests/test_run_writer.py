@@ -1,0 +1,64 @@
+"""The MLflow writer process (dsmv.run_writer): runs opened and closed through it arrive in the store,
+a sweep's writer serves other connections over its socket and parents their runs, errors come back
+as WriterError, and the writer's log records land in the asking process's logging."""
+
+from __future__ import annotations
+
+import json
+import logging
+from multiprocessing.connection import Client
+
+import pytest
+
+from dsmv import run_writer
+from dsmv.run_writer import SOCKET_FILE, Writer, WriterError
+
+
+@pytest.fixture
+def store(tmp_path):
+    return f"sqlite:///{tmp_path / 'mlflow.db'}"
+
+
+def _runs(uri: str) -> dict:
+    from mlflow.tracking import MlflowClient
+
+    client = MlflowClient(uri)
+    ids = [e.experiment_id for e in client.search_experiments()]
+    return {r.info.run_name: r for r in client.search_runs(ids)}
+
+
+def test_a_sweeps_writer_parents_the_runs_its_jobs_hand_it_over_the_socket(tmp_path, store, caplog):
+    sweep_dir = tmp_path / "sweep"
+    sweep_dir.mkdir()
+    own = run_writer.serve_sweep(sweep_dir)
+    parent_file = sweep_dir / "parent.json"
+    parent = own.ask("open", store, None, "dsmv-test", "the sweep", {"sweep.overrides": "x=1,2"}, {}, None,
+                     str(parent_file))
+    # a job in another process connects through the socket the sweep dir names
+    where = json.loads((sweep_dir / SOCKET_FILE).read_text())
+    job = Writer(Client(where["socket"], family="AF_UNIX"))
+    opened = job.ask("open", store, None, "dsmv-test", "a job", {"x": "1"}, {"dsmv.status": "running"},
+                     str(parent_file))
+    job_run = job.answer(opened)
+    parent_run = own.answer(parent)
+    assert json.loads(parent_file.read_text())["run_id"] == parent_run
+    with caplog.at_level(logging.INFO):
+        job.answer(job.ask("finish", store, job_run, [("max_sinkage_m", 0.1, 0, 0)], {"status": "ok"},
+                           {"dsmv.status": "ok"}, [], "FINISHED"))
+        own.answer(own.ask("finish", store, parent_run, [("jobs_total", 1.0, 0, 0)], {}, {}, [], "FINISHED"))
+
+    runs = _runs(store)
+    child, sweep = runs["a job"], runs["the sweep"]
+    assert child.data.tags["mlflow.parentRunId"] == sweep.info.run_id
+    assert child.info.status == sweep.info.status == "FINISHED"
+    assert child.data.metrics == {"max_sinkage_m": 0.1} and child.data.params == {"x": "1", "status": "ok"}
+    assert sweep.data.params == {"sweep.overrides": "x=1,2"} and sweep.data.metrics == {"jobs_total": 1.0}
+
+
+def test_a_store_that_cannot_be_written_is_a_writer_error(tmp_path):
+    (tmp_path / "afile").write_text("")
+    writer = Writer.start()
+    opened = writer.ask("open", f"sqlite:///{tmp_path / 'afile' / 'mlflow.db'}", None, "dsmv-test", "a run", {}, {})
+    with pytest.raises(WriterError):
+        writer.answer(opened)
+    assert writer.alive  # one failed request leaves the writer serving
