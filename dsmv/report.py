@@ -133,7 +133,9 @@ def provenance() -> dict[str, str]:
     import numba
 
     commit = git("rev-parse", "HEAD") or "unknown (not a git checkout)"
-    dirty = git("status", "--porcelain", "--untracked-files=no")
+    # the report's own pages (an earlier report's) are outputs, not the code measured
+    dirty = [line for line in git("status", "--porcelain", "--untracked-files=no").splitlines()
+             if not line[3:].startswith(str(PAGE.parent / "report"))]
     cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
                 if line.startswith("model name")), platform.processor()) if Path("/proc/cpuinfo").exists() else ""
     return {"commit": commit, "tree": "modified" if dirty else "clean",
