@@ -182,6 +182,16 @@ def check_section(check: Check, outcomes: list[Outcome]) -> tuple[str, dict]:
     return "\n".join(lines), row
 
 
+#: parts of a check's name that the figure's legend leaves out (the table beside it says them)
+LEGEND_DROPS = ("small strain", "q/su", "pushed", "steady", "su = su0", "no exact answer", "axisymmetric", "3D quarter")
+
+
+def short_name(check: Check) -> str:
+    """A check's name for a legend: its first part and what tells it from its neighbours."""
+    first, *rest = check.name.split(", ")
+    return ", ".join([first, *(part for part in rest if not any(word in part for word in LEGEND_DROPS))])
+
+
 def figure(path: Path, results: list[tuple[Check, list[Outcome]]]) -> Path:
     """|error| against the relative cell size on log-log axes, one line per check."""
     import matplotlib
@@ -189,20 +199,21 @@ def figure(path: Path, results: list[tuple[Check, list[Outcome]]]) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(8, 5), constrained_layout=True)
-    for check, outcomes in results:
+    fig, ax = plt.subplots(figsize=(10, 5), constrained_layout=True)
+    colours, markers = plt.get_cmap("tab20").colors, "osD^v<>ph*"
+    for k, (check, outcomes) in enumerate(results):
         est = estimate(check, outcomes)
         reference = check.reference if check.reference is not None else (est.extrapolated if est else None)
         points = [(o.cell_m / check.length_m, abs(o.value / reference - 1)) for o in outcomes
                   if reference and o.status == "ok" and math.isfinite(o.value) and o.value != reference]
         if points:
             h, err = zip(*points)
-            ax.loglog(h, [100 * e for e in err], "o-", label=check.name.split(",")[0] + (
-                "" if check.reference is not None else " (vs extrapolated)"))
+            ax.loglog(h, [100 * e for e in err], marker=markers[k % len(markers)], color=colours[(2 * k) % 20 + k // 10],
+                      label=short_name(check) + ("" if check.reference is not None else " (vs extrapolated)"))
     ax.set_xlabel("core cell / body size (h/B or h/D)")
     ax.set_ylabel("|error| (%)")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.02, 0.5))
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return path
