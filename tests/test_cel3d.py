@@ -118,7 +118,7 @@ def test_a_strip_slab_is_the_plane_strain_problem(compose_cfg, roughness, ks_pa_
     √(dx·dz)), and its energy audit closes as well as 2D's."""
     case = [*SMALL_STRAIN_PUSH, "geometry=strip", f"geometry.roughness={roughness}", "landing.displacement_m=0.03",
             "mesh.cell_size_m=0.1", f"soil.ks_pa_per_m={ks_pa_per_m}", f"landing.initial_depth_m={depth_m}",
-            "solver.hourglass_region=everywhere"]  # the same element in both (3D's default; 2D's is cut_cells)
+            "solver.hourglass_region=everywhere"]  # the same element in both (3D's default; 2D's is auto)
     plane = _solve(compose_cfg, [*case, "solver=cel2d"]).metrics
     slab = _solve(compose_cfg, [*case, "solver=cel3d"]).metrics
     assert slab["nc_at_0p02B"] == pytest.approx(plane["nc_at_0p02B"], rel=1e-4)

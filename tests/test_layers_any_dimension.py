@@ -149,3 +149,18 @@ def test_the_hourglass_force_acts_around_cut_cells_only(ndim):
     expected[(slice(2, 5),) * ndim] = 1.0
     assert np.array_equal(factor, expected)
     assert np.array_equal(hourglass_factor(open_frac, "everywhere"), np.ones_like(open_frac))
+
+
+def test_auto_keeps_the_hourglass_force_everywhere_only_for_the_fall_cone(compose_cfg):
+    """solver.hourglass_region: auto (cel2d's default) is cut_cells for every body but the cone, whose
+    staircase gathers the zig-zag (decision 0016); an explicit value is taken as given."""
+    from dsmv.scene import build_scene
+
+    def cells(*overrides):
+        scene = build_scene(compose_cfg(["solver=cel2d", *overrides]))
+        return scene.solver.hourglass_cells(scene.geometry.kind)
+
+    assert cells() == "cut_cells"
+    assert cells("geometry=tbar") == "cut_cells"
+    assert cells("geometry=fall_cone_30deg") == "everywhere"
+    assert cells("geometry=fall_cone_30deg", "solver.hourglass_region=cut_cells") == "cut_cells"

@@ -40,9 +40,16 @@ class CelConfig(Schema):
 
     cfl: Number = Field(gt=0, le=1, description="time step as a fraction of the CFL limit (-)")
     hourglass: Number = Field(ge=0, le=1, description="viscous hourglass coefficient (-)")
-    hourglass_region: Literal["cut_cells", "everywhere"] = Field(description=(
+    hourglass_region: Literal["auto", "cut_cells", "everywhere"] = Field(description=(
         "cut_cells: the hourglass force acts only in the cells a curved body cuts and their neighbours; "
-        "everywhere: in every cell"))
+        "everywhere: in every cell; auto: cut_cells, but everywhere for the fall cone, whose staircase "
+        "gathers the zig-zag"))
+
+    def hourglass_cells(self, body_kind: str) -> str:
+        """Where the hourglass force acts for a body of this kind: ``auto`` resolved (decision 0016)."""
+        if self.hourglass_region != "auto":
+            return self.hourglass_region
+        return "everywhere" if body_kind == "cone" else "cut_cells"
     bulk_viscosity_linear: Number = Field(ge=0, description="linear bulk viscosity b1 (-)")
     bulk_viscosity_quadratic: Number = Field(ge=0, description="quadratic bulk viscosity b2 (-)")
     advection_order: Literal[1, 2] = Field(description="1: donor cell, 2: van Leer MUSCL")

@@ -632,7 +632,7 @@ class Cel2DSolver(CelSolver):
         shared[merge[:, 2], merge[:, 3]] = 0.0
         cells = Cells(phi, q, np.zeros((nx, ny)), body_contact.strength_factor, body_contact.solid,
                       openings.open_frac, body_contact.gap, shared,
-                      hourglass_factor(openings.open_frac, cfg.hourglass_region))
+                      hourglass_factor(openings.open_frac, cfg.hourglass_cells(scene.geometry.kind)))
         faces = Faces(openings.aperture_x, openings.aperture_y, np.zeros((nx + 1, ny)), np.zeros((ny + 1, nx)))
         n_nodes = body_contact.n_nodes
         nodes = Nodes(np.zeros((2, n_nodes)), np.zeros((2, n_nodes)), np.zeros(n_nodes), np.zeros((2, n_nodes)))

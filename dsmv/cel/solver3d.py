@@ -171,7 +171,8 @@ class Cel3DSolver(CelSolver):
         ghost[NQ_BASE:] = initial_law_state[:, None, None]  # soil entering at the base brings the initial state
         inflow = Inflow(ghost, np.full(shape3[:2], self.mudline - (grid.z[0] - 0.5 * (grid.z[1] - grid.z[0]))))
         cells = Cells(phi, q, np.zeros(shape3), body_contact.strength_factor, body_contact.solid, open_frac,
-                      body_contact.gap, np.full(shape3, np.nan), hourglass_factor(open_frac, cfg.hourglass_region))
+                      body_contact.gap, np.full(shape3, np.nan),
+                      hourglass_factor(open_frac, cfg.hourglass_cells(scene.geometry.kind)))
         n_nodes = body_contact.n_nodes
         nodes = Nodes(np.zeros((3, n_nodes)), np.zeros((3, n_nodes)), np.zeros(n_nodes), np.zeros((3, n_nodes)))
         scale = self.model_scale()
