@@ -381,13 +381,13 @@ def simulate() -> None:
     # MLflow's messages go to the job's log (dsmv.joblog), not to a console handler of MLflow's own
     os.environ.setdefault("MLFLOW_CONFIGURE_LOGGING", "false")
     args = sys.argv[1:]
-    if not set(args) & INFO_FLAGS and "tracking=disabled" not in args:
-        from dsmv.run_writer import writer
-
-        writer()  # MLflow is imported on the other core while Hydra composes and the job solves
     registry.register_plugin_configs()
     try:
         check_command_line(args, "dsmv", "config", scene=True)
+        if not set(args) & INFO_FLAGS and "tracking=disabled" not in args:
+            from dsmv.run_writer import writer
+
+            writer()  # MLflow is imported on the other core while Hydra composes and the job solves
         _simulate_app()
     except KeyboardInterrupt as exc:  # before a job started, or a sweep aborted by a second signal
         from dsmv import tracking

@@ -69,6 +69,7 @@ def test_notched_mesh_covers_the_domain_without_the_footing_and_the_wedge():
         strip_mesh(0.0, extent, notch=notch)
 
 
+@pytest.mark.slow  # cone programmes on fine meshes: 31 s and 19 s
 def test_a_wedge_gap_beside_the_wall_brings_the_bounds_down_towards_the_surface_strips():
     """A rough strip 0.05 B deep with a wedge-shaped gap (0.02 B wide at the surface) beside the
     wall, as a pushed strip's corner leaves behind: its bounds bracket a factor below the strip
@@ -177,6 +178,7 @@ def test_lower_bound_field_keeps_every_traction_continuous_even_the_dropped_ones
 DAVIS_BOOKER_SMOOTH_4 = 7.80
 
 
+@pytest.mark.slow  # cone programmes on fine meshes: 31 s and 19 s
 def test_strength_gradient_zero_is_the_uniform_soil():
     """k = 0 must give the uniform soil's bounds to the last digit (the same programme)."""
     for bound in (strip_lower_bound, strip_upper_bound):
