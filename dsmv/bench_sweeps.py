@@ -87,8 +87,8 @@ def measure(repeats: int, scratch: Path) -> dict:
         launchers[mesh] = interleaved({name: [*base, *extra] for name, extra in LAUNCHERS.items()},
                                       max(1, repeats // 2), scratch)
 
-    med = {part: {k: statistics.median(v) for k, v in walls.items()}
-           for part, walls in (("single", one), ("sweep", per_job), *((f"launchers {m}", w) for m, w in launchers.items()))}
+    parts = {"single": one, "sweep": per_job, **{f"launchers {m}": w for m, w in launchers.items()}}
+    med = {part: {k: statistics.median(v) for k, v in walls.items()} for part, walls in parts.items()}
     return {
         "walls_s": {"single": one, "sweep": per_job, "launchers": launchers},
         "median_s": med,

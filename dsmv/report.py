@@ -183,7 +183,8 @@ def check_section(check: Check, outcomes: list[Outcome]) -> tuple[str, dict]:
 
 
 #: parts of a check's name that the figure's legend leaves out (the table beside it says them)
-LEGEND_DROPS = ("small strain", "q/su", "pushed", "steady", "su = su0", "no exact answer", "axisymmetric", "3D quarter")
+LEGEND_DROPS = ("small strain", "q/su", "pushed", "steady", "su = su0", "no exact answer", "axisymmetric",
+                "3D quarter")
 
 
 def short_name(check: Check) -> str:
@@ -208,7 +209,8 @@ def figure(path: Path, results: list[tuple[Check, list[Outcome]]]) -> Path:
                   if reference and o.status == "ok" and math.isfinite(o.value) and o.value != reference]
         if points:
             h, err = zip(*points)
-            ax.loglog(h, [100 * e for e in err], marker=markers[k % len(markers)], color=colours[(2 * k) % 20 + k // 10],
+            colour = colours[(2 * k) % 20 + k // 10]  # the dark tab20 shades first, then the light ones
+            ax.loglog(h, [100 * e for e in err], marker=markers[k % len(markers)], color=colour,
                       label=short_name(check) + ("" if check.reference is not None else " (vs extrapolated)"))
     ax.set_xlabel("core cell / body size (h/B or h/D)")
     ax.set_ylabel("|error| (%)")

@@ -21,8 +21,8 @@ This module also holds what both sides need of the store: :func:`resolve_uri`, :
 
 from __future__ import annotations
 
-import logging
 import json
+import logging
 import os
 import signal
 import socket
@@ -90,6 +90,24 @@ def experiment_id(client, name: str, artifact_location: str | None) -> str:
 def _chunks(items: list, size: int):
     for start in range(0, len(items), size):
         yield items[start : start + size]
+
+
+class _Duplex:
+    """One reading and one writing pipe end as a connection (recv/send of picklable objects)."""
+
+    def __init__(self, read_fd: int, write_fd: int):
+        self.reader = Connection(read_fd, writable=False)
+        self.writer = Connection(write_fd, readable=False)
+
+    def recv(self):
+        return self.reader.recv()
+
+    def send(self, obj) -> None:
+        self.writer.send(obj)
+
+
+class WriterError(RuntimeError):
+    """The writer could not do what a job asked (the store is unreachable, a write failed)."""
 
 
 # ---- the writer's side: one function per request --------------------------------------------------
@@ -272,28 +290,6 @@ def main() -> None:
 
 
 # ---- the job's side --------------------------------------------------------------------------------
-
-class _Duplex:
-    """One reading and one writing pipe end as a connection (recv/send of picklable objects)."""
-
-    def __init__(self, read_fd: int, write_fd: int):
-        self.reader = Connection(read_fd, writable=False)
-        self.writer = Connection(write_fd, readable=False)
-
-    def recv(self):
-        return self.reader.recv()
-
-    def send(self, obj) -> None:
-        self.writer.send(obj)
-
-    def close(self) -> None:
-        self.reader.close()
-        self.writer.close()
-
-
-class WriterError(RuntimeError):
-    """The writer could not do what a job asked (the store is unreachable, a write failed)."""
-
 
 class Writer:
     """A connection to a writer and the answers it owes, in the order they were asked: to a process of

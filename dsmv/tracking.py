@@ -7,11 +7,11 @@ physical axis), result.json / the resolved config / the history CSV as artifacts
 tags for status, soil law, solver, geometry and config hash. A completed job is FINISHED
 whatever its physics status; FAILED means the code raised.
 
-A multirun gets one parent run, created by :class:`MlflowSweepCallback` before the jobs
-start; each job, in whatever process a launcher puts it, finds the parent's id in the
-sweep dir and tags itself with ``mlflow.parentRunId`` (nested runs only work within one
-process). Everything goes through ``MlflowClient`` with explicit run ids: no global
-"active run" state. ``mlflow`` is imported lazily, and a job's run is opened beside its solve.
+A multirun gets one parent run, opened by :class:`MlflowSweepCallback` before the jobs
+start; each job's run, in whatever process a launcher puts it, is tagged with its
+``mlflow.parentRunId`` from the sweep dir (nested runs only work within one process).
+The runs are written by a writer process beside the solve (:mod:`dsmv.run_writer`), through
+``MlflowClient`` with explicit run ids: no global "active run" state.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from dsmv.results import HISTORY_COLUMNS, SolveResult
 from dsmv.run_writer import experiment_id as _experiment_id
-from dsmv.run_writer import for_job, open_client, resolve_uri, serve_sweep  # noqa: F401  (resolve_uri: the surrogates' too)
+from dsmv.run_writer import for_job, open_client, resolve_uri, serve_sweep
 from dsmv.scene import TrackingConfig, build_tracking
 
 PARENT_RUN_FILE = "mlflow_parent_run.json"

@@ -45,11 +45,6 @@ class CelConfig(Schema):
         "everywhere: in every cell; auto: cut_cells, but everywhere for the fall cone, whose staircase "
         "gathers the zig-zag"))
 
-    def hourglass_cells(self, body_kind: str) -> str:
-        """Where the hourglass force acts for a body of this kind: ``auto`` resolved (decision 0016)."""
-        if self.hourglass_region != "auto":
-            return self.hourglass_region
-        return "everywhere" if body_kind == "cone" else "cut_cells"
     bulk_viscosity_linear: Number = Field(ge=0, description="linear bulk viscosity b1 (-)")
     bulk_viscosity_quadratic: Number = Field(ge=0, description="quadratic bulk viscosity b2 (-)")
     advection_order: Literal[1, 2] = Field(description="1: donor cell, 2: van Leer MUSCL")
@@ -78,6 +73,12 @@ class CelConfig(Schema):
     initial_travel_m: Optional[Number] = Field(gt=0, description="travel to size the domain for (m)")
     cone_cells_per_depth: Count = Field(ge=4, description="cone: core cells across the expected penetration")
     economies: Economies
+
+    def hourglass_cells(self, body_kind: str) -> str:
+        """Where the hourglass force acts for a body of this kind: ``auto`` resolved (decision 0016)."""
+        if self.hourglass_region != "auto":
+            return self.hourglass_region
+        return "everywhere" if body_kind == "cone" else "cut_cells"
 
 
 class Cel2DConfig(CelConfig):

@@ -65,7 +65,7 @@ def load_registered(name: str, tracking_uri: str, version: str = "latest") -> Tr
     import mlflow
     from mlflow.models import get_model_info
 
-    from dsmv.tracking import resolve_uri
+    from dsmv.run_writer import resolve_uri
 
     mlflow.set_tracking_uri(resolve_uri(tracking_uri))
     uri = f"models:/{name}/{version}"

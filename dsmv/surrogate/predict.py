@@ -188,7 +188,7 @@ def load_predictor(name: str, tracking_uri: str, version: str = "latest") -> Pre
     from mlflow.tracking import MlflowClient
 
     from dsmv.surrogate.model import load_registered
-    from dsmv.tracking import resolve_uri
+    from dsmv.run_writer import resolve_uri
 
     prefix = "sqlite:///"
     if tracking_uri.startswith(prefix) and not Path(tracking_uri[len(prefix):]).exists():

@@ -12,8 +12,7 @@ import math
 from numba import njit
 
 FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}  # never 'nnan'/'ninf': the guards need NaN
-#: nogil: a job opens its MLflow run in a thread beside the solve (dsmv.tracking.JobTracker)
-JIT = dict(cache=True, nogil=True, error_model="numpy", fastmath=FAST)
+JIT = dict(cache=True, error_model="numpy", fastmath=FAST)
 #: small helpers called per tie or in a stage, inlined into their callers' IR: a call that passes a
 #: container would otherwise count references on each of its arrays. Per-cell loops call scalar
 #: helpers only, and read their arrays once, before the loop (a container passed per cell cost 5×).

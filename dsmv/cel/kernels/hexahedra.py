@@ -165,8 +165,9 @@ def slab_forces(i, x, y, z, corner, split, v, phi, q, hourglass_factor, fn, par)
             sxy, syz, szx = q[SXY, i, j, k], q[SYZ, i, j, k], q[SZX, i, j, k]
             wx, wy, wz = vol * f * ix, vol * f * iy, vol * f * iz
             coef = 0.0
-            if hourglass:
-                coef = HOURGLASS_SCALE * par.hourglass * hourglass_factor[i, j, k] * rho * f * c_wave * vol ** (2.0 / 3.0)
+            if hourglass and hourglass_factor[i, j, k] > 0.0:
+                coef = (HOURGLASS_SCALE * par.hourglass * hourglass_factor[i, j, k] * rho * f * c_wave
+                        * vol ** (2.0 / 3.0))
             for a in range(3):
                 if a == 0:
                     sx, sy, sz = sxx, sxy, szx
@@ -195,8 +196,7 @@ def nodal_forces(mesh, cells, nodes, par, work):
     """Internal nodal forces (N) from the cell stresses: f_a = −V·φ·σ·∇N_a at the centre; viscous
     hourglass control on the four hourglass vectors (coefficient ``par.hourglass`` times the cell's
     ``hourglass_factor``); linear and quadratic bulk viscosity in compression. ``work`` accumulates
-    the power of hourglass [0] and
-    bulk viscosity [1] (W). Cells without soil are skipped.
+    the power of hourglass [0] and bulk viscosity [1] (W). Cells without soil are skipped.
 
     Parallel over slabs of constant i in two colours: the even slabs, then the odd ones. Slabs of
     one colour share no node, so each node sums its cells' forces in the same order whatever the

@@ -111,8 +111,8 @@ def nodal_forces(mesh, cells, faces, nodes, par, v_body, work):
     One-point quadrature at the cell centre, f_a = −V·φ·σ·∇N_a with ∇N_a = (±1/2dx, ±1/2dy);
     viscous hourglass control with coefficient ``par.hourglass`` times the cell's ``hourglass_factor``
     (Flanagan–Belytschko form, force ∝ ρ·c·√A·hourglass velocity, on the mode Γ = (1, −1, 1, −1));
-    linear and quadratic bulk viscosity in compression. ``work`` accumulates the power dissipated by hourglass [0] and bulk
-    viscosity [1] (W), to be multiplied by Δt by the caller, and [2] the vertical force the cut
+    linear and quadratic bulk viscosity in compression. ``work`` accumulates the power dissipated by
+    hourglass [0] and bulk viscosity [1] (W), to be multiplied by Δt by the caller, and [2] the vertical force the cut
     cells' mean stress puts on the body's arc (N, up +). Cells without soil give no force and are
     skipped; ``par.skip_void=False`` does their (null) arithmetic anyway, only to measure what
     skipping saves. In a cell the body cuts (``open_frac`` < 1) the in-plane mean stress acts
