@@ -111,7 +111,7 @@ def compose_scene(overrides: list[str]):
     from hydra import compose, initialize_config_dir
     from hydra.core.global_hydra import GlobalHydra
 
-    from dsmv.cli import CONFIG_DIR
+    from dsmv.command_line import CONFIG_DIR
     from dsmv.scene import build_scene
 
     from dsmv.registry import register_plugin_configs

@@ -87,7 +87,7 @@ def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, sweep_dir: Path | None, caug
         run_name = scene_label(scene) + (f" [{swept}]" if swept else "")
         tracker = tracking.start_job(cfg, scene, run_dir, run_name, sweep_dir)
     except DsmvError as error:
-        if not multirun:  # (dsmv.cli.check_command_line refuses most before Hydra makes the run dir)
+        if not multirun:  # (dsmv.command_line.check_command_line refuses most before Hydra makes the run dir)
             print(f"dsmv: error: {error}", file=sys.stderr)
             remove_unstarted_run_dir(run_dir, hydra_cfg, str(cfg.get("paths", {}).get("runs_dir", run_dir.parent)))
             sys.exit(2)

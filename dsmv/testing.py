@@ -44,7 +44,7 @@ def compose_config(config_name: str, *overrides: str):
     from hydra import compose, initialize_config_dir
     from hydra.core.global_hydra import GlobalHydra
 
-    from dsmv.cli import CONFIG_DIR
+    from dsmv.command_line import CONFIG_DIR
     from dsmv.registry import register_plugin_configs
 
     register_plugin_configs()

@@ -342,7 +342,7 @@ def _sweep_log(sweep_dir: Path | None, config: DictConfig | None = None) -> None
     log_sweep_to(Path(sweep_dir) / SWEEP_LOG_FILE if sweep_dir is not None else None)
     logging.captureWarnings(sweep_dir is not None)
     if sweep_dir is not None:
-        replay_early_output()  # what the command line's checks met (dsmv.cli.check_command_line)
+        replay_early_output()  # what the command line's checks met (dsmv.command_line.check_command_line)
 
 
 def abort_sweep(reason: str) -> Path | None:

@@ -15,7 +15,7 @@ import pytest
 from hydra import compose, initialize_config_dir
 from hydra.core.global_hydra import GlobalHydra
 
-from dsmv.cli import CONFIG_DIR
+from dsmv.command_line import CONFIG_DIR
 from dsmv.surrogate.dataset import PARAMETERS, TARGET_METRIC
 from dsmv.surrogate.features import LeakFreeFeatures, target
 from dsmv.surrogate.intervals import residual_quantile

@@ -61,6 +61,8 @@ from typing import Callable, Literal
 import numpy as np
 
 METHODS = ("pooled", "cv_plus", "oob")
+#: the calibration record, an artifact of the registered model's training run (written by dsmv-train, read by dsmv-predict)
+CALIBRATION_FILE = "conformal.json"
 SCORES = ("absolute", "scaled")
 
 

@@ -49,12 +49,11 @@ from pydantic import Field
 from dsmv.errors import ConfigError, DsmvError
 from dsmv.scene import Count, Number, Schema, _validate, build_scene, build_tracking
 from dsmv.surrogate.dataset import PARAMETERS
-from dsmv.surrogate.intervals import SCORES, ScoreScale, residual_quantile
+from dsmv.surrogate.intervals import CALIBRATION_FILE, SCORES, ScoreScale, residual_quantile
 from dsmv.surrogate.inverse import COLUMNS, GOALS, TASK_PARAMETERS, InverseResult, solve_inverse
 from dsmv.surrogate.model import TrainedSurrogate, scene_table
 
 PROG = "dsmv-predict"
-CALIBRATION_FILE = "conformal.json"  # run artifact of the registered model's training run
 CALIBRATION_KEY = "conformal"  # or the same record inside the model metadata
 TARGET_SCALES = {"z_over_b": "width", "max_sinkage_m": "metre"}  # how a residual becomes metres
 
@@ -494,7 +493,7 @@ def main() -> None:
     """``dsmv-predict`` (console script: ``dsmv-predict = "dsmv.surrogate.predict:main"``)."""
     import hydra
 
-    from dsmv.cli import CONFIG_DIR, check_group_choices
+    from dsmv.command_line import CONFIG_DIR, check_group_choices
 
     check_group_choices(sys.argv[1:], PROG)
     hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="predict")(predict)()
@@ -505,4 +504,4 @@ if __name__ == "__main__":
 
 
 __all__ = ["predict", "main", "run_predict", "load_predictor", "Predictor", "Calibration", "plot_band",
-           "PredictSettings", "PredictError", "CALIBRATION_FILE"]
+           "PredictSettings", "PredictError"]

@@ -229,7 +229,7 @@ def write_outputs(result: Training, run_dir: Path) -> list[Path]:
                **result.metadata()}
     (run_dir / SUMMARY_FILE).write_text(json.dumps(summary, indent=2, default=str) + "\n")
     if result.calibration:  # dsmv-predict reads it back from the run's artifacts
-        from dsmv.surrogate.predict import CALIBRATION_FILE
+        from dsmv.surrogate.intervals import CALIBRATION_FILE
 
         (run_dir / CALIBRATION_FILE).write_text(json.dumps(result.calibration) + "\n")
         files.append(run_dir / CALIBRATION_FILE)
