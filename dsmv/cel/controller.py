@@ -29,7 +29,7 @@ import numpy as np
 
 from dsmv.cel import ledger
 from dsmv.cel.layout import B_FCOUNT, B_FSUM, B_MAXDISP, B_OFFSET, B_TIME, B_VEL
-from dsmv.cel.stepper import AT_REST, NOT_FINITE, RUNNING
+from dsmv.cel.stepper import AT_REST, NOT_FINITE, OUTRAN, RUNNING
 
 
 @dataclass(frozen=True)
@@ -283,12 +283,15 @@ class LawOutput:
 
 @dataclass
 class NonFinite:
-    """A NaN or infinity anywhere in the state: unstable."""
+    """A NaN or infinity anywhere in the state, or soil gone a whole cell between remaps: unstable."""
 
     arrays: Callable[[], list]
     cfl: float
 
     def after_chunk(self, run: Run) -> Optional[Ending]:
+        if run.code == OUTRAN:
+            return Ending("unstable", f"soil crossed a whole cell between two remaps at t = {run.time_s:.4g} s, "
+                                      f"as only an unstable step makes it; lower solver.cfl (now {self.cfl})")
         if run.code == NOT_FINITE or not all(np.isfinite(a).all() for a in self.arrays()):
             return Ending("unstable", f"a non-finite value appeared at t = {run.time_s:.4g} s; lower solver.cfl "
                                       f"(now {self.cfl}) or raise solver.bulk_viscosity_linear")

@@ -206,6 +206,7 @@ class Params(NamedTuple):
     body_weight: float      # its wet weight (N per unit thickness or per radian)
     push_velocity: float    # a push's speed, and a drop's touchdown speed (m/s, down +)
     remap_travel: float     # the remap runs once some node has travelled this far (m; 0: every step)
+    cell_size: float        # the core cell h (m)
     axisymmetric: bool
     advection_order: int    # 1 donor cell, 2 van Leer
     drop: bool              # free fall (true) or push at constant speed

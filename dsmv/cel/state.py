@@ -77,7 +77,7 @@ def step_parameters(*, elastic: Elastic, h: float, remap_courant: float = 0.0, *
         shear=elastic.shear_pa, bulk=elastic.bulk_pa, wave_speed=elastic.wave_speed_m_s, k0=elastic.k0,
         mass_floor=1e-9 * fields["density"] * h * h,  # nodes lighter than this are empty
         phi_min=1e-9,  # cells with less soil give none
-        remap_travel=remap_courant * h, **fields,
+        remap_travel=remap_courant * h, cell_size=h, **fields,
     )
 
 

@@ -23,8 +23,8 @@ from numba import njit
 
 from dsmv.cel.kernels.common import INLINE, JIT
 from dsmv.cel.kernels.nodes import (
-    adhesion, apply_fixed, apply_ties, gather_travel, hand_travel_to_parents, nodal_mass, split_mass_kinetic_change,
-    split_masses, tie_reactions, ties_that_hold, update_velocities,
+    adhesion, apply_fixed, apply_ties, gather_travel, hand_travel_to_parents, nodal_mass, rejoin_ties,
+    split_mass_kinetic_change, split_masses, tie_reactions, ties_that_hold, update_velocities,
 )
 from dsmv.cel.kernels.plane import merged_divergence, nodal_forces, update_stress
 from dsmv.cel.kernels.remap2d import remap_sweeps, share_merged_fill
@@ -38,7 +38,9 @@ from dsmv.cel.ledger import (
 )
 
 # exit codes
-RUNNING, AT_REST, NOT_FINITE = 0, 1, 2
+# (OUTRAN: some node went a whole core cell between remaps, which only an unstable step does:
+# the remap's fluxes carry at most a cell, so it is not run on such a state)
+RUNNING, AT_REST, NOT_FINITE, OUTRAN = 0, 1, 2, 3
 
 
 @njit(**INLINE)
@@ -132,10 +134,21 @@ def remap(mesh, cells, faces, nodes, contact, inflow, par, body, energy, swept):
     energy[E_REMAP_ELASTIC] += audit[0]
     energy[E_REMAP_KINETIC] += audit[1]
     share_merged_fill(cells, contact.merge)
+    settle_nodes(mesh, cells, nodes, contact, par, body, energy, swept)
+
+
+@njit(**INLINE)
+def settle_nodes(mesh, cells, nodes, contact, par, body, energy, swept):
+    """After the sweeps (any dimension): the nodal masses of the new fills, the split nodes' shares,
+    and the tied nodes back with the body (:func:`dsmv.cel.kernels.nodes.rejoin_ties`)."""
     nodes.travel[:] = 0.0
     split_masses(contact, nodes.mass, swept)
     nodal_mass(mesh, cells, par.density, nodes.mass)
     energy[E_REMAP_KINETIC] += split_mass_kinetic_change(contact, nodes, swept)
+    rejoined = np.zeros(2)
+    body[B_VEL] = rejoin_ties(contact, nodes, body[B_VEL], par.body_mass, par.drop, rejoined)
+    energy[E_REMAP_KINETIC] += rejoined[0]
+    energy[E_PUSH] += rejoined[1]
     body[B_REMAP_OFFSET] = body[B_OFFSET]
     body[B_REMAPS] += 1.0
 
@@ -161,8 +174,10 @@ def run_steps(n_steps, mesh, cells, faces, nodes, contact, inflow, par, body, en
         travel = gather_travel(nodes, body[B_VEL], par.dt) if par.remap else 0.0
         if not (math.isfinite(body[B_VEL]) and math.isfinite(resistance)):
             return step + 1, NOT_FINITE
+        if travel > par.cell_size:
+            return step + 1, OUTRAN
+        if par.remap and travel >= par.remap_travel:  # before the rest check: the remap's tied nodes slow the body
+            remap(mesh, cells, faces, nodes, contact, inflow, par, body, energy, swept)
         if par.drop and body[B_VEL] >= 0.0 and v_old < 0.0:
             return step + 1, AT_REST
-        if par.remap and travel >= par.remap_travel:
-            remap(mesh, cells, faces, nodes, contact, inflow, par, body, energy, swept)
     return n_steps, RUNNING

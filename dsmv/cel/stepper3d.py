@@ -18,15 +18,11 @@ from numba import njit
 
 from dsmv.cel.kernels.common import INLINE, JIT
 from dsmv.cel.kernels.hexahedra import SOLID, nodal_forces, update_stress
-from dsmv.cel.kernels.nodes import (
-    gather_travel, hand_travel_to_parents, nodal_mass, split_mass_kinetic_change, split_masses, ties_that_hold,
-)
+from dsmv.cel.kernels.nodes import gather_travel, hand_travel_to_parents, nodal_mass, ties_that_hold
 from dsmv.cel.kernels.remap3d import remap_sweeps
-from dsmv.cel.layout import (
-    B_FRICTION, B_INFLOW, B_MAXDISP, B_OFFSET, B_REMAP_OFFSET, B_REMAPS, B_STEP, B_TIME, B_VEL,
-)
+from dsmv.cel.layout import B_FRICTION, B_INFLOW, B_MAXDISP, B_OFFSET, B_REMAP_OFFSET, B_REMAPS, B_STEP, B_TIME, B_VEL
 from dsmv.cel.ledger import E_BULK, E_HOURGLASS, E_PLASTIC, E_REMAP_ELASTIC, E_REMAP_KINETIC
-from dsmv.cel.stepper import AT_REST, NOT_FINITE, RUNNING, move_body, move_nodes
+from dsmv.cel.stepper import AT_REST, NOT_FINITE, OUTRAN, RUNNING, move_body, move_nodes, settle_nodes
 
 
 @njit(**INLINE)
@@ -79,12 +75,7 @@ def remap(mesh, cells, faces, nodes, contact, inflow, par, body, energy, swept):
     body[B_INFLOW] += remap_sweeps(mesh, cells, faces, nodes, par, inflow.ghost, reverse, audit)
     energy[E_REMAP_ELASTIC] += audit[0]
     energy[E_REMAP_KINETIC] += audit[1]
-    nodes.travel[:] = 0.0
-    split_masses(contact, nodes.mass, swept)
-    nodal_mass(mesh, cells, par.density, nodes.mass)
-    energy[E_REMAP_KINETIC] += split_mass_kinetic_change(contact, nodes, swept)
-    body[B_REMAP_OFFSET] = body[B_OFFSET]
-    body[B_REMAPS] += 1.0
+    settle_nodes(mesh, cells, nodes, contact, par, body, energy, swept)
 
 
 @njit(**JIT)
@@ -97,8 +88,10 @@ def run_steps(n_steps, mesh, cells, faces, nodes, contact, inflow, par, body, en
         travel = gather_travel(nodes, body[B_VEL], par.dt) if par.remap else 0.0
         if not (math.isfinite(body[B_VEL]) and math.isfinite(resistance)):
             return step + 1, NOT_FINITE
+        if travel > par.cell_size:
+            return step + 1, OUTRAN
+        if par.remap and travel >= par.remap_travel:  # before the rest check: the remap's tied nodes slow the body
+            remap(mesh, cells, faces, nodes, contact, inflow, par, body, energy, swept)
         if par.drop and body[B_VEL] >= 0.0 and v_old < 0.0:
             return step + 1, AT_REST
-        if par.remap and travel >= par.remap_travel:
-            remap(mesh, cells, faces, nodes, contact, inflow, par, body, energy, swept)
     return n_steps, RUNNING
