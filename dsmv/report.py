@@ -90,7 +90,13 @@ CHECKS = (
           (2 + math.pi) * (1 + 0.214 - 0.067), "Gourvenec (2007): (2 + π)·(1 + 0.214·B/L − 0.067·(B/L)²) = 5.90",
           (*SMALL_STRAIN, "solver=cel3d", "geometry=rectangular_plate", "geometry.contact_length_m=1",
            "solver.yield_surface=tresca", "landing.displacement_m=0.11"),
-          (0.1, 0.2), (0.25,), 1.0),
+          (0.05, 0.1, 0.2), (0.25,), 1.0),
+    *(Check(f"Circular plate: {roughness}, 3D quarter model, small strain, q/su at 0.1 B", "nc_at_0p1B", reference,
+            f"Cox, Eason & Hopkins (1961): {reference}",
+            (*SMALL_STRAIN, "solver=cel3d", "geometry=circular_plate", f"geometry.roughness={roughness}",
+             "landing.displacement_m=0.11"),
+            (0.05, 0.1), None, 1.0)
+      for roughness, reference in (("rough", 6.05), ("smooth", 5.69))),
     Check("Default landing: max sinkage (m), Einav–Randolph, no exact answer", "max_sinkage_m", None,
           "its own value extrapolated from the three finest meshes", ("solver=cel2d",),
           (0.005, 0.01, 0.02, 0.04), (0.02, 0.04, 0.08), 0.6),  # the track's B
