@@ -10,9 +10,10 @@ import sys
 from pathlib import Path
 
 from hydra.core.plugins import Plugins
-from omegaconf import OmegaConf
+from omegaconf import DictConfig, OmegaConf
 
 import dsmv.scene  # noqa: F401  (registers the OmegaConf resolvers used by conf/)
+from dsmv import registry
 from hydra_plugins.dsmv_sweeper.case_sweeper import CaseSweeper
 
 # Hydra finds sweepers by walking the hydra_plugins namespace, which an editable install
@@ -40,8 +41,6 @@ CONFIG_DIR = str(find_config_dir())
 def config_roots(argv: list[str], config_dir: str = CONFIG_DIR) -> list[Path]:
     """Every config tree Hydra will search for this command line: dsmv's own, the plugin packages'
     (entry points in ``dsmv.configs``), ``--config-dir``/``-cd`` and ``hydra.searchpath`` entries."""
-    from dsmv import registry
-
     roots = [Path(config_dir), *(Path(d) for d in registry.config_dirs())]
     for i, arg in enumerate(argv):
         if arg in ("--config-dir", "-cd") and i + 1 < len(argv):

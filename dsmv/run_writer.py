@@ -147,8 +147,8 @@ def _open(clients: _Clients, uri: str, artifact_location: str | None, experiment
     it); ``write_to``: write its id there (the parent run of a sweep, for its jobs)."""
     from mlflow.entities import Param
 
+    parent = _parent_id(parent_file)  # first: the sweep's parent run sets the store up (its log is the sweep's)
     client = clients[uri]
-    parent = _parent_id(parent_file)
     if parent is not None:
         tags = tags | {"mlflow.parentRunId": parent}
     run_id = client.create_run(experiment_id(client, experiment, artifact_location), tags=tags,
