@@ -77,7 +77,10 @@ def test_a_signal_stops_the_run_and_keeps_its_record(tmp_path, sig):
     proc.send_signal(sig)
     sent = time.time()
     out, err = proc.communicate(timeout=60)
-    assert time.time() - sent < 5.0
+    # stopped at the next look between compiled slices (POLL_S) and wrapped up, not run on to the
+    # end (about 90 s): under 5 s on an idle machine, 6.2 s with both cores busy; the bound only tells
+    # the two apart, it times nothing
+    assert time.time() - sent < 30.0
     assert proc.returncode == EXIT_CODES["interrupted"], err
     assert "Traceback" not in err + out
     result = json.loads((run_dir / RESULT_FILE).read_text())
