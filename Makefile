@@ -32,7 +32,7 @@ $(DOCS_STAMP): pyproject.toml
 	@touch $(DOCS_STAMP)
 
 # The verification report from runs, stamped with the commit: docs/verification/report.md (about
-# 40 minutes on one core); REPORT_ARGS=--quick writes a short one under runs/report/ instead.
+# 50 minutes on one core with the other busy); REPORT_ARGS=--quick writes a short one under runs/report/ instead.
 report: install
 	$(BIN)/dsmv-report $(REPORT_ARGS)
 
