@@ -176,6 +176,19 @@ def apply_ties(contact, nodes, v_body):
     return change
 
 
+@njit(**INLINE)
+def held_kinetic_energy(contact, nodes):
+    """The kinetic energy of the nodes the holding ties hold (J)."""
+    v, mass = nodes.v, nodes.mass
+    total = 0.0
+    for k in range(len(contact.node)):
+        if contact.holding[k]:
+            n = np.uint64(contact.node[k])  # unsigned: no wraparound check at each access
+            for a in range(v.shape[0]):
+                total += 0.5 * mass[n] * v[a, n] ** 2
+    return total
+
+
 @njit(**JIT)
 def rejoin_ties(contact, nodes, v_body, body_mass, drop, energy_out):
     """After a remap the holding tied nodes move with the body again, and the body pays for it.
@@ -209,17 +222,9 @@ def rejoin_ties(contact, nodes, v_body, body_mass, drop, energy_out):
                     inertia += mass[n] * normal[k, up] ** 2
         v_new = momentum / inertia
     kinetic = 0.5 * body_mass * (v_new**2 - v_body**2) if drop else 0.0
-    for k in range(len(contact.node)):
-        if contact.holding[k]:
-            n = np.uint64(contact.node[k])
-            for a in range(dim):
-                kinetic -= 0.5 * mass[n] * v[a, n] ** 2
+    kinetic -= held_kinetic_energy(contact, nodes)
     impulse_up = apply_ties(contact, nodes, v_new)  # on the tied nodes, from the body (kg·m/s)
-    for k in range(len(contact.node)):
-        if contact.holding[k]:
-            n = np.uint64(contact.node[k])
-            for a in range(dim):
-                kinetic += 0.5 * mass[n] * v[a, n] ** 2
+    kinetic += held_kinetic_energy(contact, nodes)
     push_work = 0.0 if drop else impulse_up * v_body
     energy_out[0] += kinetic - push_work
     energy_out[1] += push_work
