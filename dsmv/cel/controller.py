@@ -28,6 +28,7 @@ from typing import Callable, Optional, Protocol
 import numpy as np
 
 from dsmv.cel import ledger
+from dsmv.cel.kernels.common import all_finite
 from dsmv.cel.layout import B_FCOUNT, B_FSUM, B_MAXDISP, B_OFFSET, B_TIME, B_VEL
 from dsmv.cel.stepper import AT_REST, NOT_FINITE, OUTRAN, RUNNING
 
@@ -292,7 +293,7 @@ class NonFinite:
         if run.code == OUTRAN:
             return Ending("unstable", f"soil crossed a whole cell between two remaps at t = {run.time_s:.4g} s, "
                                       f"as only an unstable step makes it; lower solver.cfl (now {self.cfl})")
-        if run.code == NOT_FINITE or not all(np.isfinite(a).all() for a in self.arrays()):
+        if run.code == NOT_FINITE or not all(all_finite(a) for a in self.arrays()):
             return Ending("unstable", f"a non-finite value appeared at t = {run.time_s:.4g} s; lower solver.cfl "
                                       f"(now {self.cfl}) or raise solver.bulk_viscosity_linear")
         return None

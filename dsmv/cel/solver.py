@@ -520,13 +520,15 @@ class CelSolver:
     @staticmethod
     def soil_kinetic_energy(state: State) -> float:
         """The soil's kinetic energy on all nodes, split ones included (J per unit thickness or per radian)."""
-        v = state.nodes.v
-        return float(0.5 * (state.nodes.mass * (v * v).sum(axis=0)).sum())
+        from dsmv.cel.kernels.nodes import kinetic_energy
+
+        return kinetic_energy(state.nodes.mass, state.nodes.v)
 
     @staticmethod
     def largest_speed(state: State) -> float:
-        v = state.nodes.v
-        return float(np.sqrt((v * v).sum(axis=0)).max())
+        from dsmv.cel.kernels.nodes import largest_speed
+
+        return largest_speed(state.nodes.v)
 
     @staticmethod
     def state_arrays(state: State) -> list:

@@ -128,3 +128,12 @@ def compiled_entry(dispatcher, args: tuple):
     if signature not in dispatcher.overloads:
         dispatcher.compile(signature)  # compiles it, or loads it from the cache (without running it)
     return dispatcher.overloads[signature].entry_point
+
+
+@njit(**JIT)
+def all_finite(values):
+    """Whether every value of a contiguous array is finite (read flat, without a temporary)."""
+    for x in values.ravel():
+        if not math.isfinite(x):
+            return False
+    return True

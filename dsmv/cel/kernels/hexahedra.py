@@ -73,30 +73,6 @@ def cell_nodes(corner, split, i, j, k, ny1, nz1, out):
 
 
 @njit(**INLINE)
-def gather_velocities(v, nodes8, ve):
-    """The eight nodes' velocities into ``ve`` (3, 8), read once per cell."""
-    for a in range(3):
-        for c in range(8):
-            ve[a, c] = v[a, nodes8[c]]
-
-
-@njit(**INLINE)
-def velocity_gradient(ve, inv4, grad):
-    """The one-point velocity gradient grad[a, b] = ∂v_a/∂x_b (1/s) of a cell from its nodes' velocities
-    ``ve`` (3, 8); ``inv4`` = (1/(4dx), 1/(4dy), 1/(4dz))."""
-    for a in range(3):
-        gx, gy, gz = 0.0, 0.0, 0.0
-        for c in range(8):
-            va = ve[a, c]
-            gx += SIDE[0, c] * va
-            gy += SIDE[1, c] * va
-            gz += SIDE[2, c] * va
-        grad[a, 0] = gx * inv4[0]
-        grad[a, 1] = gy * inv4[1]
-        grad[a, 2] = gz * inv4[2]
-
-
-@njit(**INLINE)
 def walsh(u0, u1, u2, u3, u4, u5, u6, u7):
     """The eight corner values u_b (b = ox + 2·oy + 4·oz, the corner's offsets) in the basis of the
     corner sign products: coefficient M = Σ_b Π_{axes in M} s(b)·u_b, s = ±1 the side along that axis,
@@ -114,6 +90,18 @@ def walsh_transposed(c0, c1, c2, c3, c4, c5, c6, c7):
     c0, c1, c2, c3, c4, c5, c6, c7 = c0 - c4, c1 - c5, c2 - c6, c3 - c7, c0 + c4, c1 + c5, c2 + c6, c3 + c7
     c0, c1, c2, c3, c4, c5, c6, c7 = c0 - c2, c1 - c3, c0 + c2, c1 + c3, c4 - c6, c5 - c7, c4 + c6, c5 + c7
     return c0 - c1, c0 + c1, c2 - c3, c2 + c3, c4 - c5, c4 + c5, c6 - c7, c6 + c7
+
+
+@njit(**INLINE)
+def velocity_gradient(v, nodes8, ix, iy, iz, grad):
+    """The one-point velocity gradient grad[a, b] = ∂v_a/∂x_b (1/s) of a cell from its nodes' velocities
+    ``v`` (3, nodes); ``ix, iy, iz`` = 1/(4dx), 1/(4dy), 1/(4dz)."""
+    for a in range(3):
+        c = walsh(v[a, nodes8[0]], v[a, nodes8[1]], v[a, nodes8[3]], v[a, nodes8[2]],
+                  v[a, nodes8[4]], v[a, nodes8[5]], v[a, nodes8[7]], v[a, nodes8[6]])
+        grad[a, 0] = c[1] * ix
+        grad[a, 1] = c[2] * iy
+        grad[a, 2] = c[4] * iz
 
 
 @njit(**JIT)
@@ -147,8 +135,7 @@ def slab_forces(i, x, y, z, corner, split, v, phi, q, hourglass_factor, fn, par)
             n0, n1, n2, n3, n4, n5, n6, n7 = (nodes8[0], nodes8[1], nodes8[2], nodes8[3], nodes8[4], nodes8[5],
                                               nodes8[6], nodes8[7])
             for a in range(3):  # binary corner order: the table's corners 0, 1, 3, 2, 4, 5, 7, 6
-                va = v[a]
-                c = walsh(va[n0], va[n1], va[n3], va[n2], va[n4], va[n5], va[n7], va[n6])
+                c = walsh(v[a, n0], v[a, n1], v[a, n3], v[a, n2], v[a, n4], v[a, n5], v[a, n7], v[a, n6])
                 for m in range(8):
                     coeff[a, m] = c[m]
             ix, iy, iz = 0.25 / dx, 0.25 / dy, 0.25 / dz
@@ -179,15 +166,14 @@ def slab_forces(i, x, y, z, corner, split, v, phi, q, hourglass_factor, fn, par)
                 hg_power += coef * (g3 * g3 + g5 * g5 + g6 * g6 + g7 * g7)
                 f0, f1, f3, f2, f4, f5, f7, f6 = walsh_transposed(
                     0.0, -sx * wx, -sy * wy, -coef * g3, -sz * wz, -coef * g5, -coef * g6, -coef * g7)
-                fa = fn[a]
-                fa[n0] += f0
-                fa[n1] += f1
-                fa[n2] += f2
-                fa[n3] += f3
-                fa[n4] += f4
-                fa[n5] += f5
-                fa[n6] += f6
-                fa[n7] += f7
+                fn[a, n0] += f0
+                fn[a, n1] += f1
+                fn[a, n2] += f2
+                fn[a, n3] += f3
+                fn[a, n4] += f4
+                fn[a, n5] += f5
+                fn[a, n6] += f6
+                fn[a, n7] += f7
     return hg_power, bv_power
 
 
@@ -304,9 +290,7 @@ def slab_stress(i, mesh, cells, v, par, law):
     shear_mod, dt = par.shear, par.dt
     lam = par.bulk - 2.0 * shear_mod / 3.0
     nodes8 = np.empty(8, dtype=np.uint64)
-    ve = np.empty((3, 8))
     grad = np.empty((3, 3))
-    inv4 = np.empty(3)
     s = np.empty(6)
     d = np.empty(6)
     a = np.empty((3, 3))
@@ -323,10 +307,8 @@ def slab_stress(i, mesh, cells, v, par, law):
                 su_cell[i, j, k] = 0.0
                 continue
             dz = z[k + 1] - z[k]
-            inv4[0], inv4[1], inv4[2] = 0.25 / dx, 0.25 / dy, 0.25 / dz
             cell_nodes(corner, split, i, j, k, ny1, nz1, nodes8)
-            gather_velocities(v, nodes8, ve)
-            velocity_gradient(ve, inv4, grad)
+            velocity_gradient(v, nodes8, 0.25 / dx, 0.25 / dy, 0.25 / dz, grad)
             d[0], d[1], d[2] = dt * grad[0, 0], dt * grad[1, 1], dt * grad[2, 2]
             d[3] = 0.5 * dt * (grad[0, 1] + grad[1, 0])
             d[4] = 0.5 * dt * (grad[1, 2] + grad[2, 1])
@@ -415,9 +397,7 @@ def shear_strain_rates(mesh, cells, faces, nodes, par, v_body):
     ny1, nz1 = np.uint64(ny + 1), np.uint64(nz + 1)
     rate = np.zeros((nx, ny, nz))
     nodes8 = np.empty(8, dtype=np.uint64)
-    ve = np.empty((3, 8))
     grad = np.empty((3, 3))
-    inv4 = np.empty(3)
     d = np.empty(6)
     a = np.empty((3, 3))
     vec = np.empty((3, 3))
@@ -426,10 +406,9 @@ def shear_strain_rates(mesh, cells, faces, nodes, par, v_body):
             for k in range(nz):
                 if cells.phi[i, j, k] <= par.stress_cutoff * cells.open_frac[i, j, k]:
                     continue
-                inv4[0], inv4[1], inv4[2] = 0.25 / (x[i + 1] - x[i]), 0.25 / (y[j + 1] - y[j]), 0.25 / (z[k + 1] - z[k])
                 cell_nodes(corner, split, i, j, k, ny1, nz1, nodes8)
-                gather_velocities(nodes.v, nodes8, ve)
-                velocity_gradient(ve, inv4, grad)
+                velocity_gradient(nodes.v, nodes8, 0.25 / (x[i + 1] - x[i]), 0.25 / (y[j + 1] - y[j]),
+                                  0.25 / (z[k + 1] - z[k]), grad)
                 d[0], d[1], d[2] = grad[0, 0], grad[1, 1], grad[2, 2]
                 d[3] = 0.5 * (grad[0, 1] + grad[1, 0])
                 d[4] = 0.5 * (grad[1, 2] + grad[2, 1])
@@ -463,27 +442,37 @@ def elastic_energy(phi, q, vol, shear_mod, bulk_mod):
 
 
 @njit(**JIT)
+def slab_modes(i, corner, phi, v, full):
+    """:func:`hourglass_modes` over the cells of slab i."""
+    _, ny, nz = phi.shape
+    hourglass_sq = 0.0
+    linear_sq = 0.0
+    for j in range(ny):
+        for k in range(nz):
+            if phi[i, j, k] < full:
+                continue
+            n0, n1, n2, n3 = corner[i, j, k, 0], corner[i, j, k, 1], corner[i, j, k, 2], corner[i, j, k, 3]
+            n4, n5, n6, n7 = corner[i, j, k, 4], corner[i, j, k, 5], corner[i, j, k, 6], corner[i, j, k, 7]
+            for a in range(3):
+                c = walsh(v[a, n0], v[a, n1], v[a, n3], v[a, n2], v[a, n4], v[a, n5], v[a, n7], v[a, n6])
+                hourglass_sq += c[3] * c[3] + c[5] * c[5] + c[6] * c[6] + c[7] * c[7]
+                linear_sq += c[1] * c[1] + c[2] * c[2] + c[4] * c[4]
+    return hourglass_sq / 64.0, linear_sq / 64.0
+
+
+@njit(**PARALLEL)
 def hourglass_modes(corner, phi, v, full):
     """How much of the nodal velocity field is hourglass (the zig-zag diagnostic, as in 2D): over
     cells with φ ≥ ``full``, Σ|hourglass amplitudes|² and Σ|linear amplitudes|² (m²/s²), each
-    amplitude the projection on its corner vector over the vector's squared length (8)."""
-    nx, ny, nz = phi.shape
+    amplitude the projection on its corner vector over the vector's squared length (8): the
+    :func:`walsh` coefficients over 8. Parallel over slabs, summed in slab order."""
+    nx = phi.shape[0]
+    sums = np.zeros((2, nx))
+    for i in prange(nx):
+        sums[0, i], sums[1, i] = slab_modes(i, corner, phi, v, full)
     hourglass_sq = 0.0
     linear_sq = 0.0
     for i in range(nx):
-        for j in range(ny):
-            for k in range(nz):
-                if phi[i, j, k] < full:
-                    continue
-                for a in range(3):
-                    for mode in range(4):
-                        g = 0.0
-                        for c in range(8):
-                            g += HOURGLASS[mode, c] * v[a, corner[i, j, k, c]]
-                        hourglass_sq += (g / 8.0) ** 2
-                    for b in range(3):
-                        g = 0.0
-                        for c in range(8):
-                            g += SIDE[b, c] * v[a, corner[i, j, k, c]]
-                        linear_sq += (g / 8.0) ** 2
+        hourglass_sq += sums[0, i]
+        linear_sq += sums[1, i]
     return hourglass_sq, linear_sq

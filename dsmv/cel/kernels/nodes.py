@@ -57,6 +57,31 @@ def nodal_mass(mesh, cells, density, mass):
 
 
 @njit(**JIT)
+def kinetic_energy(mass, v):
+    """½·Σ m·|v|² over the nodes (J per unit thickness or per radian in 2D), without temporaries."""
+    total = 0.0
+    for n in range(v.shape[1]):
+        speed_sq = 0.0
+        for a in range(v.shape[0]):
+            speed_sq += v[a, n] * v[a, n]
+        total += mass[n] * speed_sq
+    return 0.5 * total
+
+
+@njit(**JIT)
+def largest_speed(v):
+    """The largest node speed |v| (m/s)."""
+    largest = 0.0
+    for n in range(v.shape[1]):
+        speed_sq = 0.0
+        for a in range(v.shape[0]):
+            speed_sq += v[a, n] * v[a, n]
+        if not speed_sq <= largest:  # a NaN wins: the guards that read this then see it
+            largest = speed_sq
+    return math.sqrt(largest)
+
+
+@njit(**JIT)
 def update_velocities(nodes, gravity, dt, mass_floor):
     """Explicit velocity update v += Δt·(f/m − g·up) at nodes holding soil; empty nodes stop.
 
