@@ -150,7 +150,8 @@ class Cel3DSolver(CelSolver):
         k_base = grid.row_of(0.0)
         shape = self.shape()
         body_contact = build_plate_contact(shape, grid, k_base, scene.geometry.adhesion_factor,
-                                           wall_area=math.pi / 4 if isinstance(shape, Disc) else 1.0)
+                                           wall_area=math.pi / 4 if isinstance(shape, Disc) else 1.0,
+                                           staircase=isinstance(shape, Disc))
         footprint = body_contact.solid[:, :, k_base]
         self.footprint_m2 = float((np.diff(grid.x)[:, None] * np.diff(grid.y)[None, :])[footprint].sum())
         fill, depth = layers_below(grid.z, self.mudline)
