@@ -354,6 +354,80 @@ def test_train_cli_writes_metrics_and_registers_the_model(run_cli, tmp_path, sto
     assert model.out_of_range(table) == {}
     assert model.out_of_range(table.assign(mass_kg=1e5)) == {"mass_kg": list(range(len(table)))}
 
+    # a plain MLflow client calls it with scene config keys; the keys the data never varied may be left out
+    import mlflow
+
+    from dsmv.surrogate.serving import OUTPUT_COLUMNS, scene_frame
+
+    served = mlflow.pyfunc.load_model(f"models:/{name}/latest")
+    scenes = scene_frame(table).drop(columns=["landing.n_tracks", "landing.gravity_m_s2", "landing.inertial_mass_kg"])
+    answer = served.predict(scenes)
+    assert tuple(answer.columns) == OUTPUT_COLUMNS
+    np.testing.assert_allclose(answer["sinkage_m"], z, rtol=1e-12)
+    assert (answer["sinkage_lower_m"] < answer["sinkage_m"]).all() and (answer["sinkage_m"] < answer["sinkage_upper_m"]).all()
+    with pytest.raises(Exception, match="soil.su0_pa"):  # a key the data varied is required
+        served.predict(scenes.drop(columns=["soil.su0_pa"]))
+
+
+RF_SMALL = ["surrogate.grid.n_estimators=[30]", "surrogate.grid.max_depth=[4,null]", "surrogate.grid.min_samples_split=[2]",
+            "surrogate.grid.min_samples_leaf=[1]", "surrogate.grid.max_features=[1.0]"]
+
+
+@pytest.mark.server
+def test_mlflow_models_serve_answers_a_scene_over_rest(run_cli, tmp_path_factory):
+    """``mlflow models serve --env-manager local`` on the registered model, on loopback: a JSON
+    request of scene config keys returns the sinkage and its interval, as the model does in-process."""
+    import os
+    import socket
+    import subprocess
+    import sys
+    import time
+    import urllib.request
+
+    import mlflow
+
+    from dsmv.surrogate.serving import OUTPUT_COLUMNS, scene_frame
+
+    folder = tmp_path_factory.mktemp("serve")
+    uri = write_store(folder, synthetic_rows(24))
+    proc = run_cli("dsmv-train", "surrogate=rf", f"train.study={STUDY}", f"tracking.uri={uri}",
+                   f"tracking.artifact_location={folder / 'art'}", "train.mc_splits=5", "train.cv_folds=5",
+                   "train.n_jobs=1", "surrogate.grid_cv_folds=3", *RF_SMALL)
+    assert proc.returncode == 0, proc.stderr
+    scenes = scene_frame(load_dataset(uri, STUDY).table.head(3))
+    mlflow.set_tracking_uri(uri)
+    expected = mlflow.pyfunc.load_model("models:/dsmv-sinkage-rf/latest").predict(scenes)
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    bin_dir = Path(sys.executable).parent  # the server runs uvicorn from the PATH
+    env = dict(os.environ, MLFLOW_TRACKING_URI=uri, PATH=f"{bin_dir}{os.pathsep}{os.environ['PATH']}")
+    server = subprocess.Popen([str(bin_dir / "mlflow"), "models", "serve", "-m", "models:/dsmv-sinkage-rf/latest",
+                               "--env-manager", "local", "-h", "127.0.0.1", "-p", str(port)], env=env, cwd=folder,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while True:
+            try:
+                with urllib.request.urlopen(f"http://127.0.0.1:{port}/ping", timeout=2) as answer:
+                    if answer.status == 200:
+                        break
+            except OSError:
+                assert server.poll() is None, server.stderr.read()
+                assert time.monotonic() < deadline, "the model server did not come up in 120 s"
+                time.sleep(0.5)
+        body = json.dumps({"dataframe_split": json.loads(scenes.to_json(orient="split", index=False))})
+        request = urllib.request.Request(f"http://127.0.0.1:{port}/invocations", data=body.encode(),
+                                         headers={"Content-Type": "application/json"})
+        with urllib.request.urlopen(request, timeout=60) as answer:
+            predictions = pd.DataFrame(json.loads(answer.read())["predictions"])
+    finally:
+        server.terminate()
+        server.wait(timeout=30)
+    assert tuple(predictions.columns) == OUTPUT_COLUMNS
+    np.testing.assert_allclose(predictions.to_numpy(), expected.to_numpy(), rtol=1e-12)
+
 
 def test_train_cli_user_mistakes_are_one_line(run_cli, store):
     _, uri, _ = store

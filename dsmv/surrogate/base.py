@@ -56,15 +56,29 @@ class Surrogate:
         """An unfitted regressor with ``params`` (fit(X, y), predict(X), feature_importances_)."""
         raise NotImplementedError
 
-    def log_model(self, estimator, name: str, registered_model: str | None, input_example, metadata: dict):
-        """Save ``estimator`` in the active MLflow run in its flavour; register it when named."""
+    def save_model(self, estimator, path) -> None:
+        """Save ``estimator`` in its MLflow flavour to the folder ``path``."""
         import importlib
 
         flavor = importlib.import_module(self.flavor)
         model_arg = "xgb_model" if self.flavor == "mlflow.xgboost" else "sk_model"
-        return flavor.log_model(**{model_arg: estimator}, name=name, registered_model_name=registered_model,
-                                input_example=input_example, metadata=metadata,
-                                pip_requirements=pinned_requirements(self.requirements), **self.log_model_kwargs)
+        flavor.save_model(**{model_arg: estimator}, path=str(path), pip_requirements=pinned_requirements(self.requirements),
+                          **self.log_model_kwargs)
+
+    def log_model(self, estimator, name: str, registered_model: str | None, input_example, metadata: dict):
+        """Log ``estimator`` in the active MLflow run inside the scene model of
+        :mod:`dsmv.surrogate.serving` (config keys in, sinkage out; the estimator in its flavour
+        within); register it when named. ``input_example``: scene config-key columns, or None."""
+        import tempfile
+        from pathlib import Path
+
+        from dsmv.surrogate.serving import log_scene_model
+
+        with tempfile.TemporaryDirectory() as scratch:
+            folder = Path(scratch) / "estimator"
+            self.save_model(estimator, folder)
+            return log_scene_model(folder, name, registered_model, metadata, input_example,
+                                   pinned_requirements((("mlflow",), *self.requirements)))
 
 
 def pinned_requirements(requirements: tuple[tuple[str, ...], ...]) -> list[str]:

@@ -67,12 +67,11 @@ def load_registered(name: str, tracking_uri: str, version: str = "latest") -> Tr
 
     from dsmv.run_writer import resolve_uri
 
+    from dsmv.surrogate.serving import load_estimator
+
     mlflow.set_tracking_uri(resolve_uri(tracking_uri))
     uri = f"models:/{name}/{version}"
     info = get_model_info(uri)
-    flavors = info.flavors
-    if "xgboost" in flavors:
-        estimator = mlflow.xgboost.load_model(uri)
-    else:  # the trusted types saved with the model (plugins/rf.py) travel in its MLmodel file
-        estimator = mlflow.sklearn.load_model(uri)
-    return TrainedSurrogate(estimator, feature_set(info.metadata["feature_set"]), dict(info.metadata))
+    if "python_function" in info.flavors and info.flavors["python_function"].get("python_model"):
+        return mlflow.pyfunc.load_model(uri).unwrap_python_model().model  # the scene model (dsmv.surrogate.serving)
+    return TrainedSurrogate(load_estimator(uri), feature_set(info.metadata["feature_set"]), dict(info.metadata))

@@ -241,6 +241,7 @@ def log_to_mlflow(result: Training, cfg: DictConfig, files: list[Path]) -> dict[
     import mlflow
 
     from dsmv import tracking
+    from dsmv.surrogate.serving import scene_frame
 
     settings = build_tracking(cfg)
     client = tracking._client(settings)
@@ -260,8 +261,8 @@ def log_to_mlflow(result: Training, cfg: DictConfig, files: list[Path]) -> dict[
         for path in files:
             mlflow.log_artifact(str(path))
         registered = result.config.registered_model if result.settings.register_model else None
-        X = result.features.transform(result.dataset.table)
-        info = result.surrogate.log_model(result.estimator, "model", registered, X.head(5), result.metadata())
+        example = scene_frame(result.dataset.table.head(3))
+        info = result.surrogate.log_model(result.estimator, "model", registered, example, result.metadata())
     version = getattr(info, "registered_model_version", None)
     if registered and version is not None:
         for key, value in (("feature_set", result.features.name), ("dataset_hash", result.dataset.content_hash)):
