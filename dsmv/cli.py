@@ -14,10 +14,16 @@ from dsmv.command_line import CONFIG_DIR, check_command_line
 
 
 @hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="config")
-def _simulate_app(cfg: DictConfig) -> None:
+def _simulate_app(cfg: DictConfig) -> float:
+    """One job; returns its objective (dsmv.objective), the number an optimising sweeper minimises."""
+    from omegaconf import OmegaConf
+
+    from dsmv.objective import objective_config, objective_value
     from dsmv.runner import run_job
 
-    run_job(cfg)
+    result = run_job(cfg)
+    config = OmegaConf.to_container(cfg, resolve=True)
+    return objective_value(objective_config(config), result, config.get("geometry", {}))
 
 
 #: flags after which dsmv prints and runs nothing (no MLflow writer is started for them)

@@ -394,6 +394,9 @@ def build_scene(cfg: DictConfig | dict) -> Scene:
     if container.get("sweep_plot") not in (None, *SWEEP_PLOTS):
         raise ConfigError("sweep_plot", container["sweep_plot"], f"must be null or one of {', '.join(SWEEP_PLOTS)}")
 
+    from dsmv.objective import objective_config
+
+    objective_config(container)  # not part of the scene either: a wrong objective fails before the run
     build_tracking(cfg)  # not part of the scene, but a wrong store fails here too
     scene = Scene(study, soil, geometry, landing, mesh, solver, output)
     check_touchdown_speed(scene)

@@ -274,7 +274,10 @@ class MlflowSweepCallback(Callback):
         self.signals.install()
         _sweep_log(sweep_dir)
         _active_sweep.update(sweep_dir=sweep_dir, config=config)
-        if "cases" not in str(config.hydra.sweeper.get("_target_", "")):  # the case sweeper counts its own
+        sweeper = str(config.hydra.sweeper.get("_target_", ""))
+        if "optuna" in sweeper.lower():  # its trials, proposed batch by batch
+            write_sweep_size(sweep_dir, int(config.hydra.sweeper.n_trials))
+        elif "cases" not in sweeper:  # the case sweeper counts its own
             write_sweep_size(sweep_dir, basic_sweep_size(list(config.hydra.overrides.task)))
         tracking = build_tracking(config)
         if not tracking.enabled:

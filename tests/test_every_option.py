@@ -21,6 +21,8 @@ dsmv-train (tests/test_surrogate.py).
 
 from __future__ import annotations
 
+import re
+
 import itertools
 import subprocess
 
@@ -136,13 +138,20 @@ def test_a_refused_combination_is_one_line_and_exit_2(tmp_path):
 # ---------------------------------------------------------------------------- experiments
 
 
+def first_value(values) -> str:
+    """A swept parameter's first value: of a list ``a,b,c`` the first, of Optuna's ``interval(lo, hi)`` lo."""
+    text = str(values)
+    interval = re.match(r"\s*interval\(\s*([^,]+),", text)
+    return interval.group(1).strip() if interval else text.split(",")[0]
+
+
 def first_job(compose_cfg, experiment: str) -> list[str]:
     """The overrides of the first job of an experiment's sweep: each swept parameter's first value, the first case."""
     from hydra_plugins.dsmv_sweeper.case_sweeper import load_function, one_at_a_time
 
     sweeper = compose_cfg([f"experiment={experiment}"], return_hydra_config=True).hydra.sweeper
     sweeper = OmegaConf.to_container(sweeper)
-    job = [f"{key}={str(values).split(',')[0]}" for key, values in (sweeper.get("params") or {}).items()]
+    job = [f"{key}={first_value(values)}" for key, values in (sweeper.get("params") or {}).items()]
     cases = one_at_a_time(sweeper["vary"]) if sweeper.get("vary") else []
     cases += sweeper.get("cases") or []
     if not cases and sweeper.get("cases_from"):
