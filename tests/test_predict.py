@@ -146,7 +146,7 @@ def test_inverse_tasks_agree_with_a_brute_force_scan_of_the_model(store, tmp_pat
     from dsmv.surrogate.predict import load_predictor, run_predict
     from dsmv.scene import build_scene
 
-    cfg = config(store, f"task={task}", "sinkage_limit_m=0.3")
+    cfg = config(store, f"task={task}", "sinkage_limit_m=0.3", "verify=false")
     out = run_predict(cfg, tmp_path)
     assert out["status"] == "ok" and (tmp_path / "inverse.png").stat().st_size > 10_000
     # the exact answer of this model: the first crossing of the limit on a fine scan from the safe end
@@ -165,19 +165,54 @@ def test_inverse_tasks_agree_with_a_brute_force_scan_of_the_model(store, tmp_pat
 
 
 def test_verify_runs_cel_at_the_answer_and_beyond(store, tmp_path, monkeypatch, capsys):
-    """verify=true: two real CEL landings (medium mesh), at the answer and 20 % faster."""
+    """verify (the default): real CEL landings (medium mesh) at the answer, then 20 % faster than the
+    CEL's own answer; when the CEL at the surrogate's answer is over the limit, a CEL bisection from
+    the searched range's safe end finds the largest velocity it keeps under it."""
     from dsmv.surrogate.predict import run_predict
 
     monkeypatch.chdir(tmp_path)  # the check runs track into ./runs
-    out = run_predict(config(store, "task=max_velocity", "sinkage_limit_m=0.3", "verify=true", "plot=false"),
-                      tmp_path / "predict")
-    at, beyond = out["verify"]
-    assert at["value"] == pytest.approx(out["value"], rel=1e-3) and beyond["value"] == pytest.approx(1.2 * at["value"])
-    assert at["status"] == beyond["status"] == "ok"
+    out = run_predict(config(store, "task=max_velocity", "sinkage_limit_m=0.3", "plot=false"), tmp_path / "predict")
+    checks = out["verify"]
+    assert out["cel_runs"] == len(checks) and all(c["status"] == "ok" for c in checks)
+    first, beyond = checks[0], checks[-1]
+    assert first["role"] == "answer" and first["value"] == pytest.approx(out["value"], rel=1e-3)
+    assert beyond["role"] == "20 % beyond" and beyond["value"] == pytest.approx(1.2 * out["cel_value"])
+    # the CEL's answer: a CEL run there is under the limit, and any run over it was at a larger velocity
+    at = next(c for c in checks[:-1] if c["value"] == out["cel_value"])
+    assert at["under_limit"] and at["max_sinkage_m"] <= 0.3
+    assert all(c["value"] > out["cel_value"] for c in checks[:-1] if not c["under_limit"])
+    if first["under_limit"]:
+        assert out["cel_value"] == first["value"] and len(checks) == 2
+    else:
+        failing = min(c["value"] for c in checks if not c["under_limit"] and c["role"] != "20 % beyond")
+        assert failing - out["cel_value"] <= 0.02 * first["value"]  # the bisection's bracket
     assert beyond["max_sinkage_m"] > at["max_sinkage_m"] > 0.0
-    assert at["under_limit"] == (at["max_sinkage_m"] <= 0.3)
     assert (tmp_path / "predict" / "check_0" / "result.json").is_file()
-    assert "verify   : CEL at the answer" in capsys.readouterr().out
+    assert "verify   : CEL answer" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("surrogate_answer, runs", [(2.5, 2), (3.6, 9)])
+def test_a_cel_check_that_fails_is_refined_by_cel_bisection(monkeypatch, tmp_path, surrogate_answer, runs):
+    """A CEL whose sinkage is 0.1 s·v (m) against a 0.3 m limit: its answer is 3 m/s. A surrogate answer
+    of 2.5 m/s holds (two runs: at it and 20 % beyond); one of 3.6 m/s is over the limit, and the
+    bisection from the safe end 0.5 m/s brackets 3 m/s to 2 % of 3.6 m/s: the answer, the safe end,
+    ⌈log2(3.1/0.072)⌉ = 6 halvings and the run 20 % beyond, 9 runs."""
+    from dsmv.surrogate import predict as P
+    from dsmv.surrogate.inverse import InverseResult
+
+    def cel(predictor, base, parameter, value, limit, folder):
+        return {"value": value, "status": "ok", "max_sinkage_m": 0.1 * value, "under_limit": 0.1 * value <= limit,
+                "run_dir": str(folder)}
+
+    monkeypatch.setattr(P, "cel_check", cel)
+    result = InverseResult("landing.velocity_m_s", surrogate_answer, "ok", 0.29, 0.3, True, np.zeros(0), np.zeros(0))
+    verified = P.verify_answer(None, None, result, tmp_path, safe_end=0.5, tolerance=0.02)
+    assert verified["cel_runs"] == len(verified["checks"]) == runs
+    if surrogate_answer < 3.0:
+        assert verified["value"] == surrogate_answer
+    else:
+        assert 3.0 - 0.02 * 3.6 <= verified["value"] <= 3.0 and "bisection" in verified["how"]
+    assert verified["checks"][-1]["value"] == pytest.approx(1.2 * verified["value"])
 
 
 def test_csv_in_bulk(store, tmp_path, capsys):
@@ -220,7 +255,6 @@ def cli(cwd, *args):
     (["task=max_velocity", "sinkage_limit_m=-0.1"], "sinkage_limit_m = -0.1: must be greater than 0"),
     (["task=max_velocity"], "sinkage_limit_m = None: task=max_velocity needs a limit"),
     (["confidence=1.0"], "confidence = 1.0: must be less than 1"),
-    (["verify=true"], "verify = True: the CEL check is for the inverse tasks"),
     (["tracking.uri=sqlite:///nowhere/mlflow.db"], "no MLflow store at sqlite:///nowhere/mlflow.db"),
     (["csv=/nowhere/scenes.csv"], "csv = '/nowhere/scenes.csv': no such file"),
 ])

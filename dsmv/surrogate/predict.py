@@ -78,7 +78,10 @@ class PredictSettings(Schema):
     model_version: str = Field("latest", description="registered model version")
     search: SearchSettings = Field(default_factory=SearchSettings)
     plot: bool = Field(True, description="inverse tasks: write inverse.png into the run dir")
-    verify: bool = Field(False, description="inverse tasks: run the CEL check at the answer and 20 % beyond it")
+    verify: bool = Field(True, description="inverse tasks: check the answer with the CEL (and 20 % beyond it), "
+                                           "refined by CEL bisection when it fails")
+    refine_tolerance: Number = Field(0.02, gt=0, lt=1, description="CEL bisection: stop when the bracket is this "
+                                                                   "fraction of the answer (-)")
 
 
 def settings_from(cfg: DictConfig) -> PredictSettings:
@@ -89,9 +92,6 @@ def settings_from(cfg: DictConfig) -> PredictSettings:
         settings = _validate(PredictSettings, data, "")
     except ConfigError as error:  # paths are top-level keys: "task", not ".task"
         raise ConfigError(error.path.lstrip("."), error.value, error.allowed) from None
-    if settings.verify and settings.task == "predict":
-        raise ConfigError("verify", True, "the CEL check is for the inverse tasks: task=max_velocity or "
-                                          "task=min_contact_length")
     if settings.task != "predict" and settings.sinkage_limit_m is None:
         raise ConfigError("sinkage_limit_m", None, f"task={settings.task} needs a limit (m) > 0, "
                                                    "e.g. sinkage_limit_m=0.3")
@@ -322,45 +322,68 @@ def check_command(predictor: Predictor, base: pd.DataFrame, key: str, value: flo
 BEYOND = {"landing.velocity_m_s": 1.2, "geometry.contact_length_m": 1.0 / 1.2}
 
 
-def verify_answer(predictor: Predictor, base: pd.DataFrame, result: InverseResult, run_dir: Path) -> list[dict]:
-    """Run the CEL check (``dsmv``, as :func:`check_command` writes it) at the answer and 20 %
-    beyond it, each into ``run_dir/check_<i>``; return what each gave against the limit."""
+def cel_check(predictor: Predictor, base: pd.DataFrame, parameter: str, value: float, limit: float,
+              folder: Path) -> dict:
+    """One CEL run (``dsmv``, as :func:`check_command` writes it) of the scene with ``parameter = value``
+    into ``folder``: its status and max sinkage against the limit."""
     import subprocess
 
-    program = Path(sys.executable).parent / "dsmv"
-    checks = []
-    for i, factor in enumerate((1.0, BEYOND[result.parameter])):
-        value = result.value * factor
-        folder = run_dir / f"check_{i}"
-        command = check_command(predictor, base, result.parameter, value).split()[1:]
-        completed = subprocess.run([str(program), *command, "output.plots=false", "solver.progress=off",
-                                    f"hydra.run.dir={folder}"], capture_output=True, text=True)
-        try:
-            answer = json.loads((folder / "result.json").read_text())
-        except (OSError, ValueError):
-            last = ((completed.stderr or completed.stdout).strip().splitlines() or ["no output"])[-1]
-            raise PredictError(f"the CEL check at {result.parameter} = {value:.4g} did not finish "
-                               f"(exit {completed.returncode}): {last}") from None
-        sinkage = answer["metrics"].get("max_sinkage_m", math.nan)
-        checks.append({"value": value, "factor": factor, "status": answer["status"], "max_sinkage_m": sinkage,
-                       "under_limit": bool(answer["status"] == "ok" and sinkage <= result.sinkage_limit_m),
-                       "run_dir": str(folder)})
-    return checks
+    command = check_command(predictor, base, parameter, value).split()[1:]
+    completed = subprocess.run([str(Path(sys.executable).parent / "dsmv"), *command, "output.plots=false",
+                                "solver.progress=off", f"hydra.run.dir={folder}"], capture_output=True, text=True)
+    try:
+        answer = json.loads((folder / "result.json").read_text())
+    except (OSError, ValueError):
+        last = ((completed.stderr or completed.stdout).strip().splitlines() or ["no output"])[-1]
+        raise PredictError(f"the CEL check at {parameter} = {value:.4g} did not finish "
+                           f"(exit {completed.returncode}): {last}") from None
+    sinkage = answer["metrics"].get("max_sinkage_m", math.nan)
+    return {"value": value, "status": answer["status"], "max_sinkage_m": sinkage,
+            "under_limit": bool(answer["status"] == "ok" and sinkage <= limit), "run_dir": str(folder)}
 
 
-def _print_checks(checks: list[dict], result: InverseResult) -> None:
+def verify_answer(predictor: Predictor, base: pd.DataFrame, result: InverseResult, run_dir: Path,
+                  safe_end: float, tolerance: float) -> dict:
+    """Check the surrogate's answer with the CEL; when the CEL at the answer is over the limit, bisect
+    with the CEL between the searched range's safe end and the answer until the bracket is
+    ``tolerance`` of the answer. Then the CEL 20 % beyond the answer found, on the unsafe side.
+    Returns the CEL's answer (NaN when even the safe end fails), how it was found, and every run."""
+    parameter, limit = result.parameter, result.sinkage_limit_m
+    runs = []
+
+    def run(value: float, role: str) -> dict:
+        check = cel_check(predictor, base, parameter, value, limit, run_dir / f"check_{len(runs)}") | {"role": role}
+        runs.append(check)
+        return check
+
+    answer, how = result.value, "the surrogate's answer holds"
+    if not run(answer, "answer")["under_limit"]:
+        if not run(safe_end, "safe end")["under_limit"]:
+            return {"value": math.nan, "how": f"no value passes: the CEL at the safe end {safe_end:.4g} is over the "
+                                              "limit too", "cel_runs": len(runs), "checks": runs}
+        safe, unsafe = safe_end, answer  # bisection on the CEL itself, from the surrogate's bracket
+        while abs(unsafe - safe) > tolerance * abs(answer):
+            middle = 0.5 * (safe + unsafe)
+            if run(middle, "bisection")["under_limit"]:
+                safe = middle
+            else:
+                unsafe = middle
+        answer, how = safe, f"refined by CEL bisection to {tolerance:.0%} (the surrogate's answer was over the limit)"
+    run(answer * BEYOND[parameter], "20 % beyond")
+    return {"value": answer, "how": how, "cel_runs": len(runs), "checks": runs}
+
+
+def _print_checks(verified: dict, result: InverseResult) -> None:
     limit = result.sinkage_limit_m
-    for check in checks:
-        where = "at the answer" if check["factor"] == 1.0 else "20 % beyond"
+    for check in verified["checks"]:
+        where = f"{check['role']} ({result.parameter} = {check['value']:.4g})"
         if check["status"] != "ok":
-            print(f"  verify   : CEL {where} ({result.parameter} = {check['value']:.4g}): {check['status']}")
+            print(f"  verify   : CEL {where}: {check['status']}")
             continue
         verdict = "≤" if check["under_limit"] else ">"
-        print(f"  verify   : CEL {where} ({result.parameter} = {check['value']:.4g}): max sinkage "
-              f"{check['max_sinkage_m']:.4f} m {verdict} {limit:g} m")
-    if checks and not checks[0]["under_limit"]:
-        print("warning: the CEL run at the answer exceeds the limit: the surrogate underpredicts this scene; "
-              "take a smaller value, or check more CEL runs around it")
+        print(f"  verify   : CEL {where}: max sinkage {check['max_sinkage_m']:.4f} m {verdict} {limit:g} m")
+    value = "none" if math.isnan(verified["value"]) else f"{result.parameter} = {verified['value']:.4g}"
+    print(f"  CEL      : {value}: {verified['how']} ({verified['cel_runs']} CEL runs)")
 
 
 def _print_inverse(result: InverseResult, predictor: Predictor, confidence: float, base: pd.DataFrame) -> None:
@@ -449,9 +472,11 @@ def run_predict(cfg: DictConfig, run_dir: Path | None = None) -> dict:
                 "upper_at_value_m": answer.upper_at_value, "monotone": answer.monotone,
                 "sinkage_limit_m": settings.sinkage_limit_m}
         if settings.verify and answer.status != "no_value_passes":
-            checks = verify_answer(predictor, base, answer, run_dir or Path.cwd() / "predict_checks")
-            _print_checks(checks, answer)
-            out["verify"] = checks
+            safe_end = low if GOALS[parameter] == "max" else high
+            verified = verify_answer(predictor, base, answer, run_dir or Path.cwd() / "predict_checks", safe_end,
+                                     settings.refine_tolerance)
+            _print_checks(verified, answer)
+            out |= {"verify": verified["checks"], "cel_value": verified["value"], "cel_runs": verified["cel_runs"]}
         if settings.plot and run_dir is not None:
             column = COLUMNS[parameter]
             grid_table = base.loc[base.index.repeat(len(answer.grid))].reset_index(drop=True)
