@@ -14,8 +14,10 @@ import pandas as pd
 import pytest
 from hydra import compose, initialize_config_dir
 from hydra.core.global_hydra import GlobalHydra
+from omegaconf import OmegaConf
 
 from dsmv.command_line import CONFIG_DIR
+from dsmv.errors import ConfigError
 from dsmv.surrogate.dataset import PARAMETERS, TARGET_METRIC
 from dsmv.surrogate.features import LeakFreeFeatures, target
 from dsmv.surrogate.intervals import residual_quantile
@@ -251,7 +253,7 @@ def cli(cwd, *args):
 
 
 @pytest.mark.parametrize("overrides, message", [
-    (["task=bogus"], "task = 'bogus': must be 'predict', 'max_velocity' or 'min_contact_length'"),
+    (["task=bogus"], "task = 'bogus': must be 'predict', 'max_velocity', 'min_contact_length' or 'exceedance'"),
     (["task=max_velocity", "sinkage_limit_m=-0.1"], "sinkage_limit_m = -0.1: must be greater than 0"),
     (["task=max_velocity"], "sinkage_limit_m = None: task=max_velocity needs a limit"),
     (["confidence=1.0"], "confidence = 1.0: must be less than 1"),
@@ -290,3 +292,66 @@ def test_cli_with_a_store_but_no_registered_model_and_then_with_one(store, tmp_p
     done = cli(tmp_path, f"tracking.uri={store[0]}", "landing.velocity_m_s=2")
     assert done.returncode == 0, done.stderr
     assert "sinkage  :" in done.stdout and "90% interval" in done.stdout
+
+
+# ----------------------------------------------------------------------------- reliability (task=exceedance)
+
+
+def test_distributions_have_the_moments_they_are_given():
+    from dsmv.surrogate.reliability import Distribution
+
+    rng = np.random.default_rng(1)
+    n = 400_000
+    z = Distribution(dist="lognormal", median=5000.0, cov=0.2).sample(rng, n)
+    assert np.median(z) == pytest.approx(5000.0, rel=0.005) and z.std() / z.mean() == pytest.approx(0.2, rel=0.01)
+    x = Distribution(dist="normal", mean=1500.0, cov=0.1).sample(rng, n)
+    assert x.mean() == pytest.approx(1500.0, rel=0.002) and x.std() / x.mean() == pytest.approx(0.1, rel=0.01)
+    u = Distribution(dist="uniform", low=1.0, high=2.0).sample(rng, n)
+    assert u.min() >= 1.0 and u.max() <= 2.0 and u.mean() == pytest.approx(1.5, rel=0.002)
+
+
+def test_exceedance_is_the_share_of_sampled_scenes_over_the_limit(store, tmp_path):
+    """P(z > limit) is the fraction of the seeded samples whose prediction exceeds the limit, with the
+    binomial standard error; the interval's bounds bracket it; a limit above every sample gives 0,
+    one below every sample 1."""
+    from dsmv.scene import build_scene
+    from dsmv.surrogate.model import scene_table
+    from dsmv.surrogate.predict import load_predictor, run_predict
+    from dsmv.surrogate.reliability import sample_scenes, uncertainty_from
+
+    args = ["task=exceedance", "verify=false", "uncertainty.samples=2000", "uncertainty.soil.su0_pa.cov=0.3"]
+    cfg = config(store, *args, "sinkage_limit_m=0.3")
+    out = run_predict(cfg, tmp_path)
+    table = sample_scenes(scene_table([build_scene(cfg)]), uncertainty_from(OmegaConf.to_container(cfg, resolve=True)))
+    mid, lower, upper = load_predictor(NAME, store[0]).interval(table, 0.9)
+    p = np.mean(mid > 0.3)
+    assert out["exceedance_probability"] == p and out["samples"] == 2000
+    assert out["monte_carlo_error"] == pytest.approx(np.sqrt(p * (1 - p) / 2000))
+    assert out["model_low"] <= p <= out["model_high"]
+    assert (tmp_path / "exceedance.png").stat().st_size > 10_000
+    assert run_predict(config(store, *args, "sinkage_limit_m=100"))["exceedance_probability"] == 0.0
+    assert run_predict(config(store, *args, "sinkage_limit_m=1e-9"))["exceedance_probability"] == 1.0
+
+
+@pytest.mark.parametrize("override, message", [
+    ("uncertainty.soil.su0_pa.dist=beta", "uncertainty.soil.su0_pa.dist = 'beta': must be 'normal', 'lognormal' or 'uniform'"),
+    ("uncertainty.landing.velocity_m_s.low=3", "uncertainty.landing.velocity_m_s = [3.0, 2.0]: a uniform distribution needs low < high"),
+    ("+uncertainty.soil.density_kg_m3={dist:normal,mean:600,cov:0.1}", "uncertainty.soil.density_kg_m3"),
+])
+def test_a_wrong_uncertainty_is_one_line(store, override, message):
+    from dsmv.surrogate.predict import run_predict
+
+    with pytest.raises(ConfigError) as caught:
+        run_predict(config(store, "task=exceedance", "verify=false", "sinkage_limit_m=0.3", override))
+    assert str(caught.value).startswith(message) and "\n" not in str(caught.value)
+
+
+def test_exceedance_spot_checks_run_the_cel_at_a_quantile(store, tmp_path, monkeypatch):
+    from dsmv.surrogate.predict import run_predict
+
+    monkeypatch.chdir(tmp_path)
+    out = run_predict(config(store, "task=exceedance", "sinkage_limit_m=0.3", "spot_checks=[0.5]", "plot=false",
+                             "uncertainty.samples=500"), tmp_path / "predict")
+    (check,) = out["verify"]
+    assert check["status"] == "ok" and check["quantile"] == 0.5 and check["max_sinkage_m"] > 0.0
+    assert (tmp_path / "predict" / "check_0" / "result.json").is_file()

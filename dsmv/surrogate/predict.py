@@ -71,7 +71,7 @@ class SearchSettings(Schema):
 class PredictSettings(Schema):
     """The top-level keys of ``conf/predict.yaml``."""
 
-    task: Literal["predict", "max_velocity", "min_contact_length"] = Field(description="what to answer")
+    task: Literal["predict", "max_velocity", "min_contact_length", "exceedance"] = Field(description="what to answer")
     sinkage_limit_m: Number | None = Field(None, gt=0, description="limit on the upper bound of z (m)")
     confidence: Number = Field(0.9, gt=0, lt=1, description="two-sided interval level (-)")
     csv: str | None = Field(None, description="CSV of scenes to predict in bulk")
@@ -82,6 +82,8 @@ class PredictSettings(Schema):
                                            "refined by CEL bisection when it fails")
     refine_tolerance: Number = Field(0.02, gt=0, lt=1, description="CEL bisection: stop when the bracket is this "
                                                                    "fraction of the answer (-)")
+    spot_checks: list[Number] = Field(default_factory=lambda: [0.5, 0.9], description="exceedance with verify: "
+                                      "the CEL at the samples nearest these quantiles of the predicted sinkage (-)")
 
 
 def settings_from(cfg: DictConfig) -> PredictSettings:
@@ -405,6 +407,71 @@ def _print_inverse(result: InverseResult, predictor: Predictor, confidence: floa
     print(f"  check    : {check_command(predictor, base, key, result.value)}")
 
 
+def exceedance_answer(cfg: DictConfig, settings: PredictSettings, predictor: Predictor, base: pd.DataFrame,
+                      run_dir: Path | None) -> dict:
+    """``task=exceedance``: P(z > limit) over the ``uncertainty`` group's samples (dsmv.surrogate.reliability),
+    its sinkage distribution drawn, and CEL runs at chosen quantiles of it (``verify``)."""
+    from dsmv.surrogate.reliability import COLUMNS as UNCERTAIN, exceedance, sample_scenes, uncertainty_from
+
+    limit, c = settings.sinkage_limit_m, settings.confidence
+    uncertainty = uncertainty_from(OmegaConf.to_container(cfg, resolve=True))
+    table = sample_scenes(base, uncertainty)
+    mid, lower, upper = predictor.interval(table, c)
+    answer = exceedance(mid, lower, upper, limit)
+    print(f"  exceed   : P(z > {limit:g} m) = {answer.probability:.4f} ± {answer.monte_carlo_error:.4f} (Monte Carlo, "
+          f"{answer.samples} samples); {answer.model_low:.4f} to {answer.model_high:.4f} on the {c:.0%} interval's bounds")
+    outside = predictor.model.out_of_range(table)
+    if outside:
+        rows = len(set().union(*outside.values()))
+        print(f"warning: {rows} of {len(table)} samples lie outside the training data "
+              f"({', '.join(PARAMETERS[k] for k in outside)})")
+    out = {"exceedance_probability": answer.probability, "monte_carlo_error": answer.monte_carlo_error,
+           "model_low": answer.model_low, "model_high": answer.model_high, "samples": answer.samples,
+           "sinkage_limit_m": limit, "uncertain": sorted(uncertainty.distributions)}
+    if settings.plot and run_dir is not None:
+        run_dir.mkdir(parents=True, exist_ok=True)
+        out["plot"] = str(plot_exceedance(mid, lower, upper, limit, answer, c, run_dir / "exceedance.png"))
+        print(f"  plot     : {out['plot']}")
+    if settings.verify:
+        key = next(iter(uncertainty.distributions))
+        checks = []
+        for quantile in settings.spot_checks:
+            row = int(np.argmin(np.abs(mid - np.quantile(mid, quantile))))
+            scene = table.iloc[[row]].reset_index(drop=True)
+            folder = (run_dir or Path.cwd() / "predict_checks") / f"check_{len(checks)}"
+            check = cel_check(predictor, scene, key, float(scene[UNCERTAIN[key]].iloc[0]), limit, folder)
+            checks.append(check | {"quantile": quantile, "predicted_m": float(mid[row]), "lower_m": float(lower[row]),
+                                   "upper_m": float(upper[row])})
+            within = lower[row] <= check["max_sinkage_m"] <= upper[row]
+            print(f"  verify   : CEL at the {quantile:.0%} quantile: max sinkage {check['max_sinkage_m']:.4f} m, "
+                  f"predicted {mid[row]:.4f} m [{lower[row]:.4f}, {upper[row]:.4f}]: "
+                  f"{'within' if within else 'outside'} the interval")
+        out["verify"] = checks
+    return out
+
+
+def plot_exceedance(mid, lower, upper, limit: float, answer, confidence: float, path: Path) -> Path:
+    """The predicted sinkage's distribution over the samples, the interval bounds' beside it, the limit."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.5, 4.2), constrained_layout=True)
+    bins = np.linspace(0.0, max(float(np.quantile(upper, 0.999)), limit) * 1.05, 60)
+    ax.hist(mid, bins=bins, color="tab:blue", alpha=0.7, label="predicted")
+    ax.hist(lower, bins=bins, histtype="step", color="tab:green", label=f"lower bound ({confidence:.0%})")
+    ax.hist(upper, bins=bins, histtype="step", color="tab:red", label=f"upper bound ({confidence:.0%})")
+    ax.axvline(limit, color="k", linestyle="--", label=f"limit {limit:g} m")
+    ax.set(xlabel="max sinkage (m)", ylabel=f"samples (of {answer.samples})",
+           title=f"P(z > {limit:g} m) = {answer.probability:.3f} ± {answer.monte_carlo_error:.3f}, "
+                 f"{answer.model_low:.3f} to {answer.model_high:.3f} on the bounds")
+    ax.legend()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
 def run_predict(cfg: DictConfig, run_dir: Path | None = None) -> dict:
     """Validate, load, predict (one scene, a CSV, or the inverse question), print; return the answer."""
     settings = settings_from(cfg)
@@ -461,6 +528,8 @@ def run_predict(cfg: DictConfig, run_dir: Path | None = None) -> dict:
     out |= {"sinkage_m": float(mid[0]), "lower_m": float(lower[0]), "upper_m": float(upper[0]),
             "outside_training_range": sorted(PARAMETERS[k] for k in outside)}
 
+    if settings.task == "exceedance":
+        out |= exceedance_answer(cfg, settings, predictor, base, run_dir)
     if settings.task in TASK_PARAMETERS:
         parameter = TASK_PARAMETERS[settings.task]
         low, high = _search_range(settings, predictor, parameter)

@@ -1,0 +1,140 @@
+"""The reliability of a landing: P(max sinkage > limit) when the soil and the landing are uncertain.
+
+``dsmv-predict task=exceedance sinkage_limit_m=…`` draws ``uncertainty.samples`` scenes from the
+distributions of the config group ``uncertainty`` (nested as the scene is)::
+
+    uncertainty:
+      soil:
+        su0_pa: {dist: lognormal, median: 5000, cov: 0.2}
+      landing:
+        velocity_m_s: {dist: uniform, low: 1.0, high: 2.0}
+
+(``normal``: ``mean`` and ``cov``, truncated at zero; ``lognormal``: ``median`` and ``cov``, the
+coefficient of variation of the variable itself; ``uniform``: ``low`` and ``high``), every other
+scene value as the scene has it. The registered surrogate predicts each scene's sinkage and its
+interval. The answer:
+
+- P = the fraction of samples whose predicted sinkage exceeds the limit, with its Monte Carlo
+  standard error √(P(1 − P)/N);
+- the model's uncertainty: the same fraction on the interval's lower and upper bounds (at the
+  prediction's ``confidence``), a range P must lie in if the bounds hold for every scene.
+
+Lognormal: σ_ln = √(ln(1 + cov²)), μ_ln = ln(median) (Ang & Tang 2007, §3.2).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+import pandas as pd
+from pydantic import Field
+
+from dsmv.errors import ConfigError
+from dsmv.scene import Count, Number, Schema, _validate
+from dsmv.surrogate.dataset import PARAMETERS
+
+COLUMNS = {key: column for column, key in PARAMETERS.items()}  # config key → table column
+
+
+class Distribution(Schema):
+    """One uncertain parameter's distribution."""
+
+    dist: Literal["normal", "lognormal", "uniform"] = Field(description="normal | lognormal | uniform")
+    mean: Number | None = Field(None, gt=0, description="normal: the mean (the parameter's units)")
+    median: Number | None = Field(None, gt=0, description="lognormal: the median (the parameter's units)")
+    cov: Number | None = Field(None, ge=0, description="normal, lognormal: coefficient of variation (-)")
+    low: Number | None = Field(None, description="uniform: the lower end")
+    high: Number | None = Field(None, description="uniform: the upper end")
+
+    def needs(self) -> tuple[str, ...]:
+        return {"normal": ("mean", "cov"), "lognormal": ("median", "cov"), "uniform": ("low", "high")}[self.dist]
+
+    def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        if self.dist == "lognormal":
+            sigma = math.sqrt(math.log1p(self.cov**2))
+            return self.median * np.exp(sigma * rng.standard_normal(n))
+        if self.dist == "uniform":
+            return rng.uniform(self.low, self.high, n)
+        return np.maximum(self.mean * (1.0 + self.cov * rng.standard_normal(n)), 0.0)
+
+
+@dataclass(frozen=True)
+class Uncertainty:
+    """The validated ``uncertainty`` group: distributions by config key, samples, seed."""
+
+    distributions: dict[str, Distribution]
+    samples: int
+    seed: int
+
+
+class UncertaintySettings(Schema):
+    samples: Count = Field(10_000, ge=100, description="Monte Carlo samples (-)")
+    seed: int = Field(0, description="random seed (-)")
+
+
+def _flatten(node: dict, prefix: str = "") -> dict[str, dict]:
+    """Nested groups → {config key: distribution mapping}; a mapping with ``dist`` is a leaf."""
+    leaves = {}
+    for key, value in node.items():
+        path = f"{prefix}.{key}" if prefix else str(key)
+        if isinstance(value, dict) and "dist" in value:
+            leaves[path] = value
+        elif isinstance(value, dict):
+            leaves |= _flatten(value, path)
+        else:
+            raise ConfigError(f"uncertainty.{path}", value, "must be a distribution: {dist: normal | lognormal | "
+                                                           "uniform, ...}")
+    return leaves
+
+
+def uncertainty_from(container: dict) -> Uncertainty:
+    """The ``uncertainty`` group of a composed ``predict`` config, validated (one-line ConfigError)."""
+    node = dict(container.get("uncertainty") or {})
+    settings = _validate(UncertaintySettings, {k: node.pop(k) for k in ("samples", "seed") if k in node},
+                         "uncertainty")
+    distributions = {}
+    for key, data in _flatten(node).items():
+        if key not in COLUMNS:
+            raise ConfigError(f"uncertainty.{key}", data, f"not an uncertain parameter; one of {', '.join(COLUMNS)}")
+        dist = _validate(Distribution, data, f"uncertainty.{key}")
+        for needed in dist.needs():
+            if getattr(dist, needed) is None:
+                raise ConfigError(f"uncertainty.{key}.{needed}", None, f"a {dist.dist} distribution needs it")
+        if dist.dist == "uniform" and not dist.low < dist.high:
+            raise ConfigError(f"uncertainty.{key}", [dist.low, dist.high], "a uniform distribution needs low < high")
+        distributions[key] = dist
+    if not distributions:
+        raise ConfigError("uncertainty", None, "task=exceedance needs at least one uncertain parameter")
+    return Uncertainty(distributions, settings.samples, settings.seed)
+
+
+def sample_scenes(base: pd.DataFrame, uncertainty: Uncertainty) -> pd.DataFrame:
+    """``uncertainty.samples`` rows: the base scene with each uncertain parameter drawn (seeded)."""
+    rng = np.random.default_rng(uncertainty.seed)
+    table = base.loc[base.index.repeat(uncertainty.samples)].reset_index(drop=True)
+    for key, dist in uncertainty.distributions.items():
+        table[COLUMNS[key]] = dist.sample(rng, uncertainty.samples)
+    return table
+
+
+@dataclass(frozen=True)
+class Exceedance:
+    """P(z > limit) from the samples' predictions: the estimate, its Monte Carlo standard error,
+    and the range the interval's bounds give."""
+
+    probability: float
+    monte_carlo_error: float
+    model_low: float
+    model_high: float
+    samples: int
+
+
+def exceedance(mid: np.ndarray, lower: np.ndarray, upper: np.ndarray, limit_m: float) -> Exceedance:
+    """P(z > limit) on the predicted sinkages, with its errors (see the module's text)."""
+    n = len(mid)
+    p = float(np.mean(mid > limit_m))
+    return Exceedance(p, math.sqrt(p * (1.0 - p) / n), float(np.mean(lower > limit_m)),
+                      float(np.mean(upper > limit_m)), n)
