@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
@@ -138,3 +139,23 @@ def exceedance(mid: np.ndarray, lower: np.ndarray, upper: np.ndarray, limit_m: f
     p = float(np.mean(mid > limit_m))
     return Exceedance(p, math.sqrt(p * (1.0 - p) / n), float(np.mean(lower > limit_m)),
                       float(np.mean(upper > limit_m)), n)
+
+
+def monte_carlo_cases(cfg) -> list[list[str]]:
+    """``hydra.sweeper.cases_from`` of ``experiment=reliability_mc``: the CEL Monte Carlo that
+    ``task=exceedance`` is checked against. ``monte_carlo.samples`` scenes drawn (seed
+    ``monte_carlo.seed``) from ``conf/uncertainty/<monte_carlo.uncertainty>.yaml``, each a job."""
+    from omegaconf import OmegaConf
+
+    from dsmv.command_line import CONFIG_DIR
+
+    settings = OmegaConf.to_container(cfg.monte_carlo, resolve=True)
+    path = Path(CONFIG_DIR) / "uncertainty" / f"{settings['uncertainty']}.yaml"
+    if not path.is_file():
+        raise ConfigError("monte_carlo.uncertainty", settings["uncertainty"], f"no {path}")
+    node = OmegaConf.to_container(OmegaConf.load(path), resolve=True) | {"samples": settings["samples"],
+                                                                          "seed": settings["seed"]}
+    uncertainty = uncertainty_from({"uncertainty": node})
+    rng = np.random.default_rng(uncertainty.seed)
+    draws = {key: dist.sample(rng, uncertainty.samples) for key, dist in uncertainty.distributions.items()}
+    return [[f"{key}={values[i]:.6g}" for key, values in draws.items()] for i in range(uncertainty.samples)]
