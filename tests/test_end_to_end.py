@@ -144,6 +144,7 @@ def test_dsmv_plugins_lists_groups_and_builtins(run_cli):
         assert line in out
 
 
+@pytest.mark.server  # an MLflow server process: with the other server tests, which CI runs apart
 def test_tracking_server_option_logs_to_a_local_server(run_cli, tmp_path):
     """tracking=server with tracking.uri pointing at an MLflow server on the loopback address."""
     from mlflow.tracking import MlflowClient
