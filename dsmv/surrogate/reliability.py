@@ -153,9 +153,10 @@ def monte_carlo_cases(cfg) -> list[list[str]]:
     path = Path(CONFIG_DIR) / "uncertainty" / f"{settings['uncertainty']}.yaml"
     if not path.is_file():
         raise ConfigError("monte_carlo.uncertainty", settings["uncertainty"], f"no {path}")
-    node = OmegaConf.to_container(OmegaConf.load(path), resolve=True) | {"samples": settings["samples"],
-                                                                          "seed": settings["seed"]}
-    uncertainty = uncertainty_from({"uncertainty": node})
-    rng = np.random.default_rng(uncertainty.seed)
-    draws = {key: dist.sample(rng, uncertainty.samples) for key, dist in uncertainty.distributions.items()}
-    return [[f"{key}={values[i]:.6g}" for key, values in draws.items()] for i in range(uncertainty.samples)]
+    samples, seed = settings["samples"], settings["seed"]
+    if not isinstance(samples, int) or samples < 1:
+        raise ConfigError("monte_carlo.samples", samples, "must be a whole number ≥ 1")
+    distributions = uncertainty_from({"uncertainty": OmegaConf.to_container(OmegaConf.load(path), resolve=True)})
+    rng = np.random.default_rng(seed)
+    draws = {key: dist.sample(rng, samples) for key, dist in distributions.distributions.items()}
+    return [[f"{key}={values[i]:.6g}" for key, values in draws.items()] for i in range(samples)]
