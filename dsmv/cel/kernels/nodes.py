@@ -76,8 +76,9 @@ def largest_speed(v):
         speed_sq = 0.0
         for a in range(v.shape[0]):
             speed_sq += v[a, n] * v[a, n]
-        if not speed_sq <= largest:  # a NaN wins: the guards that read this then see it
-            largest = speed_sq
+        if math.isnan(speed_sq):  # a NaN wins, as in NumPy's max: the guards that read this then see it
+            return math.nan
+        largest = max(largest, speed_sq)
     return math.sqrt(largest)
 
 
