@@ -125,7 +125,11 @@ class SoilLaw:
 
     @staticmethod
     def evolve(k, s0, s1, xi, dxi, gamma_dot, dt, p0, p1, p2, p3, p4, p5, p6, p7):
-        """State variable k's value after a step (dxi: plastic shear strain gained, dt: s)."""
+        """State variable k's value after a step (dxi: plastic shear strain gained, dt: s).
+
+        Flat float64 arguments, as ``factor``'s: the C-callback signature every law shares, so the
+        CEL kernels call any law through one compiled entry. Packing p0 … p7 into an array would
+        hand each law a C pointer to unwrap (``numba.carray``) in place of named parameters."""
         return s0 if k == 0.0 else s1
 
     def strength_factor(self, xi: np.ndarray, gamma_dot_per_s: np.ndarray, *state: np.ndarray) -> np.ndarray:

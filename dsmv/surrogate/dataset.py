@@ -40,6 +40,8 @@ PARAMETERS: dict[str, str] = {
     "xi95": "soil.xi95",  # ξ95 (-)
     "eta": "soil.rate.eta",  # η (-)
 }
+#: config key → its table column (the inverse of PARAMETERS)
+COLUMNS: dict[str, str] = {key: column for column, key in PARAMETERS.items()}
 TARGET_METRIC = "max_sinkage_m"  # the CEL run's maximum sinkage z (m)
 OPTIONAL = {"inertial_mass_kg"}  # may be null in the config
 #: config choices that are not features but define what the runs computed; a dataset records

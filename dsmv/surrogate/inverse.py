@@ -42,13 +42,12 @@ import numpy as np
 import pandas as pd
 
 from dsmv.errors import DsmvError
-from dsmv.surrogate.dataset import PARAMETERS
+from dsmv.surrogate.dataset import COLUMNS
 
 #: searchable parameter (config key) → goal: the largest (max) or smallest (min) passing value
 GOALS: dict[str, Literal["max", "min"]] = {"landing.velocity_m_s": "max", "geometry.contact_length_m": "min"}
 #: dsmv-predict task → its parameter
 TASK_PARAMETERS = {"max_velocity": "landing.velocity_m_s", "min_contact_length": "geometry.contact_length_m"}
-COLUMNS = {key: column for column, key in PARAMETERS.items()}  # config key → table column
 
 
 class InverseError(DsmvError):

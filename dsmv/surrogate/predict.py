@@ -48,9 +48,9 @@ from pydantic import Field
 
 from dsmv.errors import ConfigError, DsmvError
 from dsmv.scene import Count, Number, Schema, _validate, build_scene, build_tracking
-from dsmv.surrogate.dataset import PARAMETERS
+from dsmv.surrogate.dataset import COLUMNS, PARAMETERS
 from dsmv.surrogate.intervals import CALIBRATION_FILE, SCORES, ScoreScale, residual_quantile
-from dsmv.surrogate.inverse import COLUMNS, GOALS, TASK_PARAMETERS, InverseResult, solve_inverse
+from dsmv.surrogate.inverse import GOALS, TASK_PARAMETERS, InverseResult, solve_inverse
 from dsmv.surrogate.model import TrainedSurrogate, scene_table
 
 PROG = "dsmv-predict"
@@ -411,7 +411,7 @@ def exceedance_answer(cfg: DictConfig, settings: PredictSettings, predictor: Pre
                       run_dir: Path | None) -> dict:
     """``task=exceedance``: P(z > limit) over the ``uncertainty`` group's samples (dsmv.surrogate.reliability),
     its sinkage distribution drawn, and CEL runs at chosen quantiles of it (``verify``)."""
-    from dsmv.surrogate.reliability import COLUMNS as UNCERTAIN, exceedance, sample_scenes, uncertainty_from
+    from dsmv.surrogate.reliability import exceedance, sample_scenes, uncertainty_from
 
     limit, c = settings.sinkage_limit_m, settings.confidence
     uncertainty = uncertainty_from(OmegaConf.to_container(cfg, resolve=True))
@@ -439,7 +439,7 @@ def exceedance_answer(cfg: DictConfig, settings: PredictSettings, predictor: Pre
             row = int(np.argmin(np.abs(mid - np.quantile(mid, quantile))))
             scene = table.iloc[[row]].reset_index(drop=True)
             folder = (run_dir or Path.cwd() / "predict_checks") / f"check_{len(checks)}"
-            check = cel_check(predictor, scene, key, float(scene[UNCERTAIN[key]].iloc[0]), limit, folder)
+            check = cel_check(predictor, scene, key, float(scene[COLUMNS[key]].iloc[0]), limit, folder)
             checks.append(check | {"quantile": quantile, "predicted_m": float(mid[row]), "lower_m": float(lower[row]),
                                    "upper_m": float(upper[row])})
             within = lower[row] <= check["max_sinkage_m"] <= upper[row]

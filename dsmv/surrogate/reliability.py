@@ -35,9 +35,7 @@ from pydantic import Field
 
 from dsmv.errors import ConfigError
 from dsmv.scene import Count, Number, Schema, _validate
-from dsmv.surrogate.dataset import PARAMETERS
-
-COLUMNS = {key: column for column, key in PARAMETERS.items()}  # config key → table column
+from dsmv.surrogate.dataset import COLUMNS
 
 
 class Distribution(Schema):
@@ -112,12 +110,17 @@ def uncertainty_from(container: dict) -> Uncertainty:
     return Uncertainty(distributions, settings.samples, settings.seed)
 
 
+def draw(distributions: dict[str, Distribution], samples: int, seed: int) -> dict[str, np.ndarray]:
+    """``samples`` values of each uncertain parameter, by config key, from one seeded generator."""
+    rng = np.random.default_rng(seed)
+    return {key: dist.sample(rng, samples) for key, dist in distributions.items()}
+
+
 def sample_scenes(base: pd.DataFrame, uncertainty: Uncertainty) -> pd.DataFrame:
     """``uncertainty.samples`` rows: the base scene with each uncertain parameter drawn (seeded)."""
-    rng = np.random.default_rng(uncertainty.seed)
     table = base.loc[base.index.repeat(uncertainty.samples)].reset_index(drop=True)
-    for key, dist in uncertainty.distributions.items():
-        table[COLUMNS[key]] = dist.sample(rng, uncertainty.samples)
+    for key, values in draw(uncertainty.distributions, uncertainty.samples, uncertainty.seed).items():
+        table[COLUMNS[key]] = values
     return table
 
 
@@ -156,7 +159,6 @@ def monte_carlo_cases(cfg) -> list[list[str]]:
     samples, seed = settings["samples"], settings["seed"]
     if not isinstance(samples, int) or samples < 1:
         raise ConfigError("monte_carlo.samples", samples, "must be a whole number ≥ 1")
-    distributions = uncertainty_from({"uncertainty": OmegaConf.to_container(OmegaConf.load(path), resolve=True)})
-    rng = np.random.default_rng(seed)
-    draws = {key: dist.sample(rng, samples) for key, dist in distributions.distributions.items()}
+    uncertainty = uncertainty_from({"uncertainty": OmegaConf.to_container(OmegaConf.load(path), resolve=True)})
+    draws = draw(uncertainty.distributions, samples, seed)
     return [[f"{key}={values[i]:.6g}" for key, values in draws.items()] for i in range(samples)]

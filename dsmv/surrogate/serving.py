@@ -25,7 +25,7 @@ import numpy as np
 import pandas as pd
 from mlflow.pyfunc import PythonModel
 
-from dsmv.surrogate.dataset import PARAMETERS
+from dsmv.surrogate.dataset import COLUMNS, PARAMETERS
 
 #: the interval a served prediction carries (-): the confidence dsmv-predict uses by default
 CONFIDENCE = 0.9
@@ -49,12 +49,11 @@ def fixed_values(metadata: dict) -> dict[str, float]:
 
 def dataset_table(frame: pd.DataFrame, metadata: dict) -> pd.DataFrame:
     """Scene config-key columns → the dataset table the features are built from (SI)."""
-    columns = {key: column for column, key in PARAMETERS.items()}
-    unknown = [str(key) for key in frame.columns if key not in columns]
+    unknown = [str(key) for key in frame.columns if key not in COLUMNS]
     if unknown:
         raise ValueError(f"unknown column(s) {', '.join(unknown)}: a dsmv sinkage model takes scene config keys, "
                          f"{', '.join(PARAMETERS.values())}")
-    table = frame.rename(columns=columns).astype(float)
+    table = frame.rename(columns=COLUMNS).astype(float)
     fixed = fixed_values(metadata)
     missing = [PARAMETERS[c] for c in PARAMETERS if c not in table and c not in fixed]
     if missing:

@@ -93,12 +93,18 @@ def walsh_transposed(c0, c1, c2, c3, c4, c5, c6, c7):
 
 
 @njit(**INLINE)
+def corner_walsh(v, a, n0, n1, n2, n3, n4, n5, n6, n7):
+    """:func:`walsh` of velocity component a over a cell's nodes n0 … n7, given in the corner table's
+    order (round each face: 0, 1, 2, 3), which the transform takes in binary order (0, 1, 3, 2)."""
+    return walsh(v[a, n0], v[a, n1], v[a, n3], v[a, n2], v[a, n4], v[a, n5], v[a, n7], v[a, n6])
+
+
+@njit(**INLINE)
 def velocity_gradient(v, nodes8, ix, iy, iz, grad):
     """The one-point velocity gradient grad[a, b] = ∂v_a/∂x_b (1/s) of a cell from its nodes' velocities
     ``v`` (3, nodes); ``ix, iy, iz`` = 1/(4dx), 1/(4dy), 1/(4dz)."""
     for a in range(3):
-        c = walsh(v[a, nodes8[0]], v[a, nodes8[1]], v[a, nodes8[3]], v[a, nodes8[2]],
-                  v[a, nodes8[4]], v[a, nodes8[5]], v[a, nodes8[7]], v[a, nodes8[6]])
+        c = corner_walsh(v, a, nodes8[0], nodes8[1], nodes8[2], nodes8[3], nodes8[4], nodes8[5], nodes8[6], nodes8[7])
         grad[a, 0] = c[1] * ix
         grad[a, 1] = c[2] * iy
         grad[a, 2] = c[4] * iz
@@ -134,8 +140,8 @@ def slab_forces(i, x, y, z, corner, split, v, phi, q, hourglass_factor, fn, par)
             cell_nodes(corner, split, i, j, k, ny1, nz1, nodes8)
             n0, n1, n2, n3, n4, n5, n6, n7 = (nodes8[0], nodes8[1], nodes8[2], nodes8[3], nodes8[4], nodes8[5],
                                               nodes8[6], nodes8[7])
-            for a in range(3):  # binary corner order: the table's corners 0, 1, 3, 2, 4, 5, 7, 6
-                c = walsh(v[a, n0], v[a, n1], v[a, n3], v[a, n2], v[a, n4], v[a, n5], v[a, n7], v[a, n6])
+            for a in range(3):
+                c = corner_walsh(v, a, n0, n1, n2, n3, n4, n5, n6, n7)
                 for m in range(8):
                     coeff[a, m] = c[m]
             ix, iy, iz = 0.25 / dx, 0.25 / dy, 0.25 / dz
@@ -454,7 +460,7 @@ def slab_modes(i, corner, phi, v, full):
             n0, n1, n2, n3 = corner[i, j, k, 0], corner[i, j, k, 1], corner[i, j, k, 2], corner[i, j, k, 3]
             n4, n5, n6, n7 = corner[i, j, k, 4], corner[i, j, k, 5], corner[i, j, k, 6], corner[i, j, k, 7]
             for a in range(3):
-                c = walsh(v[a, n0], v[a, n1], v[a, n3], v[a, n2], v[a, n4], v[a, n5], v[a, n7], v[a, n6])
+                c = corner_walsh(v, a, n0, n1, n2, n3, n4, n5, n6, n7)
                 hourglass_sq += c[3] * c[3] + c[5] * c[5] + c[6] * c[6] + c[7] * c[7]
                 linear_sq += c[1] * c[1] + c[2] * c[2] + c[4] * c[4]
     return hourglass_sq / 64.0, linear_sq / 64.0
