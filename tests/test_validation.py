@@ -28,7 +28,7 @@ BAD_VALUES = [
     ("mesh.max_cell_size_m=0.01", "mesh.max_cell_size_m", "mesh.cell_size_m"),
     ("mesh.growth_ratio=2", "mesh.growth_ratio", "less than or equal to 1.5"),
     ("soil.law=nope", "soil.law", "tresca"),
-    ("solver.name=nope", "solver.name", "available: analytic_energy"),
+    ("solver.name=nope", "solver.name", "available: analytic_dynamic, analytic_energy"),
     ("solver=analytic_energy solver.shape_factor=-1", "solver.shape_factor", "skempton"),
     ("+soil.su0=5", "soil.su0", "Extra inputs"),
     ("soil.su0_pa=abc", "soil.youngs_modulus_pa", "'abc' is not a number"),

@@ -1,0 +1,134 @@
+"""The fast landing model (``solver=analytic_dynamic``) over a dataset table, and its calibration.
+
+Each row of a dataset table (:mod:`dsmv.surrogate.dataset`) is a landing. The columns hold what the
+study varied; the soil's other values are the default soil's (``conf/soil/nodule_field.yaml``:
+ρ', the rate law's n and γ̇ref), with E/su0 held at the default's ratio (500, as every sample of the
+reference study's Table 1). The law is ``einav_randolph``, the datasets' law; its NumPy twin runs
+on all rows at once.
+
+``python -m dsmv.surrogate.fast_model DATASET.csv`` fits the coefficients the module
+:mod:`dsmv.analytic.dynamic` takes from the CEL (least squares on log sinkage) and prints the
+model's error against the CEL, in sample and held out (5-fold).
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import replace
+from functools import lru_cache
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+
+from dsmv.analytic.dynamic import Coefficients, Landing, sinkage
+from dsmv.surrogate.dataset import TARGET_METRIC
+from dsmv.surrogate.features import physics
+
+#: the coefficients a calibration fits; the others keep their cited values
+FITTED = ("depth_coefficient", "strain_coefficient", "drag_coefficient")
+
+
+@lru_cache(maxsize=1)
+def _default_scene():
+    from dsmv.bench import compose_scene
+
+    return compose_scene(["tracking=disabled", "solver=analytic_dynamic"])
+
+
+def default_soil():
+    """The default soil config (validated), whose values fill what a table does not vary."""
+    return _default_scene().soil
+
+
+def default_coefficients() -> Coefficients:
+    """The coefficients ``solver=analytic_dynamic`` runs with by default (its config file)."""
+    return _default_scene().solver.coefficients()
+
+
+def table_landing(table: pd.DataFrame) -> Landing:
+    """The rows of a dataset table as landings (per track, SI)."""
+    p, soil = physics(table), default_soil()
+    su0 = table["su0_pa"].to_numpy(float)
+    return Landing(
+        weight_n=p["weight_n"], inertia_kg=p["inertia_kg"], velocity_m_s=table["velocity_m_s"].to_numpy(float),
+        width_m=p["width_m"], area_m2=p["area_m2"], su0_pa=su0, ks_pa_per_m=table["ks_pa_per_m"].to_numpy(float),
+        density_kg_m3=soil.density_kg_m3, youngs_modulus_pa=soil.youngs_modulus_pa / soil.su0_pa * su0,
+        gravity_m_s2=table["gravity_m_s2"].to_numpy(float), shape_factor=1.0)
+
+
+def table_factor(table: pd.DataFrame):
+    """The Einav–Randolph strength factor of each row, as f(ξ, γ̇) on arrays aligned with the rows."""
+    from dsmv_plugins.einav_randolph import EinavRandolphLaw
+
+    soil = default_soil()
+    rows = SimpleNamespace(
+        sensitivity=table["sensitivity"].to_numpy(float), xi95=table["xi95"].to_numpy(float),
+        rate=SimpleNamespace(law=soil.rate.law, eta=table["eta"].to_numpy(float), n=soil.rate.n,
+                             gamma_dot_ref=soil.rate.gamma_dot_ref, mu=soil.rate.mu))
+    twin = SimpleNamespace(soil=rows)  # the twin reads only self.soil, and broadcasts
+    return lambda xi, rate: EinavRandolphLaw.strength_factor(twin, xi, rate)
+
+
+def fast_sinkage(table: pd.DataFrame, coefficients: Coefficients | None = None) -> np.ndarray:
+    """The fast model's sinkage (m) of every row (coefficients: the config file's by default)."""
+    return sinkage(table_landing(table), table_factor(table), coefficients or default_coefficients())
+
+
+def errors(model_m, cel_m) -> dict[str, float]:
+    """How the model's sinkage departs from the CEL's: median |error|, the fractions within 10 and
+    15 %, the mean error and the RMS of log(model/CEL)."""
+    relative = np.asarray(model_m) / np.asarray(cel_m) - 1.0
+    return {"median_abs_error": float(np.median(np.abs(relative))),
+            "within_10pct": float(np.mean(np.abs(relative) <= 0.10)),
+            "within_15pct": float(np.mean(np.abs(relative) <= 0.15)),
+            "mean_error": float(np.mean(relative)),
+            "rms_log_error": float(np.sqrt(np.mean(np.log1p(relative) ** 2)))}
+
+
+def calibrate(table: pd.DataFrame, start: Coefficients | None = None) -> Coefficients:
+    """The :data:`FITTED` coefficients that minimise Σ log²(model/CEL) over the rows."""
+    from scipy.optimize import least_squares
+
+    start = start or default_coefficients()
+    landing, factor = table_landing(table), table_factor(table)
+    cel = table[TARGET_METRIC].to_numpy(float)
+
+    def residual(values):
+        model = sinkage(landing, factor, replace(start, **dict(zip(FITTED, values))))
+        return np.log(model / cel)
+
+    fit = least_squares(residual, [getattr(start, name) for name in FITTED], bounds=(0.0, 50.0), diff_step=1e-3)
+    return replace(start, **dict(zip(FITTED, fit.x)))
+
+
+def held_out(table: pd.DataFrame, folds: int = 5, seed: int = 0) -> np.ndarray:
+    """Each row's sinkage (m) from coefficients calibrated on the other folds."""
+    fold = np.random.default_rng(seed).permutation(len(table)) % folds
+    out = np.empty(len(table))
+    for k in range(folds):
+        fitted = calibrate(table[fold != k].reset_index(drop=True))
+        out[fold == k] = fast_sinkage(table[fold == k].reset_index(drop=True), fitted)
+    return out
+
+
+def _describe(label: str, e: dict) -> str:
+    return (f"{label:<22} median |error| {e['median_abs_error']:.1%}, within 10 %: {e['within_10pct']:.0%}, "
+            f"within 15 %: {e['within_15pct']:.0%}, mean {e['mean_error']:+.1%}, RMS log {e['rms_log_error']:.3f}")
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(prog="python -m dsmv.surrogate.fast_model", description=__doc__.split("\n\n")[0])
+    parser.add_argument("dataset", help="a dataset.csv (dsmv-train writes one beside its models)")
+    args = parser.parse_args(argv)
+    table = pd.read_csv(args.dataset)
+    cel = table[TARGET_METRIC].to_numpy(float)
+    fitted = calibrate(table)
+    print(f"{len(table)} CEL landings; fitted " + ", ".join(f"{n} = {getattr(fitted, n):.3f}" for n in FITTED))
+    print(_describe("defaults", errors(fast_sinkage(table), cel)))
+    print(_describe("fitted, in sample", errors(fast_sinkage(table, fitted), cel)))
+    print(_describe("fitted, 5-fold held out", errors(held_out(table), cel)))
+
+
+if __name__ == "__main__":
+    main()
