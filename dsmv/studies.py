@@ -138,36 +138,43 @@ def one_at_a_time(sweep_dir: Path, path: Path) -> Path | None:
 
 
 def compare_analytic(sweep_dir: Path, path: Path) -> Path | None:
-    """CEL against the energy method per case; writes ``compare_analytic.csv`` and the PNG.
+    """CEL against the energy method and the fast landing model per case; writes
+    ``compare_analytic.csv`` and the PNG.
 
     A case is a job's overrides without ``solver`` and ``soil.law``. Per case: the energy
     method's sinkage, the CEL's with Tresca and with Einav–Randolph, the relative difference
     (CEL Einav–Randolph against the energy method), and its two parts: mechanics
-    (CEL Tresca / energy − 1) and soil law (CEL Einav–Randolph / CEL Tresca − 1).
+    (CEL Tresca / energy − 1) and soil law (CEL Einav–Randolph / CEL Tresca − 1). Where the sweep
+    also ran ``solver=analytic_dynamic``: its sinkage with each law and its error against the CEL
+    with the same law.
     """
     jobs = sweep_jobs(sweep_dir)
     # a case: what sets a job apart from the others, apart from its solver and law
     shared = set.intersection(*(set(job.overrides) for job in jobs)) if jobs else set()
-    cases: dict[str, dict[str, Job]] = {}
+    cases: dict[str, dict[tuple[str, str], Job]] = {}
     for job in jobs:
         case = " ".join(o for o in job.overrides if o not in shared and o.split("=", 1)[0] not in ("solver", "soil.law"))
-        label = "analytic" if job.values.get("solver") == "analytic_energy" else job.values.get("soil.law", "cel")
-        cases.setdefault(case, {})[label] = job
+        cases.setdefault(case, {})[job.values.get("solver", "cel2d"), job.values.get("soil.law", "tresca")] = job
     rows = []
-    for number, (case, by_label) in enumerate(cases.items(), start=1):
-        analytic = by_label.get("analytic")
-        tresca, softening = by_label.get("tresca"), by_label.get("einav_randolph")
+    for number, (case, by_run) in enumerate(cases.items(), start=1):
+        analytic = by_run.get(("analytic_energy", "einav_randolph")) or by_run.get(("analytic_energy", "tresca"))
+        softening = by_run.get(("cel2d", "einav_randolph"))
         if analytic is None or softening is None:
             continue
 
         def sinkage(job):
             return job.metric("max_sinkage_m") if job is not None and job.ok else np.nan
 
-        z_a, z_t, z_er = sinkage(analytic), sinkage(tresca), sinkage(softening)
-        rows.append({"case": number, "overrides": case, "analytic_m": z_a, "cel_tresca_m": z_t,
-                     "cel_einav_randolph_m": z_er, "relative_difference": z_er / z_a - 1,
-                     "mechanics_part": z_t / z_a - 1, "soil_law_part": z_er / z_t - 1,
-                     "cel_status": softening.result["status"]})
+        z_a, z_t, z_er = sinkage(analytic), sinkage(by_run.get(("cel2d", "tresca"))), sinkage(softening)
+        row = {"case": number, "overrides": case, "analytic_m": z_a, "cel_tresca_m": z_t,
+               "cel_einav_randolph_m": z_er, "relative_difference": z_er / z_a - 1,
+               "mechanics_part": z_t / z_a - 1, "soil_law_part": z_er / z_t - 1,
+               "cel_status": softening.result["status"]}
+        if ("analytic_dynamic", "einav_randolph") in by_run:
+            z_d, z_dt = (sinkage(by_run.get(("analytic_dynamic", law))) for law in ("einav_randolph", "tresca"))
+            row |= {"dynamic_m": z_d, "dynamic_tresca_m": z_dt, "dynamic_error": z_d / z_er - 1,
+                    "dynamic_tresca_error": z_dt / z_t - 1}
+        rows.append(row)
     if not rows:
         return None
     _write_csv(Path(path).with_suffix(".csv"), rows)
@@ -177,18 +184,21 @@ def compare_analytic(sweep_dir: Path, path: Path) -> Path | None:
     z_a = np.array([r["analytic_m"] for r in rows])
     z_t = np.array([r["cel_tresca_m"] for r in rows])
     z_er = np.array([r["cel_einav_randolph_m"] for r in rows])
-    top = 1.15 * np.nanmax(np.concatenate([z_a, z_t, z_er]))
+    z_d = np.array([r.get("dynamic_m", np.nan) for r in rows])
+    top = 1.15 * np.nanmax(np.concatenate([z_a, z_t, z_er, z_d]))
     line = np.array([0, top])
     left.plot(line, line, "k-", lw=1, label="equal")
     left.fill_between(line, 0.85 * line, 1.15 * line, color="0.88", label="±15 %")
-    left.plot(z_a, z_er, "s", color="tab:blue", label="CEL, Einav–Randolph")
-    left.plot(z_a, z_t, "o", mfc="none", color="tab:gray", label="CEL, Tresca")
+    left.plot(z_a, z_er, "s", color="tab:blue", label="energy method, CEL Einav–Randolph")
+    left.plot(z_a, z_t, "o", mfc="none", color="tab:gray", label="energy method, CEL Tresca")
+    if np.isfinite(z_d).any():
+        left.plot(z_d, z_er, "^", color="tab:red", label="fast model (analytic_dynamic), CEL Einav–Randolph")
     for r in rows:
         left.annotate(str(r["case"]), (r["analytic_m"], r["cel_einav_randolph_m"]), fontsize=7,
                       xytext=(3, 3), textcoords="offset points")
     left.set_xlim(0, top)
     left.set_ylim(0, top)
-    left.set_xlabel("energy method sinkage (m)")
+    left.set_xlabel("model sinkage (m)")
     left.set_ylabel("CEL max sinkage (m)")
     left.legend(fontsize=8)
     left.grid(alpha=0.3)
@@ -196,6 +206,9 @@ def compare_analytic(sweep_dir: Path, path: Path) -> Path | None:
     right.bar(index - 0.2, [100 * r["mechanics_part"] for r in rows], 0.4, label="mechanics (CEL Tresca / energy)")
     right.bar(index + 0.2, [100 * r["soil_law_part"] for r in rows], 0.4, label="soil law (E–R / Tresca)")
     right.plot(index, [100 * r["relative_difference"] for r in rows], "kD", label="total (E–R / energy)")
+    if np.isfinite(z_d).any():
+        right.plot(index, [100 * r["dynamic_error"] for r in rows], "^", color="tab:red",
+                   label="fast model / CEL E–R")
     right.axhline(0, color="k", lw=0.8)
     right.set_xticks(index, [str(r["case"]) for r in rows])
     right.set_xlabel("case")

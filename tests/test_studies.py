@@ -68,7 +68,8 @@ def test_parameter_studies_move_in_the_reference_directions_on_the_coarse_mesh(r
 
 
 def test_compare_analytic_pairs_cases_and_splits_the_gap(run_cli, tmp_path):
-    """Two of the eight cases on the coarse mesh: the table pairs each case's three runs."""
+    """Two of the eight cases on the coarse mesh: the table pairs each case's runs (energy method, fast
+    model and CEL, each with Tresca and Einav–Randolph)."""
     done = run_cli("dsmv", "experiment=compare_analytic", "mesh=coarse", "tracking=disabled", "output.plots=false",
                    'hydra.sweeper.cases=[["landing.mass_kg=3000","soil.su0_pa=10000"],["landing.mass_kg=6500","soil.su0_pa=3000"]]',
                    timeout=900)
@@ -83,9 +84,10 @@ def test_compare_analytic_pairs_cases_and_splits_the_gap(run_cli, tmp_path):
         assert total == pytest.approx(float(row["relative_difference"]), rel=1e-12)
         assert float(row["relative_difference"]) == pytest.approx(z_er / z_a - 1, rel=1e-12)
         assert z_t > 0 and z_er > 0
+        assert float(row["dynamic_error"]) == pytest.approx(float(row["dynamic_m"]) / z_er - 1, rel=1e-12)
     # the lighter vehicle on the stronger soil sinks less, in every model
     light, heavy = rows
-    for key in ("analytic_m", "cel_tresca_m", "cel_einav_randolph_m"):
+    for key in ("analytic_m", "cel_tresca_m", "cel_einav_randolph_m", "dynamic_m", "dynamic_tresca_m"):
         assert float(light[key]) < float(heavy[key])
     assert (sweep / "compare_analytic.png").exists()
 

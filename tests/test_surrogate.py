@@ -342,7 +342,7 @@ def test_train_cli_writes_metrics_and_registers_the_model(run_cli, tmp_path, sto
     assert run.data.tags["dsmv.dataset_hash"] == load_dataset(uri, STUDY).content_hash
     name = f"dsmv-sinkage-{surrogate}"
     versions = client.search_model_versions(f"name = '{name}'")
-    assert versions and versions[0].tags["feature_set"] == "leak_free"
+    assert versions and versions[0].tags["feature_set"] == "physics"
 
     # the registered model reads back as a predictor with its training ranges
     from dsmv.surrogate.model import load_registered
@@ -464,10 +464,11 @@ def test_dataset_table3_runs_as_a_multirun_with_joblib(run_cli, tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("surrogate", ["rf", "xgboost"])
-@pytest.mark.parametrize("features", ["leak_free", "study"])
+@pytest.mark.parametrize("features", ["physics", "leak_free", "study"])
 def test_full_study_trains_on_the_table3_dataset(surrogate, features):
     """On the tracked CEL dataset in runs/ (``dsmv experiment=dataset_table3`` first): the full
-    grid, 10 folds and 200 re-splits within 5 minutes, and a useful model."""
+    grid, 10 folds and 200 re-splits within 5 minutes, and a useful model; with the fast model's
+    z/B among the features, 10-fold R² of at least 0.98 (measured: rf 0.991, xgboost 0.995)."""
     import time
 
     from omegaconf import OmegaConf
@@ -490,7 +491,7 @@ def test_full_study_trains_on_the_table3_dataset(surrogate, features):
     started = time.perf_counter()
     result = fit_and_evaluate(plugin, config, settings, data)
     assert time.perf_counter() - started < 300
-    assert result.metrics["cv_r2_mean"] > 0.8
+    assert result.metrics["cv_r2_mean"] > (0.98 if features == "physics" else 0.8)
 
 
 @pytest.mark.parametrize("name", sorted(registry.available("surrogates")))

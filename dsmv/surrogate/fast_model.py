@@ -14,7 +14,7 @@ model's error against the CEL, in sample and held out (5-fold).
 from __future__ import annotations
 
 import argparse
-from dataclasses import replace
+from dataclasses import asdict, replace
 from functools import lru_cache
 from types import SimpleNamespace
 
@@ -36,43 +36,46 @@ def _default_scene():
     return compose_scene(["tracking=disabled", "solver=analytic_dynamic"])
 
 
-def default_soil():
-    """The default soil config (validated), whose values fill what a table does not vary."""
-    return _default_scene().soil
+def default_settings() -> dict:
+    """What the model takes that a table does not hold, from the default config: the coefficients of
+    ``conf/solver/analytic_dynamic.yaml`` and the default soil's other values. A surrogate records
+    them, so that its features stay what they were trained on if the defaults change."""
+    scene = _default_scene()
+    soil, rate = scene.soil, scene.soil.rate
+    return {"coefficients": asdict(scene.solver.coefficients()), "density_kg_m3": soil.density_kg_m3,
+            "youngs_modulus_over_su0": soil.youngs_modulus_pa / soil.su0_pa,
+            "rate": {"law": rate.law, "n": rate.n, "gamma_dot_ref": rate.gamma_dot_ref, "mu": rate.mu}}
 
 
-def default_coefficients() -> Coefficients:
-    """The coefficients ``solver=analytic_dynamic`` runs with by default (its config file)."""
-    return _default_scene().solver.coefficients()
-
-
-def table_landing(table: pd.DataFrame) -> Landing:
+def table_landing(table: pd.DataFrame, settings: dict | None = None) -> Landing:
     """The rows of a dataset table as landings (per track, SI)."""
-    p, soil = physics(table), default_soil()
+    p, fill = physics(table), settings or default_settings()
     su0 = table["su0_pa"].to_numpy(float)
     return Landing(
         weight_n=p["weight_n"], inertia_kg=p["inertia_kg"], velocity_m_s=table["velocity_m_s"].to_numpy(float),
         width_m=p["width_m"], area_m2=p["area_m2"], su0_pa=su0, ks_pa_per_m=table["ks_pa_per_m"].to_numpy(float),
-        density_kg_m3=soil.density_kg_m3, youngs_modulus_pa=soil.youngs_modulus_pa / soil.su0_pa * su0,
+        density_kg_m3=fill["density_kg_m3"], youngs_modulus_pa=fill["youngs_modulus_over_su0"] * su0,
         gravity_m_s2=table["gravity_m_s2"].to_numpy(float), shape_factor=1.0)
 
 
-def table_factor(table: pd.DataFrame):
+def table_factor(table: pd.DataFrame, settings: dict | None = None):
     """The Einav–Randolph strength factor of each row, as f(ξ, γ̇) on arrays aligned with the rows."""
     from dsmv_plugins.einav_randolph import EinavRandolphLaw
 
-    soil = default_soil()
-    rows = SimpleNamespace(
-        sensitivity=table["sensitivity"].to_numpy(float), xi95=table["xi95"].to_numpy(float),
-        rate=SimpleNamespace(law=soil.rate.law, eta=table["eta"].to_numpy(float), n=soil.rate.n,
-                             gamma_dot_ref=soil.rate.gamma_dot_ref, mu=soil.rate.mu))
+    rate = (settings or default_settings())["rate"]
+    rows = SimpleNamespace(sensitivity=table["sensitivity"].to_numpy(float), xi95=table["xi95"].to_numpy(float),
+                           rate=SimpleNamespace(**rate, eta=table["eta"].to_numpy(float)))
     twin = SimpleNamespace(soil=rows)  # the twin reads only self.soil, and broadcasts
-    return lambda xi, rate: EinavRandolphLaw.strength_factor(twin, xi, rate)
+    return lambda xi, gamma_dot: EinavRandolphLaw.strength_factor(twin, xi, gamma_dot)
 
 
-def fast_sinkage(table: pd.DataFrame, coefficients: Coefficients | None = None) -> np.ndarray:
-    """The fast model's sinkage (m) of every row (coefficients: the config file's by default)."""
-    return sinkage(table_landing(table), table_factor(table), coefficients or default_coefficients())
+def fast_sinkage(table: pd.DataFrame, coefficients: Coefficients | None = None,
+                 settings: dict | None = None) -> np.ndarray:
+    """The fast model's sinkage (m) of every row (coefficients and soil fill: ``settings``, by default
+    :func:`default_settings`; ``coefficients`` overrides the settings' own)."""
+    settings = settings or default_settings()
+    coefficients = coefficients or Coefficients(**settings["coefficients"])
+    return sinkage(table_landing(table, settings), table_factor(table, settings), coefficients)
 
 
 def errors(model_m, cel_m) -> dict[str, float]:
@@ -90,7 +93,7 @@ def calibrate(table: pd.DataFrame, start: Coefficients | None = None) -> Coeffic
     """The :data:`FITTED` coefficients that minimise Σ log²(model/CEL) over the rows."""
     from scipy.optimize import least_squares
 
-    start = start or default_coefficients()
+    start = start or Coefficients(**default_settings()["coefficients"])
     landing, factor = table_landing(table), table_factor(table)
     cel = table[TARGET_METRIC].to_numpy(float)
 

@@ -79,6 +79,10 @@ class FeatureSet:
     def transform(self, table: pd.DataFrame, sinkage_m=None) -> pd.DataFrame:
         raise NotImplementedError
 
+    def metadata(self) -> dict:
+        """What a trained model must record to rebuild these features (beyond the set's name)."""
+        return {}
+
     def predict_sinkage(self, estimator, table: pd.DataFrame, **solve) -> np.ndarray:
         """Sinkage z (m) predicted for each row (the study's set solves its implicit equation)."""
         return estimator.predict(self.transform(table)) * table["width_m"].to_numpy(float)
@@ -106,6 +110,30 @@ class LeakFreeFeatures(FeatureSet):
             "weight_number": p["weight_n"] / (p["area_m2"] * su0),
             "gradient_number": table["ks_pa_per_m"].to_numpy(float) * p["width_m"] / su0,
         }, columns=list(self.columns))
+
+
+class PhysicsFeatures(LeakFreeFeatures):
+    """The leak-free inputs and the fast landing model's z/B (``solver=analytic_dynamic``, in
+    milliseconds from the same inputs): the forest learns the CEL's departure from the physics."""
+
+    name = "physics"
+    columns = (*LeakFreeFeatures.columns, "fast_model_z_over_b")
+
+    def __init__(self, settings: dict | None = None):
+        from dsmv.surrogate.fast_model import default_settings
+
+        #: the fast model's coefficients and soil fill (recorded with a trained model)
+        self.settings = settings or default_settings()
+
+    def transform(self, table: pd.DataFrame, sinkage_m=None) -> pd.DataFrame:
+        from dsmv.surrogate.fast_model import fast_sinkage
+
+        X = super().transform(table)
+        X["fast_model_z_over_b"] = fast_sinkage(table, settings=self.settings) / table["width_m"].to_numpy(float)
+        return X
+
+    def metadata(self) -> dict:
+        return {"fast_model": self.settings}
 
 
 class StudyFeatures(FeatureSet):
@@ -147,11 +175,15 @@ class StudyFeatures(FeatureSet):
         return self.solve(estimator, table, z_max_m, points).sinkage_m
 
 
-FEATURE_SETS: dict[str, type[FeatureSet]] = {"leak_free": LeakFreeFeatures, "study": StudyFeatures}
+FEATURE_SETS: dict[str, type[FeatureSet]] = {"physics": PhysicsFeatures, "leak_free": LeakFreeFeatures,
+                                              "study": StudyFeatures}
 
 
-def feature_set(name: str) -> FeatureSet:
-    """The feature set called ``name`` (``train.features``)."""
+def feature_set(name: str, metadata: dict | None = None) -> FeatureSet:
+    """The feature set called ``name`` (``train.features``); ``metadata``: a trained model's, whose
+    recorded settings rebuild the features it was trained on."""
     if name not in FEATURE_SETS:
         raise ConfigError("train.features", name, f"must be one of {', '.join(FEATURE_SETS)}")
+    if name == "physics":
+        return PhysicsFeatures((metadata or {}).get("fast_model"))
     return FEATURE_SETS[name]()

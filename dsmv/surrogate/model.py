@@ -74,4 +74,5 @@ def load_registered(name: str, tracking_uri: str, version: str = "latest") -> Tr
     info = get_model_info(uri)
     if "python_function" in info.flavors and info.flavors["python_function"].get("python_model"):
         return mlflow.pyfunc.load_model(uri).unwrap_python_model().model  # the scene model (dsmv.surrogate.serving)
-    return TrainedSurrogate(load_estimator(uri), feature_set(info.metadata["feature_set"]), dict(info.metadata))
+    metadata = dict(info.metadata)
+    return TrainedSurrogate(load_estimator(uri), feature_set(metadata["feature_set"], metadata), metadata)

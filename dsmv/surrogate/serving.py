@@ -87,7 +87,7 @@ class SceneSinkageModel(PythonModel):
 
         metadata = dict(context.model_config)
         self.model = TrainedSurrogate(load_estimator(context.artifacts[ESTIMATOR_ARTIFACT]),
-                                      feature_set(metadata["feature_set"]), metadata)
+                                      feature_set(metadata["feature_set"], metadata), metadata)
         record = metadata.get(CALIBRATION_KEY)
         self.calibration = Calibration.from_record(record, "model config") if record else None
 

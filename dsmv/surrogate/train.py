@@ -43,7 +43,7 @@ class TrainSettings(Schema):
     """The ``train`` block of ``conf/train.yaml``."""
 
     study: str = Field(description="study whose tracked runs train the surrogate (tag dsmv.study)")
-    features: Literal["leak_free", "study"] = Field(description="feature set (dsmv.surrogate.features)")
+    features: Literal["physics", "leak_free", "study"] = Field(description="feature set (dsmv.surrogate.features)")
     seed: Count = Field(ge=0, description="seed of the split, the folds and the estimator (-)")
     test_fraction: Number = Field(gt=0, lt=1, description="test share of the split (-), the study's 0.1")
     cv_folds: Count = Field(ge=2, description="folds of the cross-validation over the dataset (-)")
@@ -98,7 +98,7 @@ class Training:
             "implicit_z_max_m": float(IMPLICIT_RANGE * table[TARGET_METRIC].iloc[self.train_idx].max()),
             "ranges": {c: [float(table[c].min()), float(table[c].max())] for c in PARAMETERS
                        if table[c].notna().any()},
-        } | ({"conformal": self.calibration} if self.calibration else {})
+        } | self.features.metadata() | ({"conformal": self.calibration} if self.calibration else {})
 
 
 def settings_from(cfg: DictConfig) -> tuple[TrainSettings, SurrogateConfig]:
