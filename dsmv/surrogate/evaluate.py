@@ -4,6 +4,7 @@
 - :func:`grid_search`: k-fold grid search on the training split (Figure 16's curves come from it).
 - :func:`cross_validation`: 10-fold cross-validation over the whole dataset (Figure 19).
 - :func:`monte_carlo`: 200 random 90/10 re-splits (Figure 20).
+- :func:`learning_curve`: the k-fold scores against the number of CEL runs trained on.
 - :func:`kendall_tau`: rank correlations of features and target (Figure 15).
 - plots: Kendall heatmap, grid-search curves, predicted vs true (Figure 17), residuals
   (Figure 18), cross-validation folds, Monte Carlo running means, feature importance.
@@ -98,6 +99,45 @@ def monte_carlo(make: Callable, X: pd.DataFrame, y: np.ndarray, n_splits: int, t
 
     jobs = (delayed(_fit_score)(make, X, y, *split(len(y), test_fraction, seed + i), extra) for i in range(n_splits))
     return Resampled(pd.DataFrame(Parallel(n_jobs=n_jobs)(jobs)))
+
+
+def learning_curve(make: Callable, X: pd.DataFrame, y: np.ndarray, fractions, folds: int, seed: int,
+                   n_jobs: int = 1) -> pd.DataFrame:
+    """Test R² and RMSE against the number of runs trained on: in each of ``folds`` folds, the
+    model is fitted on the first ``fraction`` of the training rows (in a seeded random order, so
+    smaller sets are subsets of larger ones) and scored on the whole held-out fold. One row per
+    fold and size: ``n_runs``, ``fold``, ``test_r2``, ``test_rmse``."""
+    from joblib import Parallel, delayed
+    from sklearn.model_selection import KFold
+
+    order = np.random.default_rng(seed).permutation(len(y))
+    rank = np.empty(len(y), dtype=int)
+    rank[order] = np.arange(len(y))
+    jobs = []
+    for fold, (train, test) in enumerate(KFold(folds, shuffle=True, random_state=seed).split(X)):
+        ordered = train[np.argsort(rank[train])]
+        for fraction in fractions:
+            n = max(2, int(round(fraction * len(train))))
+            jobs.append((fold, ordered[:n], test))
+    fitted = Parallel(n_jobs=n_jobs)(delayed(_fit_score)(make, X, y, tr, te, None) for _, tr, te in jobs)
+    return pd.DataFrame([{"n_runs": len(tr), "fold": fold, "test_r2": row["test_r2"], "test_rmse": row["test_rmse"]}
+                         for (fold, tr, _), row in zip(jobs, fitted)])
+
+
+def plot_learning_curve(curve: pd.DataFrame, path: Path) -> Path:
+    """Mean test R² and RMSE (± one standard deviation over the folds) against the runs trained on."""
+    plt = _pyplot()
+    stats = curve.groupby("n_runs")[["test_r2", "test_rmse"]].agg(["mean", "std"])
+    fig, (left, right) = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
+    for ax, column, label in ((left, "test_r2", "R² on z/B"), (right, "test_rmse", "RMSE on z/B")):
+        ax.errorbar(stats.index, stats[column]["mean"], yerr=stats[column]["std"], fmt="o-", capsize=3)
+        ax.set_xlabel("CEL runs trained on")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    left.set_title(f"learning curve ({curve['fold'].nunique()}-fold)")
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return Path(path)
 
 
 def kendall_tau(X: pd.DataFrame, y: np.ndarray, target_name: str) -> pd.DataFrame:

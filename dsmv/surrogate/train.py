@@ -18,7 +18,7 @@ import json
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Literal
+from typing import Annotated, Any, Callable, Literal
 
 import numpy as np
 import pandas as pd
@@ -48,6 +48,8 @@ class TrainSettings(Schema):
     test_fraction: Number = Field(gt=0, lt=1, description="test share of the split (-), the study's 0.1")
     cv_folds: Count = Field(ge=2, description="folds of the cross-validation over the dataset (-)")
     mc_splits: Count = Field(ge=1, description="Monte Carlo re-splits (-), the study's 200")
+    learning_curve_fractions: list[Annotated[float, Field(gt=0, le=1)]] = Field(
+        description="learning curve: fractions of each fold's training runs to fit on (-); [] for none")
     n_jobs: Count = Field(ge=1, description="parallel fits (-)")
     experiment: str = Field(description="MLflow experiment dsmv-<experiment> of the surrogate runs")
     register_model: bool = Field(description="register the model in MLflow's model registry")
@@ -148,6 +150,10 @@ def fit_and_evaluate(surrogate: Surrogate, config: SurrogateConfig, settings: Tr
     mc_s = time.perf_counter() - clock
     metrics |= cv.summary("cv") | mc.summary("mc")
     clock = time.perf_counter()
+    curve = evaluate.learning_curve(result.make, X, y, settings.learning_curve_fractions, settings.cv_folds,
+                                    settings.seed, settings.n_jobs)
+    metrics["learning_curve_s"] = time.perf_counter() - clock
+    clock = time.perf_counter()
     metrics |= _intervals(result, X, y, settings)
     metrics["interval_s"] = time.perf_counter() - clock
     metrics |= {"grid_best_cv_r2": float(grid_results["mean_test_score"].max()) if len(grid_results) else np.nan,
@@ -158,7 +164,8 @@ def fit_and_evaluate(surrogate: Surrogate, config: SurrogateConfig, settings: Tr
     importance = evaluate.feature_importance(result.estimator, features.columns)
     result.frames = {"grid_search": grid_results, "cv_folds": cv.frame, "monte_carlo": mc.frame,
                      "kendall_tau": evaluate.kendall_tau(X, y, TARGET),
-                     "feature_importance": importance.rename("importance").to_frame()}
+                     "feature_importance": importance.rename("importance").to_frame(),
+                     "learning_curve": curve}
     result.frames["_cv"], result.frames["_mc"] = cv.frame, mc.frame
     return result
 
@@ -220,6 +227,8 @@ def write_outputs(result: Training, run_dir: Path) -> list[Path]:
                                 run_dir / "cv_and_monte_carlo.png"),
         evaluate.plot_importance(result.frames["feature_importance"]["importance"], run_dir / "feature_importance.png"),
     ]
+    if len(result.frames["learning_curve"]):
+        result.plots.append(evaluate.plot_learning_curve(result.frames["learning_curve"], run_dir / "learning_curve.png"))
     if len(result.frames["grid_search"]):
         curves = evaluate.grid_curves(result.frames["grid_search"])
         result.plots.append(evaluate.plot_grid_curves(curves, run_dir / "grid_search.png"))
