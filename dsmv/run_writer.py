@@ -55,6 +55,12 @@ def resolve_uri(uri: str) -> str:
     return uri
 
 
+def store_missing(uri: str) -> bool:
+    """A ``sqlite:///`` store whose file does not exist yet (opening it would create it)."""
+    prefix = "sqlite:///"
+    return uri.startswith(prefix) and not Path(uri[len(prefix):]).exists()
+
+
 def open_client(uri: str):
     from mlflow.tracking import MlflowClient
 

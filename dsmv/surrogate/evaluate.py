@@ -126,7 +126,7 @@ def learning_curve(make: Callable, X: pd.DataFrame, y: np.ndarray, fractions, fo
 
 def plot_learning_curve(curve: pd.DataFrame, path: Path) -> Path:
     """Mean test R² and RMSE (± one standard deviation over the folds) against the runs trained on."""
-    plt = _pyplot()
+    plt = pyplot()
     stats = curve.groupby("n_runs")[["test_r2", "test_rmse"]].agg(["mean", "std"])
     fig, (left, right) = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
     for ax, column, label in ((left, "test_r2", "R² on z/B"), (right, "test_rmse", "RMSE on z/B")):
@@ -166,7 +166,7 @@ def grid_curves(results: pd.DataFrame) -> dict[str, pd.Series]:
 # ------------------------------------------------------------------------------------ plots
 
 
-def _pyplot():
+def pyplot():
     import matplotlib
 
     matplotlib.use("Agg")
@@ -176,7 +176,7 @@ def _pyplot():
 
 
 def plot_kendall(tau: pd.DataFrame, path: Path) -> Path:
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(1.0 + 0.7 * len(tau), 0.6 + 0.6 * len(tau)), constrained_layout=True)
     image = ax.imshow(tau.to_numpy(), cmap="RdBu_r", vmin=-1, vmax=1)
     ax.set_xticks(range(len(tau)), tau.columns, rotation=60, ha="right")
@@ -192,7 +192,7 @@ def plot_kendall(tau: pd.DataFrame, path: Path) -> Path:
 
 
 def plot_grid_curves(curves: dict[str, pd.Series], path: Path) -> Path:
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(1, max(len(curves), 1), figsize=(3.2 * max(len(curves), 1), 3), constrained_layout=True,
                              squeeze=False)
     for ax, (name, curve) in zip(axes[0], curves.items()):
@@ -209,7 +209,7 @@ def plot_grid_curves(curves: dict[str, pd.Series], path: Path) -> Path:
 
 def plot_predicted(y_train, p_train, y_test, p_test, path: Path, label: str) -> Path:
     """Predicted against true (Figure 17) and residuals against predicted (Figure 18)."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, (left, right) = plt.subplots(1, 2, figsize=(10, 4.2), constrained_layout=True)
     hi = float(max(np.max(y_train), np.max(y_test), np.max(p_train), np.max(p_test)))
     left.plot([0, hi], [0, hi], color="grey", lw=1)
@@ -234,7 +234,7 @@ def plot_predicted(y_train, p_train, y_test, p_test, path: Path, label: str) -> 
 def plot_resampled(cv: Resampled, mc: Resampled, path: Path) -> Path:
     """Per-fold R² (Figure 19) and the running means of the Monte Carlo scores, normalised by
     their final value (Figure 20)."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, (left, right) = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
     folds = np.arange(1, len(cv.frame) + 1)
     left.plot(folds, cv.frame["train_r2"], "o-", label="train")
@@ -259,7 +259,7 @@ def plot_resampled(cv: Resampled, mc: Resampled, path: Path) -> Path:
 
 
 def plot_importance(importance: pd.Series, path: Path) -> Path:
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6, 0.6 + 0.35 * len(importance)), constrained_layout=True)
     ax.barh(importance.index[::-1], importance.to_numpy()[::-1])
     ax.set_xlabel("feature importance (normalised)")

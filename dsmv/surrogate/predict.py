@@ -189,10 +189,9 @@ def load_predictor(name: str, tracking_uri: str, version: str = "latest") -> Pre
     from mlflow.tracking import MlflowClient
 
     from dsmv.surrogate.model import load_registered
-    from dsmv.run_writer import resolve_uri
+    from dsmv.run_writer import resolve_uri, store_missing
 
-    prefix = "sqlite:///"
-    if tracking_uri.startswith(prefix) and not Path(tracking_uri[len(prefix):]).exists():
+    if store_missing(tracking_uri):
         raise PredictError(f"no MLflow store at {tracking_uri}: train a surrogate first (dsmv-train), "
                            "or point tracking.uri at the store that holds it")
     uri = resolve_uri(tracking_uri)
