@@ -307,7 +307,7 @@ def test_learning_curve_fits_nested_subsets_and_scores_whole_folds():
     assert sorted(curve["n_runs"].unique()) == [8, 40, 80] and len(curve) == 15
     assert np.allclose(curve["test_r2"], 1.0, atol=1e-12) and np.allclose(curve["test_rmse"], 0.0, atol=1e-12)
     noisy = exact + rng.normal(0.0, 0.3, size=100)
-    means = learning_curve(LinearRegression, X, noisy, [0.05, 1.0], folds=5, seed=0).groupby("n_runs")["test_r2"].mean()
+    means = learning_curve(LinearRegression, X, noisy, [0.05, 1.0], folds=5, seed=0).groupby("fraction")["test_r2"].mean()
     assert means.iloc[-1] > means.iloc[0]
 
 

@@ -106,7 +106,7 @@ def learning_curve(make: Callable, X: pd.DataFrame, y: np.ndarray, fractions, fo
     """Test R² and RMSE against the number of runs trained on: in each of ``folds`` folds, the
     model is fitted on the first ``fraction`` of the training rows (in a seeded random order, so
     smaller sets are subsets of larger ones) and scored on the whole held-out fold. One row per
-    fold and size: ``n_runs``, ``fold``, ``test_r2``, ``test_rmse``."""
+    fold and size: ``fraction``, ``n_runs``, ``fold``, ``test_r2``, ``test_rmse``."""
     from joblib import Parallel, delayed
     from sklearn.model_selection import KFold
 
@@ -118,19 +118,20 @@ def learning_curve(make: Callable, X: pd.DataFrame, y: np.ndarray, fractions, fo
         ordered = train[np.argsort(rank[train])]
         for fraction in fractions:
             n = max(2, int(round(fraction * len(train))))
-            jobs.append((fold, ordered[:n], test))
-    fitted = Parallel(n_jobs=n_jobs)(delayed(_fit_score)(make, X, y, tr, te, None) for _, tr, te in jobs)
-    return pd.DataFrame([{"n_runs": len(tr), "fold": fold, "test_r2": row["test_r2"], "test_rmse": row["test_rmse"]}
-                         for (fold, tr, _), row in zip(jobs, fitted)])
+            jobs.append((fraction, fold, ordered[:n], test))
+    fitted = Parallel(n_jobs=n_jobs)(delayed(_fit_score)(make, X, y, tr, te, None) for *_, tr, te in jobs)
+    return pd.DataFrame([{"fraction": fraction, "n_runs": len(tr), "fold": fold, "test_r2": row["test_r2"],
+                          "test_rmse": row["test_rmse"]} for (fraction, fold, tr, _), row in zip(jobs, fitted)])
 
 
 def plot_learning_curve(curve: pd.DataFrame, path: Path) -> Path:
     """Mean test R² and RMSE (± one standard deviation over the folds) against the runs trained on."""
     plt = pyplot()
-    stats = curve.groupby("n_runs")[["test_r2", "test_rmse"]].agg(["mean", "std"])
+    groups = curve.groupby("fraction")
+    runs = groups["n_runs"].mean()  # folds differ by a run in size
     fig, (left, right) = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
     for ax, column, label in ((left, "test_r2", "R² on z/B"), (right, "test_rmse", "RMSE on z/B")):
-        ax.errorbar(stats.index, stats[column]["mean"], yerr=stats[column]["std"], fmt="o-", capsize=3)
+        ax.errorbar(runs, groups[column].mean(), yerr=groups[column].std(), fmt="o-", capsize=3)
         ax.set_xlabel("CEL runs trained on")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
