@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dsmv.surrogate.active import ActiveConfig, candidates, choose, tree_spread
+from dsmv.surrogate.active import DIVERSITY, ActiveConfig, candidates, choose, tree_spread
 from dsmv.surrogate.dataset import TARGET_METRIC
 
 
@@ -31,15 +31,17 @@ def test_the_start_is_the_hypercubes_first_candidates_not_yet_run(pool):
     assert list(rows) == [1, 3, 4, 5]
 
 
-def test_a_batch_is_the_most_disputed_unrun_candidates(pool):
+def test_a_batch_is_drawn_from_the_most_disputed_unrun_candidates(pool):
+    """Four new scenes, each among the 5·4 most disputed, one from each cluster of those."""
     active = ActiveConfig(initial=6, batch=4, pool=60, seed=5)
     tracked = _tracked(pool, list(range(10)))
     rows, how = choose(pool, tracked, active)
-    assert len(rows) == 4 and not set(rows) & set(range(10)) and "least sure" in how
+    assert len(rows) == 4 and len(set(rows)) == 4 and not set(rows) & set(range(10)) and "least sure" in how
     unrun = np.arange(10, len(pool))
     spread = tree_spread(tracked, pool.iloc[unrun].reset_index(drop=True), active.seed)
-    chosen = np.isin(unrun, rows)
-    assert spread[chosen].min() >= spread[~chosen].max()
+    disputed = unrun[np.argsort(-spread, kind="stable")[:DIVERSITY * 4]]
+    assert set(rows) <= set(disputed)
+    assert unrun[np.argmax(spread)] in rows  # the most disputed of all leads its cluster
 
 
 def test_active_sweeps_add_batches_to_the_study(run_cli, tmp_path):
@@ -53,7 +55,7 @@ def test_active_sweeps_add_batches_to_the_study(run_cli, tmp_path):
     assert "space-filling start (0 of 3 runs tracked): running 3" in first.stdout
     second = run_cli("dsmv", *args)
     assert second.returncode == 0, second.stderr[-2000:]
-    assert "the 2 of 27 candidates the forest on 3 runs is least sure of" in second.stdout
+    assert "2 of the 10 candidates (of 27) the forest on 3 runs is least sure of" in second.stdout
     table = load_dataset(f"sqlite:///{tmp_path / 'runs' / 'mlflow.db'}", "dataset_active").table
     assert len(table) == 5
     assert not table.drop(columns=["run_id", TARGET_METRIC]).duplicated().any()
