@@ -1,7 +1,6 @@
 """Active learning: a space-filling start, then the candidates the forest's trees disagree on most."""
 
 import numpy as np
-import pandas as pd
 import pytest
 
 from dsmv.surrogate.active import DIVERSITY, ActiveConfig, candidates, choose, tree_spread

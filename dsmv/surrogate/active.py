@@ -33,7 +33,7 @@ import numpy as np
 import pandas as pd
 
 from dsmv.errors import ConfigError
-from dsmv.surrogate.dataset import COLUMNS, TARGET_METRIC, DatasetError, load_dataset
+from dsmv.surrogate.dataset import COLUMNS, DatasetError, load_dataset
 from dsmv.surrogate.design import DatasetConfig, table3_design
 from dsmv.surrogate.features import LeakFreeFeatures, PhysicsFeatures, target
 

@@ -261,9 +261,9 @@ def plot_band(values, mid, lower, upper, parameter: str, confidence: float, path
     horizontal line, the answer of the inverse question a vertical one, and the parameter values
     outside the training data are hatched (extrapolation).
     """
-    from dsmv.surrogate.evaluate import _pyplot
+    from dsmv.surrogate.evaluate import pyplot
 
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.2), constrained_layout=True)
     ax.fill_between(values, lower, upper, color="tab:blue", alpha=0.25, lw=0,
                     label=f"{confidence:.0%} interval")
@@ -451,10 +451,9 @@ def exceedance_answer(cfg: DictConfig, settings: PredictSettings, predictor: Pre
 
 def plot_exceedance(mid, lower, upper, limit: float, answer, confidence: float, path: Path) -> Path:
     """The predicted sinkage's distribution over the samples, the interval bounds' beside it, the limit."""
-    import matplotlib
+    from dsmv.surrogate.evaluate import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, ax = plt.subplots(figsize=(6.5, 4.2), constrained_layout=True)
     bins = np.linspace(0.0, max(float(np.quantile(upper, 0.999)), limit) * 1.05, 60)
