@@ -221,3 +221,49 @@ def test_scale_model_and_bad_score_settings():
         ScoreScale(0.0, 0.0)
     with pytest.raises(ValueError, match="slope"):
         ScoreScale(1.0, -0.1)
+
+
+def hump(n: int, seed: int):
+    """y = x + noise whose σ peaks mid-range (0.02 + 0.3·x·(1 − x)): not linear in ŷ."""
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(0.0, 1.0, n)
+    return x.reshape(-1, 1), x + (0.02 + 0.3 * x * (1.0 - x)) * rng.normal(size=n)
+
+
+def test_binned_score_covers_every_third_where_a_line_in_y_hat_cannot():
+    """Errors largest in the middle of the range: the scaled score (a + b·ŷ) undercovers the middle
+    third and overcovers an end; the binned one covers every third within its binomial band."""
+    X, y = hump(600, seed=6)
+    scaled = coverage_over_resplits(LinearRegression, X, y, n_splits=40, confidence=0.9, folds=5, score="scaled")
+    binned = coverage_over_resplits(LinearRegression, X, y, n_splits=40, confidence=0.9, folds=5, score="binned")
+    band = binomial_band(0.9, binned.n_distinct // 3)
+    assert scaled.by_tercile[1] < band[0] and max(scaled.by_tercile[0], scaled.by_tercile[2]) > band[1], scaled.by_tercile
+    assert all(band[0] <= c <= band[1] for c in binned.by_tercile), (binned.by_tercile, band)
+
+
+def test_binned_scale_by_hand_and_its_record():
+    """Eight runs, two bins at the median of ŷ: each bin's mean residual, and each run scored by its
+    bin's mean without itself; the record serves the same interval the regressor does."""
+    from dsmv.surrogate.intervals import BinnedScale
+    from dsmv.surrogate.predict import Calibration
+
+    y_hat = np.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0])
+    r = np.array([0.1, 0.3, 0.2, 0.2, 1.0, 2.0, 3.0, 2.0])
+    scale, own = BinnedScale.fit(y_hat, r)
+    assert scale.edges == (4.5,) and scale.values == pytest.approx((0.2, 2.0))
+    assert own == pytest.approx([0.7 / 3, 0.5 / 3, 0.6 / 3, 0.6 / 3, 7.0 / 3, 6.0 / 3, 5.0 / 3, 6.0 / 3])
+    assert scale(np.array([0.0, 4.5, 100.0])) == pytest.approx([0.2, 2.0, 2.0])
+    floored, _ = BinnedScale.fit(y_hat, np.array([0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0]))
+    assert floored.values == pytest.approx((0.05, 1.0))  # 0.1 × the median residual 0.5
+
+    X, y = hump(200, seed=2)
+    model = ConformalRegressor(LinearRegression, folds=5, confidence=0.9, score="binned").fit(X, y)
+    record = calibration_record(model, "z_over_b")
+    assert record["score"] == "binned" and len(record["scale_values"]) == len(record["scale_edges"]) + 1 == 8
+    served = Calibration.from_record(record, "test")
+    import pandas as pd
+
+    rows = np.array([[0.1], [0.5], [0.9]])
+    mid, lower, upper = model.predict(rows)
+    half = served.half_width_m(pd.DataFrame({"width_m": [1.0, 1.0, 1.0]}), mid, 0.9)
+    assert half == pytest.approx((upper - lower) / 2, rel=1e-12)

@@ -49,7 +49,7 @@ from pydantic import Field
 from dsmv.errors import ConfigError, DsmvError
 from dsmv.scene import Count, Number, Schema, _validate, build_scene, build_tracking
 from dsmv.surrogate.dataset import COLUMNS, PARAMETERS
-from dsmv.surrogate.intervals import CALIBRATION_FILE, SCORES, ScoreScale, residual_quantile
+from dsmv.surrogate.intervals import CALIBRATION_FILE, SCORES, BinnedScale, ScoreScale, residual_quantile
 from dsmv.surrogate.inverse import GOALS, TASK_PARAMETERS, InverseResult, solve_inverse
 from dsmv.surrogate.model import TrainedSurrogate, scene_table
 
@@ -113,7 +113,7 @@ class Calibration:
     residuals: np.ndarray
     method: str = "cross_conformal_pooled"
     score: str = "absolute"
-    scale: ScoreScale = ScoreScale()  # s(ŷ) in the target's units; (1, 0) for the absolute score
+    scale: ScoreScale | BinnedScale = ScoreScale()  # s(ŷ) in the target's units; (1, 0) for the absolute score
 
     @classmethod
     def from_record(cls, record: dict, source: str) -> "Calibration":
@@ -129,10 +129,14 @@ class Calibration:
         if score not in SCORES:
             raise PredictError(f"{source}: score {score!r} is not one of {', '.join(SCORES)}")
         try:
-            scale = ScoreScale(record["scale_intercept"], record["scale_slope"]) if score == "scaled" else ScoreScale()
-        except (KeyError, ValueError) as error:
-            raise PredictError(f"{source}: a scaled score needs scale_intercept and scale_slope, numbers ≥ 0, "
-                               f"not both 0 ({error})") from None
+            if score == "binned":
+                scale = BinnedScale(tuple(map(float, record["scale_edges"])), tuple(map(float, record["scale_values"])))
+            else:
+                scale = ScoreScale(record["scale_intercept"], record["scale_slope"]) if score == "scaled" else ScoreScale()
+        except (KeyError, TypeError, ValueError) as error:
+            what = ("scale_edges and scale_values (one more value than edges, values > 0)" if score == "binned"
+                    else "scale_intercept and scale_slope, numbers ≥ 0, not both 0")
+            raise PredictError(f"{source}: a {score} score needs {what} ({error})") from None
         return cls(target, residuals, str(record.get("method", cls.method)), score, scale)
 
     def half_width_m(self, table: pd.DataFrame, sinkage_m: np.ndarray, confidence: float) -> np.ndarray:

@@ -58,8 +58,9 @@ class TrainSettings(Schema):
     interval_method: Literal["auto", "pooled", "oob"] = Field(
         "auto", description="auto: out-of-bag residuals for bagged models (one fit), pooled cross-conformal otherwise")
     interval_folds: Count = Field(5, ge=2, description="folds of the pooled cross-conformal residuals (-)")
-    interval_score: Literal["scaled", "absolute"] = Field(
-        "scaled", description="conformal score: scaled (width a + b·ŷ, fitted) or absolute (constant width in z/B)")
+    interval_score: Literal["binned", "scaled", "absolute"] = Field(
+        "binned", description="conformal score: binned (width ∝ the mean residual in bins of ŷ), scaled "
+                              "(width a + b·ŷ, fitted) or absolute (constant width in z/B)")
 
 
 @dataclass
