@@ -98,11 +98,12 @@ def test_history_ends_at_rest(solve):
     assert np.all(np.diff(history["time_s"]) > 0) and np.all(np.diff(history["sinkage_m"]) >= 0)
 
 
-def test_a_table_of_landings_equals_the_solver_scene_by_scene(compose_cfg):
+@pytest.mark.parametrize("law", ["einav_randolph", "tresca"])
+def test_a_table_of_landings_equals_the_solver_scene_by_scene(compose_cfg, law):
     """dsmv.surrogate.fast_model runs the rows of a dataset table at once: each row equals the solver
-    on that scene (the same law twin, the default soil's other values)."""
+    on that scene (the same law's twin, the default soil's other values)."""
     from dsmv.surrogate.dataset import PARAMETERS
-    from dsmv.surrogate.fast_model import fast_sinkage
+    from dsmv.surrogate.fast_model import default_settings, fast_sinkage
 
     rows = [{"landing.mass_kg": 2500, "landing.velocity_m_s": 6, "soil.su0_pa": 3000, "soil.ks_pa_per_m": 3000,
              "soil.sensitivity": 8, "soil.xi95": 10, "soil.rate.eta": 0.15, "geometry.contact_length_m": 3.12},
@@ -110,7 +111,8 @@ def test_a_table_of_landings_equals_the_solver_scene_by_scene(compose_cfg):
              "soil.sensitivity": 5, "soil.xi95": 20, "soil.rate.eta": 0.15, "geometry.contact_length_m": 5.2}]
     expected, table = [], []
     for row in rows:
-        scene = build_scene(compose_cfg(["solver=analytic_dynamic", *(f"{k}={v}" for k, v in row.items())]))
+        scene = build_scene(compose_cfg(["solver=analytic_dynamic", f"soil.law={law}",
+                                         *(f"{k}={v}" for k, v in row.items())]))
         expected.append(AnalyticDynamicSolver(scene).solve().metrics["max_sinkage_m"])
         flat = {"landing": scene.landing, "geometry": scene.geometry, "soil": scene.soil}
         record = {}
@@ -120,7 +122,8 @@ def test_a_table_of_landings_equals_the_solver_scene_by_scene(compose_cfg):
                 value = getattr(value, part)
             record[column] = math.nan if value is None else value
         table.append(record)
-    assert fast_sinkage(pd.DataFrame(table)) == pytest.approx(expected, rel=1e-12)
+    settings = default_settings() | {"law": law}
+    assert fast_sinkage(pd.DataFrame(table), settings=settings) == pytest.approx(expected, rel=1e-12)
 
 
 def test_refuses_a_push_and_a_tbar(compose_cfg):

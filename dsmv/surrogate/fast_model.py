@@ -3,8 +3,8 @@
 Each row of a dataset table (:mod:`dsmv.surrogate.dataset`) is a landing. The columns hold what the
 study varied; the soil's other values are the default soil's (``conf/soil/nodule_field.yaml``:
 ρ', the rate law's n and γ̇ref), with E/su0 held at the default's ratio (500, as every sample of the
-reference study's Table 1). The law is ``einav_randolph``, the datasets' law; its NumPy twin runs
-on all rows at once.
+reference study's Table 1). The law is the dataset's (``einav_randolph`` unless its runs shared
+another); its NumPy twin runs on all rows at once, reading a soil whose varied values are arrays.
 
 ``python -m dsmv.surrogate.fast_model DATASET.csv`` fits the coefficients the module
 :mod:`dsmv.analytic.dynamic` takes from the CEL (least squares on log sinkage) and prints the
@@ -42,7 +42,8 @@ def default_settings() -> dict:
     them, so that its features stay what they were trained on if the defaults change."""
     scene = _default_scene()
     soil, rate = scene.soil, scene.soil.rate
-    return {"coefficients": asdict(scene.solver.coefficients()), "density_kg_m3": soil.density_kg_m3,
+    return {"coefficients": asdict(scene.solver.coefficients()), "law": "einav_randolph",
+            "density_kg_m3": soil.density_kg_m3,
             "youngs_modulus_over_su0": soil.youngs_modulus_pa / soil.su0_pa,
             "rate": {"law": rate.law, "n": rate.n, "gamma_dot_ref": rate.gamma_dot_ref, "mu": rate.mu}}
 
@@ -59,14 +60,15 @@ def table_landing(table: pd.DataFrame, settings: dict | None = None) -> Landing:
 
 
 def table_factor(table: pd.DataFrame, settings: dict | None = None):
-    """The Einav–Randolph strength factor of each row, as f(ξ, γ̇) on arrays aligned with the rows."""
-    from dsmv_plugins.einav_randolph import EinavRandolphLaw
+    """The soil law's strength factor of each row, as f(ξ, γ̇) on arrays aligned with the rows."""
+    from dsmv import registry
 
-    rate = (settings or default_settings())["rate"]
+    settings = settings or default_settings()
+    law = registry.load("soil_laws", settings.get("law", "einav_randolph"), "soil.law")
     rows = SimpleNamespace(sensitivity=table["sensitivity"].to_numpy(float), xi95=table["xi95"].to_numpy(float),
-                           rate=SimpleNamespace(**rate, eta=table["eta"].to_numpy(float)))
-    twin = SimpleNamespace(soil=rows)  # the twin reads only self.soil, and broadcasts
-    return lambda xi, gamma_dot: EinavRandolphLaw.strength_factor(twin, xi, gamma_dot)
+                           rate=SimpleNamespace(**settings["rate"], eta=table["eta"].to_numpy(float)))
+    twin = SimpleNamespace(soil=rows, params=None)  # the twin reads self.soil, and broadcasts
+    return lambda xi, gamma_dot: np.broadcast_to(law.strength_factor(twin, xi, gamma_dot), np.shape(xi))
 
 
 def fast_sinkage(table: pd.DataFrame, coefficients: Coefficients | None = None,

@@ -104,6 +104,15 @@ class Training:
         } | self.features.metadata() | ({"conformal": self.calibration} if self.calibration else {})
 
 
+def dataset_metadata(dataset: Dataset) -> dict:
+    """What the feature sets take from the dataset: the physics set's fast model runs the law the
+    dataset's runs shared."""
+    from dsmv.surrogate.fast_model import default_settings
+
+    law = dataset.settings.get("soil.law") or "einav_randolph"
+    return {"fast_model": default_settings() | {"law": law}}
+
+
 def settings_from(cfg: DictConfig) -> tuple[TrainSettings, SurrogateConfig]:
     """Validate ``train`` and ``surrogate``; an unknown surrogate lists the installed ones."""
     settings = _validate(TrainSettings, _resolve(cfg.get("train")), "train")
@@ -119,7 +128,7 @@ def fit_and_evaluate(surrogate: Surrogate, config: SurrogateConfig, settings: Tr
     n = len(table)
     if n < MIN_RUNS:
         raise DatasetError(f"study '{dataset.study}' has {n} ok runs; dsmv-train needs at least {MIN_RUNS}")
-    features = feature_set(settings.features)
+    features = feature_set(settings.features, dataset_metadata(dataset))
     X, y = features.transform(table), target(table)
     train_idx, test_idx = evaluate.split(n, settings.test_fraction, settings.seed)
     base = functools.partial(surrogate.make, **config.params)
