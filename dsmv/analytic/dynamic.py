@@ -53,6 +53,7 @@ from pydantic import BeforeValidator, Field
 
 from dsmv import registry
 from dsmv.analytic.bearing import PRANDTL_NC
+from dsmv.analytic.energy import skempton_shape_factor
 from dsmv.errors import ConfigError
 from dsmv.results import SolveResult
 from dsmv.scene import Count, Number, Scene, Schema
@@ -217,7 +218,7 @@ class AnalyticDynamicSolver:
         if cfg.shape_factor == "plane_strain" or body.kind == "strip":
             shape = 1.0
         elif cfg.shape_factor == "skempton":
-            shape = 1.0 + 0.2 * body.width_m / body.contact_length_m
+            shape = skempton_shape_factor(body)
         else:
             shape = cfg.shape_factor
         self.landing = Landing(
@@ -231,8 +232,8 @@ class AnalyticDynamicSolver:
 
     def solve(self, run_dir=None) -> SolveResult:
         cfg, lb = self.config, self.landing
-        rest, depth, speed = sinkage(lb, self.factor, cfg.coefficients(), cfg.bearing_factor, cfg.buoyancy,
-                                     history=True)
+        coefficients = cfg.coefficients()
+        rest, depth, speed = sinkage(lb, self.factor, coefficients, cfg.bearing_factor, cfg.buoyancy, history=True)
         z_max = float(rest)
         metrics = {"weight_per_track_n": float(lb.weight_n), "shape_factor": float(lb.shape_factor),
                    "touchdown_kinetic_energy_j": 0.5 * float(lb.inertia_kg) * float(lb.velocity_m_s) ** 2}
@@ -240,7 +241,6 @@ class AnalyticDynamicSolver:
         if math.isinf(z_max):
             return SolveResult("bearing_failure", f"the body passes {LARGEST_SINKAGE_WIDTHS:g} B without stopping",
                                metrics, units, None)
-        depth, speed = depth[:, 0] if depth.ndim > 1 else depth, speed[:, 0] if speed.ndim > 1 else speed
         mean_speed = 0.5 * (speed[1:] + speed[:-1])
         time = np.concatenate([[0.0], np.cumsum(np.diff(depth) / np.where(mean_speed > 0, mean_speed, np.inf))])
         samples = np.linspace(0.0, time[-1], cfg.history_points)
@@ -248,6 +248,6 @@ class AnalyticDynamicSolver:
         metrics |= {"max_sinkage_m": z_max, "sinkage_over_width": z_max / float(lb.width_m),
                     "time_to_rest_s": float(time[-1])}
         units |= {"max_sinkage_m": "m", "sinkage_over_width": "-", "time_to_rest_s": "s"}
-        force = resistance(lb, depth_s, speed_s, self.factor, cfg.coefficients(), cfg.bearing_factor, cfg.buoyancy)
+        force = resistance(lb, depth_s, speed_s, self.factor, coefficients, cfg.bearing_factor, cfg.buoyancy)
         history = {"time_s": samples, "sinkage_m": depth_s, "velocity_m_s": speed_s, "force_n": np.asarray(force)}
         return SolveResult("ok", f"came to rest at {z_max:.4g} m after {time[-1]:.3g} s", metrics, units, history)

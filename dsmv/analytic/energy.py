@@ -57,6 +57,16 @@ class AnalyticEnergyConfig(Schema):
     history_points: Count = Field(200, ge=2, description="samples in the time history (-)")
 
 
+def skempton_shape_factor(body) -> float:
+    """Skempton's (1951) sc (-): 1 + 0.2·B/L for a rectangle or track, 1.2 for a circle (as a
+    square), 1 for a strip or T-bar (plane strain: contact_length_m is per metre run)."""
+    if body.kind in ("strip", "tbar"):
+        return 1.0
+    if body.kind == "circular_plate":
+        return 1.2
+    return 1.0 + 0.2 * body.width_m / body.contact_length_m
+
+
 def sinkage_from_energy(weight_n, inertia_kg, velocity_m_s, resistance_area_m2, su0_pa, ks_pa_per_m) -> float:
     """Depth z (m) where the soil has absorbed the touchdown kinetic energy and the work of W.
 
@@ -115,14 +125,7 @@ class AnalyticEnergySolver:
         self.scene = scene
         self.config = cfg = config or scene.solver
         body, landing, soil = scene.geometry, scene.landing, scene.soil
-        if cfg.shape_factor != "skempton":
-            self.shape_factor = cfg.shape_factor
-        elif body.kind in ("strip", "tbar"):  # plane strain (contact_length_m is per metre run)
-            self.shape_factor = 1.0
-        elif body.kind == "circular_plate":  # Skempton (1951): a circle as a square
-            self.shape_factor = 1.2
-        else:
-            self.shape_factor = 1.0 + 0.2 * body.width_m / body.contact_length_m
+        self.shape_factor = skempton_shape_factor(body) if cfg.shape_factor == "skempton" else cfg.shape_factor
         law = registry.load("soil_laws", soil.law, "soil.law")(soil)
         xi = cfg.operative_shear_strain or 0.0
         rate = landing.velocity_m_s / body.width_m if cfg.rate_effect else 0.0

@@ -24,7 +24,6 @@ the same forest on their first n runs, scored on a fixed held-out set of the hyp
 from __future__ import annotations
 
 import argparse
-import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -34,7 +33,7 @@ import pandas as pd
 
 from dsmv.errors import ConfigError
 from dsmv.surrogate.dataset import COLUMNS, DatasetError, load_dataset
-from dsmv.surrogate.design import DatasetConfig, table3_design
+from dsmv.surrogate.design import DatasetConfig, block_values, table3_design
 from dsmv.surrogate.features import LeakFreeFeatures, PhysicsFeatures, target
 
 #: the forest that measures disagreement (its trees' spread) and scores the comparison
@@ -55,11 +54,8 @@ class ActiveConfig:
 
     @classmethod
     def from_cfg(cls, cfg) -> "ActiveConfig":
-        block = cfg.get("active") if hasattr(cfg, "get") else None
-        if block is None:
-            raise ConfigError("active", None, "missing: active learning needs an active block "
-                                              "(use experiment=dataset_active)")
-        values = {f.name: block.get(f.name, f.default) for f in dataclasses.fields(cls)}
+        values = block_values(cfg, "active", cls, "active learning needs an active block "
+                                                  "(use experiment=dataset_active)")
         for name in ("initial", "batch", "pool"):
             value = values[name]
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:

@@ -50,6 +50,15 @@ DESIGN_FILE = "dataset_design.csv"
 MAX_REDRAWS = 20  # enlargements of the hypercube before giving up (each by the survival rate)
 
 
+def block_values(cfg, name: str, block_class, missing: str) -> dict:
+    """The fields of the dataclass ``block_class`` read from the config block ``name`` (its defaults
+    where the block is silent); a one-line ConfigError saying ``missing`` without the block."""
+    block = cfg.get(name) if hasattr(cfg, "get") else None
+    if block is None:
+        raise ConfigError(name, None, f"missing: {missing}")
+    return {f.name: block.get(f.name, f.default) for f in dataclasses.fields(block_class)}
+
+
 @dataclass(frozen=True)
 class DatasetConfig:
     """The ``dataset`` block of ``experiment=dataset_table3``."""
@@ -61,11 +70,8 @@ class DatasetConfig:
 
     @classmethod
     def from_cfg(cls, cfg) -> "DatasetConfig":
-        block = cfg.get("dataset") if hasattr(cfg, "get") else None
-        if block is None:
-            raise ConfigError("dataset", None, "missing: the Table 3 design needs a dataset block "
-                                               "(use experiment=dataset_table3)")
-        values = {f.name: block.get(f.name, f.default) for f in dataclasses.fields(cls)}
+        values = block_values(cfg, "dataset", cls, "the Table 3 design needs a dataset block "
+                                                   "(use experiment=dataset_table3)")
         n, seed, limit = values["n_samples"], values["seed"], values["max_analytic_sinkage_m"]
         if isinstance(n, bool) or not isinstance(n, int) or n < 1:
             raise ConfigError("dataset.n_samples", n, "must be an integer ≥ 1")
