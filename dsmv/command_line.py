@@ -170,10 +170,19 @@ def _check_overrides(args, program: str, config_name: str, scene: bool, config_d
                 except (HydraException, OmegaConfBaseException) as exc:
                     _fail(program, _one_line(exc))
 
-            # the keys that exist: the defaults with the chosen groups, each swept choice in turn
             variants = _group_variants(groups)
+            one_job = [o.input_line for o in keys if not o.is_sweep_override()]
+            # the common command line, no sweep and no key added or deleted: if it composes, every key
+            # exists, and that one composition is the job's config
+            cfg = None
+            if not any(o.is_sweep_override() or o.is_add() or o.is_force_add() or o.is_delete() for o in overrides):
+                try:
+                    cfg = compose(config_name, overrides=variants[0] + one_job, return_hydra_config=True)
+                except (HydraException, OmegaConfBaseException):
+                    pass  # the checks below name the mistake
+            # the keys that exist: the defaults with the chosen groups, each swept choice in turn
             search = [o.input_line for o in keys if o.key_or_group == "hydra.searchpath"]  # where options are found
-            trees = [composed(variant + search) for variant in variants]
+            trees = [cfg] if cfg is not None else [composed(variant + search) for variant in variants]
             known: set[str] = set()
             for tree in trees:
                 known |= set(_paths(OmegaConf.to_container(tree, resolve=False)))
@@ -191,7 +200,7 @@ def _check_overrides(args, program: str, config_name: str, scene: bool, config_d
                                                     "a sweep needs -m (--multirun); a list is written [a,b], "
                                                     "a string 'a,b'"), program)
             # one job's config: every override, the first choice of each sweep
-            cfg = composed(variants[0] + [o.input_line for o in keys if not o.is_sweep_override()])
+            cfg = cfg if cfg is not None else composed(variants[0] + one_job)
             if scene and not multirun:
                 from dsmv.scene import build_scene
 

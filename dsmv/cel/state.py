@@ -94,10 +94,23 @@ def hourglass_factor(open_frac: np.ndarray, region: str) -> np.ndarray:
     """
     if region == "everywhere":
         return np.ones(open_frac.shape)
-    from scipy.ndimage import binary_dilation
-
     cut = (open_frac > 0.0) & (open_frac < 1.0)
-    return binary_dilation(cut, structure=np.ones((3,) * cut.ndim, dtype=bool)).astype(float)
+    return dilated(cut).astype(float)
+
+
+def dilated(mask: np.ndarray) -> np.ndarray:
+    """A boolean mask grown by one cell in every direction, diagonals included (the 3×3… cube),
+    nothing beyond the edges: one pass along each axis, since the cube is their product."""
+    grown = mask.copy()
+    for axis in range(mask.ndim):
+        ahead = [slice(None)] * mask.ndim
+        behind = [slice(None)] * mask.ndim
+        ahead[axis], behind[axis] = slice(1, None), slice(None, -1)
+        step = grown.copy()
+        step[tuple(ahead)] |= grown[tuple(behind)]
+        step[tuple(behind)] |= grown[tuple(ahead)]
+        grown = step
+    return grown
 
 
 def body_free_state(x, y, phi, q, vol):
