@@ -18,8 +18,10 @@ $(STAMP): pyproject.toml
 run: install
 	$(BIN)/dsmv $(ARGS)
 
+# the suite in TEST_WORKERS processes (pytest-xdist), a test file's tests in one of them; 0 runs it in this one
+TEST_WORKERS ?= 2
 test: install
-	$(BIN)/python -m pytest $(PYTEST_ARGS)
+	$(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadfile $(PYTEST_ARGS)
 
 # The documentation site: installs the docs extra into .venv, builds docs/ into runs/site (strict:
 # a broken link or a page missing from mkdocs.yml's nav fails the build).

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}  # never 'nnan'/'ninf': the guards need NaN
@@ -128,6 +129,25 @@ def compiled_entry(dispatcher, args: tuple):
     if signature not in dispatcher.overloads:
         dispatcher.compile(signature)  # compiles it, or loads it from the cache (without running it)
     return dispatcher.overloads[signature].entry_point
+
+
+@njit(**JIT)
+def spread_order(n):
+    """The indices 0 … n−1 in van der Corput order (sorted by their bits reversed): 0, 4, 2, 6, 1, 5,
+    3, 7 for n = 8. Any contiguous run of it samples the whole range evenly, so a parallel loop over
+    it, which hands each thread one contiguous block, gives every thread near and far slabs alike.
+    In slab order the slabs beside the body, where the returns are plastic, fell to one thread."""
+    bits = 0
+    while (1 << bits) < n:
+        bits += 1
+    key = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        reversed_bits, rest = 0, i
+        for _ in range(bits):
+            reversed_bits = (reversed_bits << 1) | (rest & 1)
+            rest >>= 1
+        key[i] = reversed_bits
+    return np.argsort(key)
 
 
 @njit(**JIT)

@@ -23,7 +23,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from dsmv.cel.kernels.common import INLINE, JIT, PARALLEL, law_factor, law_state, radial_return, tresca_return
+from dsmv.cel.kernels.common import (INLINE, JIT, PARALLEL, law_factor, law_state, radial_return, spread_order,
+                                     tresca_return)
 from dsmv.cel.layout import CellRows
 
 SOLID = CellRows(3)
@@ -190,8 +191,8 @@ def nodal_forces(mesh, cells, nodes, par, work):
     ``hourglass_factor``); linear and quadratic bulk viscosity in compression. ``work`` accumulates
     the power of hourglass [0] and bulk viscosity [1] (W). Cells without soil are skipped.
 
-    Parallel over slabs of constant i in two colours: the even slabs, then the odd ones. Slabs of
-    one colour share no node, so each node sums its cells' forces in the same order whatever the
+    Parallel over slabs of constant i in two colours: the even slabs, then the odd ones, each
+    colour's in :func:`~dsmv.cel.kernels.common.spread_order`. Slabs of one colour share no node, so each node sums its cells' forces in the same order whatever the
     number of threads, and the slabs' powers are summed in slab order: results are bit for bit
     the same on any thread count."""
     nx = cells.phi.shape[0]
@@ -199,8 +200,9 @@ def nodal_forces(mesh, cells, nodes, par, work):
     fn[:] = 0.0
     power = np.zeros((2, nx))
     for colour in range(2):
-        for s in prange((nx - colour + 1) // 2):
-            i = 2 * s + colour
+        order = spread_order((nx - colour + 1) // 2)
+        for s in prange(len(order)):
+            i = 2 * order[s] + colour
             power[0, i], power[1, i] = slab_forces(i, mesh.x, mesh.y, mesh.z, mesh.corner, mesh.split, nodes.v,
                                                    cells.phi, cells.q, cells.hourglass_factor, fn, par)
     for i in range(nx):
@@ -383,11 +385,13 @@ def update_stress(mesh, cells, nodes, par, law, out):
     ξ accumulates Δε1^p − Δε3^p; ``out[0]`` accumulates plastic work (J); ``cells.su`` receives
     each cell's strength (Pa). As :func:`dsmv.cel.kernels.plane.update_stress`, in three dimensions.
     Tresca's return needs the principal axes only where √J2 > su (s1 − s3 ≤ 2·√J2 always).
-    Parallel over slabs of constant i (a cell writes only its own state); the slabs' plastic work
+    Parallel over slabs of constant i in spread order (a cell writes only its own state); the slabs' plastic work
     is summed in slab order, so the result does not depend on the number of threads."""
     nx = cells.phi.shape[0]
     plastic = np.zeros(nx)
-    for i in prange(nx):
+    order = spread_order(nx)
+    for s in prange(nx):
+        i = order[s]
         plastic[i] = slab_stress(i, mesh, cells, nodes.v, par, law)
     for i in range(nx):
         out[0] += plastic[i]
