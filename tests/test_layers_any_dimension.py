@@ -79,6 +79,35 @@ def test_a_step_of_free_fall_and_the_boundary_conditions(slab):
     assert change == pytest.approx(-nodes.mass.reshape(NODE_SHAPE)[:, :, 0].sum(), rel=1e-12)
 
 
+def test_the_node_stages_in_blocks_match_the_serial_ones_on_any_thread_count():
+    """3D's parallel velocity update and travel (blocks of NODE_BLOCK nodes, more than one here)
+    give the serial stages' velocities and travel bit for bit, and the same momentum sums, summed per
+    block, to rounding; on one and two threads alike."""
+    import numba
+
+    from dsmv.cel.kernels.nodes import NODE_BLOCK, gather_travel_in_blocks, update_velocities_in_blocks
+
+    n = 2 * NODE_BLOCK + 123
+    rng = np.random.default_rng(3)
+    start = Nodes(rng.normal(size=(3, n)), rng.normal(size=(3, n)), rng.random(n) * (rng.random(n) > 0.1),
+                  rng.normal(size=(3, n)) * 1e-3)
+    serial = Nodes(*(a.copy() for a in start))
+    before, after = update_velocities(serial, 9.81, 1e-4, 1e-12)
+    travel = gather_travel(serial, -0.3, 1e-4)
+    previous = numba.get_num_threads()
+    try:
+        for threads in sorted({1, min(2, numba.config.NUMBA_NUM_THREADS)}):
+            numba.set_num_threads(threads)
+            blocks = Nodes(*(a.copy() for a in start))
+            sums = update_velocities_in_blocks(blocks, 9.81, 1e-4, 1e-12)
+            assert np.array_equal(blocks.v, serial.v)
+            assert sums == pytest.approx((before, after), rel=1e-12)
+            assert gather_travel_in_blocks(blocks, -0.3, 1e-4) == travel
+            assert np.array_equal(blocks.travel, serial.travel)
+    finally:
+        numba.set_num_threads(previous)
+
+
 def _contact(fixed_node, fixed_axis, tied=(), full=(), normal=np.zeros((0, 3))):
     tied = np.asarray(tied, dtype=np.int64)
     none = np.zeros(0, dtype=np.int64)

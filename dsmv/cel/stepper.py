@@ -66,10 +66,10 @@ def move_body(nodes, contact, par, body, energy, soil_on_nodes):
 
 
 @njit(**INLINE)
-def move_nodes(cells, nodes, contact, par, body, energy):
-    """Velocities: the explicit update, the boundary conditions, the ties and the faces' adhesive
-    pull; the work of gravity on the soil from its vertical momentum before and after."""
-    momentum_before, momentum_after = update_velocities(nodes, par.gravity, par.dt, par.mass_floor)
+def hold_nodes(cells, nodes, contact, par, body, energy, momentum_before, momentum_after):
+    """After the explicit velocity update (which returned the soil's vertical momentum before and
+    after it): the boundary conditions, the ties and the faces' adhesive pull; the work of gravity
+    on the soil from its vertical momentum before and after all of them."""
     momentum_after += apply_fixed(nodes, contact)
     momentum_after += apply_ties(contact, nodes, body[B_VEL])
     slip = np.zeros(1)
@@ -91,7 +91,8 @@ def lagrange_step(mesh, cells, faces, nodes, contact, par, body, energy, law):
         ties_that_hold(contact, nodes, par.dt, par.gravity, par.mass_floor, v_body_next)
     # the adhesive pull of the last step, the cut cells' arcs
     resistance, v_old = move_body(nodes, contact, par, body, energy, body[B_FRICTION] + work[2])
-    move_nodes(cells, nodes, contact, par, body, energy)
+    momentum_before, momentum_after = update_velocities(nodes, par.gravity, par.dt, par.mass_floor)
+    hold_nodes(cells, nodes, contact, par, body, energy, momentum_before, momentum_after)
     merge = contact.merge
     for k in range(merge.shape[0]):  # a sliver and its neighbour change volume as one
         si, sj, ni, nj = merge[k, 0], merge[k, 1], merge[k, 2], merge[k, 3]

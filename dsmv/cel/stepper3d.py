@@ -2,11 +2,11 @@
 
 The step of :mod:`dsmv.cel.stepper` on hexahedra: nodal forces (:mod:`dsmv.cel.kernels.hexahedra`),
 the body's motion and the tied nodes (the shared stages of :mod:`dsmv.cel.kernels.nodes`), the
-explicit velocity update, the boundary conditions, the stress update; then, once some node has
+explicit velocity update (in parallel over blocks of nodes), the boundary conditions, the stress update; then, once some node has
 travelled ``par.remap_travel``, the Eulerian phase in three directional sweeps whose order
 alternates (x, y, z, then z, y, x) (:mod:`dsmv.cel.kernels.remap3d`), with soil entering at the base as the grid moves
-down with the body. The node stages (velocities, boundary conditions, ties and the faces' capped
-adhesive pull) are 2D's, :func:`dsmv.cel.stepper.move_nodes`.
+down with the body. The node stages after the velocity update (boundary conditions, ties and
+the faces' capped adhesive pull) are 2D's, :func:`dsmv.cel.stepper.hold_nodes`.
 """
 
 from __future__ import annotations
@@ -18,11 +18,12 @@ from numba import njit
 
 from dsmv.cel.kernels.common import INLINE, JIT
 from dsmv.cel.kernels.hexahedra import SOLID, nodal_forces, update_stress
-from dsmv.cel.kernels.nodes import gather_travel, hand_travel_to_parents, nodal_mass, ties_that_hold
+from dsmv.cel.kernels.nodes import (gather_travel_in_blocks, hand_travel_to_parents, nodal_mass, ties_that_hold,
+                                    update_velocities_in_blocks)
 from dsmv.cel.kernels.remap3d import remap_sweeps
 from dsmv.cel.layout import B_FRICTION, B_INFLOW, B_MAXDISP, B_OFFSET, B_REMAP_OFFSET, B_REMAPS, B_STEP, B_TIME, B_VEL
 from dsmv.cel.ledger import E_BULK, E_HOURGLASS, E_PLASTIC, E_REMAP_ELASTIC, E_REMAP_KINETIC
-from dsmv.cel.stepper import AT_REST, NOT_FINITE, OUTRAN, RUNNING, move_body, move_nodes, settle_nodes
+from dsmv.cel.stepper import AT_REST, NOT_FINITE, OUTRAN, RUNNING, hold_nodes, move_body, settle_nodes
 
 
 @njit(**INLINE)
@@ -36,7 +37,8 @@ def lagrange_step(mesh, cells, nodes, contact, par, body, energy, law):
         ties_that_hold(contact, nodes, par.dt, par.gravity, par.mass_floor,
                        body[B_VEL] if par.drop else -par.push_velocity)
     resistance, v_old = move_body(nodes, contact, par, body, energy, body[B_FRICTION])  # last step's pull
-    move_nodes(cells, nodes, contact, par, body, energy)
+    momentum_before, momentum_after = update_velocities_in_blocks(nodes, par.gravity, par.dt, par.mass_floor)
+    hold_nodes(cells, nodes, contact, par, body, energy, momentum_before, momentum_after)
     plastic = np.zeros(1)
     update_stress(mesh, cells, nodes, par, law, plastic)
     energy[E_PLASTIC] += plastic[0]
@@ -85,7 +87,7 @@ def run_steps(n_steps, mesh, cells, faces, nodes, contact, inflow, par, body, en
     nodal_mass(mesh, cells, par.density, nodes.mass)
     for step in range(n_steps):
         resistance, v_old = lagrange_step(mesh, cells, nodes, contact, par, body, energy, law)
-        travel = gather_travel(nodes, body[B_VEL], par.dt) if par.remap else 0.0
+        travel = gather_travel_in_blocks(nodes, body[B_VEL], par.dt) if par.remap else 0.0
         if not (math.isfinite(body[B_VEL]) and math.isfinite(resistance)):
             return step + 1, NOT_FINITE
         if travel > par.cell_size:

@@ -21,9 +21,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
-from dsmv.cel.kernels.common import INLINE, JIT
+from dsmv.cel.kernels.common import INLINE, JIT, PARALLEL
 
 #: a cell the body cuts lends its nodes at least the mass of this fill of the whole cell: its open
 #: faces are as stiff as a full cell's, and the explicit step stays stable (see nodal_mass)
@@ -82,29 +82,57 @@ def largest_speed(v):
     return math.sqrt(largest)
 
 
-@njit(**JIT)
-def update_velocities(nodes, gravity, dt, mass_floor):
-    """Explicit velocity update v += Δt·(f/m − g·up) at nodes holding soil; empty nodes stop.
-
-    Returns the soil's vertical momentum Σ m·v_up before and after (kg·m/s per unit thickness or
-    per radian), which the audit of gravity's work needs. One pass per axis: each is a stride-1
+@njit(**INLINE)
+def update_velocity_range(v, f, mass, gravity, dt, mass_floor, start, stop):
+    """:func:`update_velocities` for the nodes start … stop − 1. One pass per axis: each is a stride-1
     loop the compiler vectorises."""
-    v, f, mass = nodes.v, nodes.f, nodes.mass
-    dim, n = v.shape
+    dim = v.shape[0]
     up = dim - 1
     for a in range(up):
         va, fa = v[a], f[a]
-        for k in range(n):
+        for k in range(start, stop):
             m = mass[k]
             va[k] = va[k] + dt * fa[k] / m if m > mass_floor else 0.0
     vu, fu = v[up], f[up]
     momentum_before = 0.0
     momentum_after = 0.0
-    for k in range(n):
+    for k in range(start, stop):
         m = mass[k]
         momentum_before += m * vu[k]
         vu[k] = vu[k] + dt * (fu[k] / m - gravity) if m > mass_floor else 0.0
         momentum_after += m * vu[k]
+    return momentum_before, momentum_after
+
+
+@njit(**JIT)
+def update_velocities(nodes, gravity, dt, mass_floor):
+    """Explicit velocity update v += Δt·(f/m − g·up) at nodes holding soil; empty nodes stop.
+
+    Returns the soil's vertical momentum Σ m·v_up before and after (kg·m/s per unit thickness or
+    per radian), which the audit of gravity's work needs."""
+    return update_velocity_range(nodes.v, nodes.f, nodes.mass, gravity, dt, mass_floor, 0, nodes.v.shape[1])
+
+
+#: nodes per block of the parallel node stages: a fixed size, so that their sums run in the same
+#: order on any number of threads
+NODE_BLOCK = 8192
+
+
+@njit(**PARALLEL)
+def update_velocities_in_blocks(nodes, gravity, dt, mass_floor):
+    """:func:`update_velocities` in parallel over blocks of :data:`NODE_BLOCK` nodes, the blocks'
+    momenta summed in block order (3D)."""
+    n = nodes.v.shape[1]
+    n_blocks = (n + NODE_BLOCK - 1) // NODE_BLOCK
+    parts = np.zeros((2, n_blocks))
+    for b in prange(n_blocks):
+        parts[0, b], parts[1, b] = update_velocity_range(nodes.v, nodes.f, nodes.mass, gravity, dt, mass_floor,
+                                                         b * NODE_BLOCK, min(n, (b + 1) * NODE_BLOCK))
+    momentum_before = 0.0
+    momentum_after = 0.0
+    for b in range(n_blocks):
+        momentum_before += parts[0, b]
+        momentum_after += parts[1, b]
     return momentum_before, momentum_after
 
 
@@ -336,20 +364,37 @@ def adhesion(contact, cells, nodes, v_body, dt, mass_floor, energy_slip):
     return change, reaction
 
 
-@njit(**JIT)
-def gather_travel(nodes, v_grid, dt):
-    """Each node's travel through the grid, which moves with the body at ``v_grid`` (m/s), gathered
-    since the last remap; returns the largest component (m)."""
-    v, u = nodes.v, nodes.travel
-    dim, n = v.shape
+@njit(**INLINE)
+def gather_travel_range(v, u, v_grid, dt, start, stop):
+    """:func:`gather_travel` for the nodes start … stop − 1."""
+    dim = v.shape[0]
     travel = 0.0
     for a in range(dim):
         va, ua = v[a], u[a]
         shift = v_grid if a == dim - 1 else 0.0
-        for k in range(n):
+        for k in range(start, stop):
             ua[k] += (va[k] - shift) * dt
             travel = max(travel, abs(ua[k]))
     return travel
+
+
+@njit(**JIT)
+def gather_travel(nodes, v_grid, dt):
+    """Each node's travel through the grid, which moves with the body at ``v_grid`` (m/s), gathered
+    since the last remap; returns the largest component (m)."""
+    return gather_travel_range(nodes.v, nodes.travel, v_grid, dt, 0, nodes.v.shape[1])
+
+
+@njit(**PARALLEL)
+def gather_travel_in_blocks(nodes, v_grid, dt):
+    """:func:`gather_travel` in parallel over blocks of :data:`NODE_BLOCK` nodes (3D); the largest is
+    the same in any order."""
+    n = nodes.v.shape[1]
+    n_blocks = (n + NODE_BLOCK - 1) // NODE_BLOCK
+    largest = np.zeros(n_blocks)
+    for b in prange(n_blocks):
+        largest[b] = gather_travel_range(nodes.v, nodes.travel, v_grid, dt, b * NODE_BLOCK, min(n, (b + 1) * NODE_BLOCK))
+    return largest.max() if n_blocks > 0 else 0.0
 
 
 @njit(**JIT)
