@@ -17,7 +17,9 @@ and exits with the code of ``interrupted``.
 from __future__ import annotations
 
 import argparse
+import json
 import math
+import re
 import platform
 import subprocess
 import sys
@@ -39,8 +41,10 @@ SMALL_STRAIN = ("experiment=verify_prandtl", "hydra.mode=RUN", "solver.remap=fal
 
 @dataclass(frozen=True)
 class Check:
-    """A scene with a reference answer, run on a sequence of core cell sizes (m, fine to coarse)."""
+    """A scene with a reference answer, run on a sequence of core cell sizes (m, fine to coarse).
+    ``key`` names it in the pages' figures (``{{ report.<key>.value }}``, :func:`fill_figures`)."""
 
+    key: str
     name: str
     metric: str
     reference: float | None  # None: the check's own extrapolated value is its reference
@@ -53,54 +57,54 @@ class Check:
 
 
 CHECKS = (
-    Check("Prandtl: rough strip, small strain, q/su at 0.05 B", "nc_at_0p05B", 2 + math.pi,
+    Check("prandtl_rough", "Prandtl: rough strip, small strain, q/su at 0.05 B", "nc_at_0p05B", 2 + math.pi,
           "Prandtl (1920): 2 + π", (*SMALL_STRAIN, "landing.displacement_m=0.06"),
           (0.025, 0.05, 0.1), (0.05, 0.1, 0.2), 1.0),
-    Check("Prandtl: smooth strip, small strain, q/su at 0.05 B", "nc_at_0p05B", 2 + math.pi,
+    Check("prandtl_smooth", "Prandtl: smooth strip, small strain, q/su at 0.05 B", "nc_at_0p05B", 2 + math.pi,
           "Prandtl (1920), Hill (1950): 2 + π",
           (*SMALL_STRAIN, "geometry.roughness=smooth", "landing.displacement_m=0.06"),
           (0.025, 0.05, 0.1), None, 1.0),
-    Check("Davis & Booker: smooth strip, su = su0 + k·z, k·B/su0 = 4, small strain, q/su0 at 0.02 B", "nc_at_0p02B",
+    Check("davis_booker_smooth_4", "Davis & Booker: smooth strip, su = su0 + k·z, k·B/su0 = 4, small strain, q/su0 at 0.02 B", "nc_at_0p02B",
           7.80, "Davis & Booker (1973); PLAXIS 2D validation manual 3.2: 7.80",
           (*SMALL_STRAIN, "geometry.roughness=smooth", "soil.ks_pa_per_m=40000", "soil.youngs_modulus_pa=1e7",
            "landing.displacement_m=0.04", "solver.initial_travel_m=0.1"),
           (0.025, 0.05, 0.1), (0.05, 0.1, 0.2), 1.0),
-    *(Check(f"Davis & Booker: rough strip, su = su0 + k·z, k·B/su0 = {k}, small strain, q/su0 at 0.02 B",
+    *(Check(f"davis_booker_rough_{k}", f"Davis & Booker: rough strip, su = su0 + k·z, k·B/su0 = {k}, small strain, q/su0 at 0.02 B",
             "nc_at_0p02B", reference, f"Davis & Booker (1973), their chart read: about {reference}",
             (*SMALL_STRAIN, "soil.ks_pa_per_m=" + str(10000 * k), "soil.youngs_modulus_pa=1e7",
              "landing.displacement_m=0.04", "solver.initial_travel_m=0.1"),
             (0.025, 0.05, 0.1), None, 1.0)
       for k, reference in ((2, 7.57), (4, 9.0), (6, 10.5))),
-    Check("Circular plate: rough, axisymmetric, small strain, q/su at 0.1 B", "nc_at_0p1B", 6.05,
+    Check("circle_axisymmetric_rough", "Circular plate: rough, axisymmetric, small strain, q/su at 0.1 B", "nc_at_0p1B", 6.05,
           "Cox, Eason & Hopkins (1961): 6.05",
           (*SMALL_STRAIN, "solver=cel2d", "geometry=circular_plate", "landing.displacement_m=0.11"),
           (0.025, 0.05, 0.1), (0.05, 0.1, 0.2), 1.0),
-    Check("Circular plate: smooth, axisymmetric, small strain, q/su at 0.1 B", "nc_at_0p1B", 5.69,
+    Check("circle_axisymmetric_smooth", "Circular plate: smooth, axisymmetric, small strain, q/su at 0.1 B", "nc_at_0p1B", 5.69,
           "Cox, Eason & Hopkins (1961): 5.69",
           (*SMALL_STRAIN, "solver=cel2d", "geometry=circular_plate", "geometry.roughness=smooth",
            "landing.displacement_m=0.11"),
           (0.025, 0.05, 0.1), None, 1.0),
-    Check("T-bar: rough, pushed 2 D with the remap, steady q/su", "nc_deep", 11.94,
+    Check("tbar_rough", "T-bar: rough, pushed 2 D with the remap, steady q/su", "nc_deep", 11.94,
           "Randolph & Houlsby (1984): 11.94", ("experiment=verify_tbar", "hydra.mode=RUN", "geometry.roughness=rough"),
           (0.025, 0.05), None, 0.5, "D"),
-    Check("T-bar: smooth, pushed 2 D with the remap, steady q/su", "nc_deep", 9.20,
+    Check("tbar_smooth", "T-bar: smooth, pushed 2 D with the remap, steady q/su", "nc_deep", 9.20,
           "Martin & Randolph (2006): 9.20", ("experiment=verify_tbar", "hydra.mode=RUN", "geometry.roughness=smooth"),
           (0.025, 0.05), None, 0.5, "D"),
-    Check("Square plate: rough, 3D quarter model, small strain, q/su at 0.1 B", "nc_at_0p1B",
+    Check("square_3d_rough", "Square plate: rough, 3D quarter model, small strain, q/su at 0.1 B", "nc_at_0p1B",
           (2 + math.pi) * (1 + 0.214 - 0.067), "Gourvenec (2007): (2 + π)·(1 + 0.214·B/L − 0.067·(B/L)²) = 5.90",
           (*SMALL_STRAIN, "solver=cel3d", "geometry=rectangular_plate", "geometry.contact_length_m=1",
            "solver.yield_surface=tresca", "landing.displacement_m=0.11"),
           (0.05, 0.1, 0.2), (0.25,), 1.0),
-    *(Check(f"Circular plate: {roughness}, 3D quarter model, small strain, q/su at 0.1 B", "nc_at_0p1B", reference,
+    *(Check(f"circle_3d_{roughness}", f"Circular plate: {roughness}, 3D quarter model, small strain, q/su at 0.1 B", "nc_at_0p1B", reference,
             f"Cox, Eason & Hopkins (1961): {reference}",
             (*SMALL_STRAIN, "solver=cel3d", "geometry=circular_plate", f"geometry.roughness={roughness}",
              "landing.displacement_m=0.11"),
             (0.05, 0.1), None, 1.0)
       for roughness, reference in (("rough", 6.05), ("smooth", 5.69))),
-    Check("Default landing: max sinkage (m), Einav–Randolph, no exact answer", "max_sinkage_m", None,
+    Check("landing_default", "Default landing: max sinkage (m), Einav–Randolph, no exact answer", "max_sinkage_m", None,
           "its own value extrapolated from the three finest meshes", ("solver=cel2d",),
           (0.005, 0.01, 0.02, 0.04), (0.02, 0.04, 0.08), 0.6),  # the track's B
-    Check("Default landing on Tresca soil: max sinkage (m), no exact answer", "max_sinkage_m", None,
+    Check("landing_tresca", "Default landing on Tresca soil: max sinkage (m), no exact answer", "max_sinkage_m", None,
           "its own value extrapolated from the three finest meshes", ("solver=cel2d", "soil.law=tresca"),
           (0.005, 0.01, 0.02, 0.04), None, 0.6),
 )
@@ -150,7 +154,7 @@ def provenance() -> dict[str, str]:
                        f"Python {platform.python_version()}, Numba {numba.__version__}"}
 
 
-def estimate(check: Check, outcomes: list[Outcome]):
+def estimate(outcomes: list[Outcome]):
     """Richardson over the three finest meshes that ended ok (None with fewer)."""
     from dsmv.convergence import richardson
 
@@ -166,7 +170,7 @@ def _error(value: float, reference: float | None) -> str:
 
 def check_section(check: Check, outcomes: list[Outcome]) -> tuple[str, dict]:
     """The check's markdown section and its summary row."""
-    est = estimate(check, outcomes)
+    est = estimate(outcomes)
     reference = check.reference if check.reference is not None else (est.extrapolated if est else None)
     lines = [f"### {check.name}", "", f"Reference: {check.source}.", "",
              f"| core cell | {check.length_name}/h | {check.metric} | error | wall time |", "|---|---|---|---|---|"]
@@ -209,7 +213,7 @@ def figure(path: Path, results: list[tuple[Check, list[Outcome]]]) -> Path:
     fig, ax = plt.subplots(figsize=(10, 5), constrained_layout=True)
     colours, markers = plt.get_cmap("tab20").colors, "osD^v<>ph*"
     for k, (check, outcomes) in enumerate(results):
-        est = estimate(check, outcomes)
+        est = estimate(outcomes)
         reference = check.reference if check.reference is not None else (est.extrapolated if est else None)
         points = [(o.cell_m / check.length_m, abs(o.value / reference - 1)) for o in outcomes
                   if reference and o.status == "ok" and math.isfinite(o.value) and o.value != reference]
@@ -229,11 +233,10 @@ def figure(path: Path, results: list[tuple[Check, list[Outcome]]]) -> Path:
 
 def write_page(path: Path, results: list[tuple[Check, list[Outcome]]], quick: bool, stamp: dict) -> Path:
     """The page, its figure and its numbers (``<page>.json``: the stamp and every outcome) beside it."""
-    import json
     from dataclasses import asdict
 
     numbers = {"stamp": stamp, "quick": quick,
-               "checks": [{"name": c.name, "metric": c.metric, "reference": c.reference,
+               "checks": [{"key": c.key, "name": c.name, "metric": c.metric, "reference": c.reference,
                            "outcomes": [asdict(o) for o in outcomes]} for c, outcomes in results]}
     path.with_suffix(".json").write_text(json.dumps(numbers, indent=1, default=float) + "\n")
     sections, rows = zip(*(check_section(c, o) for c, o in results)) if results else ((), ())
@@ -255,6 +258,67 @@ def write_page(path: Path, results: list[tuple[Check, list[Outcome]]], quick: bo
     lines += [s + "\n" for s in sections]
     path.write_text("\n".join(lines))
     return path
+
+
+#: a figure the report measured, written in a page as ``{{ report.<key>.<field>[@<core cell, m>][:<format>] }}``:
+#: ``{{ report.square_3d_rough.value@0.05:.4g }}``, ``{{ report.circle_3d_rough.error:+.1f }}`` (no ``|``: the
+#: figures sit in tables)
+FIGURE_PLACEHOLDER = re.compile(r"\{\{\s*report\.(\w+)\.(\w+)(?:@([0-9.]*[0-9]))?(?::([^}\s]+))?\s*\}\}")
+#: value and wall (s) of one mesh, error (%) against the reference, order, extrapolated and its uncertainty
+FIGURE_FIELDS = ("value", "wall", "error", "order", "extrapolated", "uncertainty")
+
+
+def figure_value(numbers: dict, key: str, field: str, cell_m: float | None = None) -> float:
+    """A figure of the report's numbers (``report.json``): ``field`` of the check ``key``, on the mesh of
+    core cell ``cell_m`` (default: the finest that ended ok) for value, wall and error."""
+    check = next((c for c in numbers["checks"] if c.get("key") == key), None)
+    if check is None:
+        raise ValueError(f"report.{key}: no such check; the report has "
+                         f"{', '.join(c.get('key', '?') for c in numbers['checks'])}")
+    if field not in FIGURE_FIELDS:
+        raise ValueError(f"report.{key}.{field}: no such figure; one of {', '.join(FIGURE_FIELDS)}")
+    outcomes = [Outcome(**o) for o in check["outcomes"]]
+    est = estimate(outcomes)
+    if field in ("order", "extrapolated", "uncertainty"):
+        if est is None:
+            raise ValueError(f"report.{key}.{field}: the check has fewer than three meshes that ended ok")
+        return {"order": est.order, "extrapolated": est.extrapolated, "uncertainty": est.error}[field]
+    ok = [o for o in outcomes if o.status == "ok" and (cell_m is None or math.isclose(o.cell_m, cell_m))]
+    if not ok:
+        raise ValueError(f"report.{key}.{field}@{cell_m}: no mesh of that core cell ended ok; the report has "
+                         f"{', '.join(f'{o.cell_m:g}' for o in outcomes)} m")
+    outcome = ok[0]
+    if field == "value":
+        return outcome.value
+    if field == "wall":
+        return outcome.wall_s
+    reference = check["reference"] if check["reference"] is not None else (est.extrapolated if est else None)
+    if reference is None:
+        raise ValueError(f"report.{key}.error: the check has neither a reference nor an extrapolated value")
+    return 100.0 * (outcome.value / reference - 1.0)
+
+
+def fill_figures(text: str, numbers: dict) -> str:
+    """A page with each ``{{ report.… }}`` replaced by the figure the report measured (format ``.4g``
+    unless given; a minus sign is written −): how the hand-written verification pages quote the report
+    rather than retype it. An unknown check, field or mesh raises ValueError."""
+    def figure(match: re.Match) -> str:
+        key, field, cell, spec = match.groups()
+        value = figure_value(numbers, key, field, float(cell) if cell else None)
+        return format(value, spec or ".4g").replace("-", "−")
+
+    return FIGURE_PLACEHOLDER.sub(figure, text)
+
+
+def committed_numbers(docs_dir: Path = PAGE.parents[1]) -> dict:
+    """The numbers behind the committed report page (``docs/verification/report.json``)."""
+    return json.loads((docs_dir / PAGE.relative_to(PAGE.parents[1])).with_suffix(".json").read_text())
+
+
+def on_page_markdown(markdown: str, page, config, files) -> str:
+    """The documentation site's hook (``hooks:`` in mkdocs.yml): every page's report figures filled
+    in at build time; a figure the report does not have fails the build."""
+    return fill_figures(markdown, committed_numbers(Path(config["docs_dir"])))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -14,9 +14,9 @@ def _outcomes(reference, constant, order, cells):
 def test_a_sequence_that_converges_at_second_order_extrapolates_to_its_limit(tmp_path):
     """z(h) = z* + C·h² on three meshes halving: the observed order is 2 and the extrapolated value z*
     to round-off; the page states both, the error per mesh, and the commit it measured."""
-    check = report.Check("A test check, q/su", "nc_at_0p05B", 5.0, "a truth", (), (0.025, 0.05, 0.1), None, 1.0)
+    check = report.Check("a_test", "A test check, q/su", "nc_at_0p05B", 5.0, "a truth", (), (0.025, 0.05, 0.1), None, 1.0)
     outcomes = _outcomes(5.0, 40.0, 2.0, check.cells_m)
-    estimate = report.estimate(check, outcomes)
+    estimate = report.estimate(outcomes)
     assert estimate.order == pytest.approx(2.0, rel=1e-6) and estimate.extrapolated == pytest.approx(5.0, rel=1e-9)
     stamp = {"commit": "0123abc", "tree": "clean", "date": "2026-01-01 00:00 UTC", "machine": "a machine"}
     page = report.write_page(tmp_path / "report.md", [(check, outcomes)], quick=True, stamp=stamp)
@@ -29,10 +29,14 @@ def test_a_sequence_that_converges_at_second_order_extrapolates_to_its_limit(tmp
 
     numbers = json.loads((tmp_path / "report.json").read_text())
     assert numbers["stamp"]["commit"] == "0123abc" and numbers["checks"][0]["outcomes"][0]["value"] == 5.025
+    # the pages quote these numbers by the check's key
+    assert report.fill_figures("q/su {{ report.a_test.value }} ({{report.a_test.error:+.1f }} %) at B/40, "
+                               "{{ report.a_test.value@0.1:.3f }} at B/10, order {{ report.a_test.order:.2f }}",
+                               numbers) == "q/su 5.025 (+0.5 %) at B/40, 5.400 at B/10, order 2.00"
 
 
 def test_without_a_reference_the_error_is_against_the_extrapolated_value():
-    check = report.Check("A landing", "max_sinkage_m", None, "itself", (), (0.01, 0.02, 0.04), None, 1.0)
+    check = report.Check("a_landing", "A landing", "max_sinkage_m", None, "itself", (), (0.01, 0.02, 0.04), None, 1.0)
     outcomes = _outcomes(0.1, -0.5, 1.0, check.cells_m)  # 0.095, 0.09, 0.08: first order towards 0.1
     section, row = report.check_section(check, outcomes)
     assert row["reference"] == "0.1" and row["order"] == "1.00"
@@ -40,8 +44,59 @@ def test_without_a_reference_the_error_is_against_the_extrapolated_value():
 
 
 def test_a_run_that_did_not_end_ok_is_shown_and_left_out_of_the_estimate():
-    check = report.Check("A push", "nc_at_0p05B", 5.0, "a truth", (), (0.025, 0.05, 0.1, 0.2), None, 1.0)
+    check = report.Check("a_push", "A push", "nc_at_0p05B", 5.0, "a truth", (), (0.025, 0.05, 0.1, 0.2), None, 1.0)
     outcomes = [report.Outcome(0.025, "unstable", math.nan, 2.0), *_outcomes(5.0, 1.0, 1.0, (0.05, 0.1, 0.2))]
     section, row = report.check_section(check, outcomes)
     assert "| 0.025 m | 40 | unstable |" in section
     assert row["finest"] == "5.05 (B/20)" and row["order"] == "1.00"
+
+
+def test_a_figure_the_report_does_not_have_fails_in_one_line():
+    """A page that quotes a check, a figure or a mesh the report has not measured cannot build."""
+    numbers = {"checks": [{"key": "a_push", "name": "A push", "metric": "nc_at_0p05B", "reference": 5.0,
+                           "outcomes": [{"cell_m": 0.1, "status": "ok", "value": 4.9, "wall_s": 1.0}]}]}
+    assert report.fill_figures("{{ report.a_push.error:.1f }}", numbers) == "−2.0"
+    for text, words in (("{{ report.b_push.value }}", "no such check; the report has a_push"),
+                        ("{{ report.a_push.mass }}", "no such figure"),
+                        ("{{ report.a_push.value@0.05 }}", "no mesh of that core cell ended ok"),
+                        ("{{ report.a_push.order }}", "fewer than three meshes")):
+        with pytest.raises(ValueError, match=words):
+            report.fill_figures(text, numbers)
+
+
+def test_every_figure_the_pages_quote_is_in_the_committed_report():
+    """The site's pages quote the report's figures (mkdocs.yml's hook fills them in): each one must
+    be in docs/verification/report.json, so that the strict build cannot fail on a missing one."""
+    from pathlib import Path
+
+    docs = Path(__file__).resolve().parent.parent / "docs"
+    numbers = report.committed_numbers(docs)
+    quoted = 0
+    for page in docs.rglob("*.md"):
+        text = page.read_text()
+        quoted += len(report.FIGURE_PLACEHOLDER.findall(text))
+        report.fill_figures(text, numbers)  # raises on a figure the report does not have
+    assert quoted > 0
+
+
+def test_no_page_retypes_a_figure_the_report_measured():
+    """A figure the report measured is quoted ({{ report.… }}), never typed: no page but the report
+    itself shows one of its values (to 4 or 5 significant digits). The decision records are exempt:
+    they keep the measurements that decided them, taken on the code of their day."""
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    numbers = report.committed_numbers(root / "docs")
+
+    def significant(text: str) -> int:
+        return len(re.sub(r"\D", "", text).lstrip("0"))
+
+    figures = {format(o["value"], spec) for check in numbers["checks"] for o in check["outcomes"]
+               if o["status"] == "ok" for spec in (".4g", ".5g")}
+    figures = {f for f in figures if significant(f) >= 4}
+    pages = [p for p in [root / "README.md", *(root / "docs").rglob("*.md")]
+             if p.name != "report.md" and "decisions" not in p.parts]
+    retyped = [f"{page.relative_to(root)}: {figure}" for page in pages for figure in figures
+               if re.search(rf"(?<![\d.]){re.escape(figure)}(?!\d)", page.read_text())]
+    assert not retyped, retyped

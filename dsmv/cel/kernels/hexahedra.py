@@ -25,6 +25,7 @@ from numba import njit, prange
 
 from dsmv.cel.kernels.common import (INLINE, JIT, PARALLEL, law_factor, law_state, radial_return, spread_order,
                                      tresca_return)
+from dsmv.cel.kernels.nodes import zero_in_blocks
 from dsmv.cel.layout import CellRows
 
 SOLID = CellRows(3)
@@ -197,7 +198,7 @@ def nodal_forces(mesh, cells, nodes, par, work):
     the same on any thread count."""
     nx = cells.phi.shape[0]
     fn = nodes.f
-    fn[:] = 0.0
+    zero_in_blocks(fn)
     power = np.zeros((2, nx))
     for colour in range(2):
         order = spread_order((nx - colour + 1) // 2)

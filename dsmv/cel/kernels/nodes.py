@@ -119,6 +119,14 @@ NODE_BLOCK = 8192
 
 
 @njit(**PARALLEL)
+def zero_in_blocks(values):
+    """values[:] = 0 for a node array (axis, node), in parallel over blocks of :data:`NODE_BLOCK` nodes."""
+    n = values.shape[1]
+    for b in prange((n + NODE_BLOCK - 1) // NODE_BLOCK):
+        values[:, b * NODE_BLOCK:min(n, (b + 1) * NODE_BLOCK)] = 0.0
+
+
+@njit(**PARALLEL)
 def update_velocities_in_blocks(nodes, gravity, dt, mass_floor):
     """:func:`update_velocities` in parallel over blocks of :data:`NODE_BLOCK` nodes, the blocks'
     momenta summed in block order (3D)."""
