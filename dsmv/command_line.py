@@ -355,7 +355,7 @@ def unwritable(path: Path) -> str | None:
     while not probe.exists() and not probe.is_symlink() and probe != probe.parent:
         probe = probe.parent
     if not probe.is_dir():
-        return (f"is not a directory" if probe == path.absolute() else
+        return ("is not a directory" if probe == path.absolute() else
                 f"cannot be created: {probe} is not a directory")
     if not os.access(probe, os.W_OK | os.X_OK):
         return ("is not writable: give a directory dsmv can write in" if probe == path.absolute() else

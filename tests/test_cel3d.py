@@ -214,3 +214,86 @@ def test_the_pushed_circle_bears_what_the_axisymmetric_plate_bears(compose_cfg, 
     axisymmetric = _solve(compose_cfg, [*case, "solver=cel2d"]).metrics
     assert solid["nc_at_0p1B"] == pytest.approx(axisymmetric["nc_at_0p1B"], rel=0.01)
     assert solid["mass_error"] < 1e-10 and solid["energy_error"] < 0.02
+
+
+# --------------------------------------------------------------------------- the track in 3D
+
+def test_the_track_s_cells_are_its_plates_grousers_and_sprocket_arcs():
+    """``geometry=track_pioneer_i`` in 3D: across x its width B, along y the side view. Its cells are
+    the plates' flat run |y| ≤ L/2 above the grouser height, a grouser row across B at every plate
+    pitch from the axis, and the sprockets' arcs as the staircase inscribed in radius R (every corner
+    of a body cell inside the arc; every cell with all its corners inside is the body's). A node on
+    the plates' underside between two grousers is tied along −z, with the adhesion over its share of
+    that face; one on the outer edge of an arc's step along the bisector of its two faces."""
+    from dsmv.cel.body import TrackBody, TrackSideView, solid_cells
+    from dsmv.cel.contact import build_plate_contact
+    from dsmv.cel.grid import SolidGrid
+    from dsmv.cel.layout import corner_offsets
+
+    h, B, L, R, pitch = 0.05, 0.6, 2.0, 0.5, 0.15
+    side = TrackSideView(half_length=L / 2, sprocket_radius=R, grouser=h, plate_pitch=pitch)
+    grid = SolidGrid(np.arange(0.0, 0.5 + 1e-9, h), np.arange(0.0, 1.8 + 1e-9, h), np.arange(-0.3, 1.2 + 1e-9, h), h)
+    track = TrackBody(B / 2, side)
+    solid = solid_cells(track, grid)
+    xc, yc, zc = (0.5 * (a[:-1] + a[1:]) for a in grid.axes)
+    across = xc < B / 2
+    assert not solid[~across].any()  # nothing beyond the width
+    # the grousers: the rows between the base and the grouser height, at 0, 0.15, … 0.9 m along the run
+    grouser_row = solid[:, :, np.argmin(abs(zc - 0.5 * h))]
+    starts = np.round(grid.y[:-1][grouser_row[0]] / pitch, 9)
+    assert np.array_equal(starts, np.arange(0, 7)) and (grouser_row[across] == grouser_row[0]).all()
+    # the plates' flat run: everything above the grouser height over |y| ≤ L/2
+    run = (yc < L / 2)[None, :, None] & (zc > h)[None, None, :] & across[:, None, None]
+    assert solid[run].all()
+    # the arcs: inscribed staircase of the circle of radius R about (L/2, h + R)
+    corners_inside = np.ones(solid.shape, dtype=bool)
+    for o in corner_offsets(3):
+        y = grid.y[o[1]:o[1] + solid.shape[1]][None, :, None]
+        z = grid.z[o[2]:o[2] + solid.shape[2]][None, None, :]
+        corners_inside &= ((y - L / 2) ** 2 + (z - h - R) ** 2 <= R * R * (1 + 1e-12)) | (y <= L / 2) & (z >= h)
+    beyond = (yc > L / 2)[None, :, None] & (zc < h + R)[None, None, :] & across[:, None, None]
+    assert np.array_equal(solid[beyond], corners_inside[beyond])
+    assert solid[beyond].sum() > 20  # the arc has steps on this grid
+
+    k_base = grid.row_of(0.0)
+    contact = build_plate_contact(track, grid, k_base, 1.0, staircase=True)
+    node_shape = tuple(len(a) for a in grid.axes)
+    ties = {int(n): t for t, n in enumerate(contact.contact.node)}
+    under = ties[np.ravel_multi_index((2, 5, 1 + k_base), node_shape)]  # x = 0.1, y = 0.25, on the plates' underside
+    assert not contact.contact.full[under]
+    assert np.array_equal(contact.contact.normal[under], [0.0, 0.0, -1.0])
+    assert contact.contact.cap[under] == pytest.approx(h * h)  # four quarters of h × h
+    # a step of the arc: the outer lower corner of the last body cell of the layer z = 2h … 3h
+    layer = int(np.argmin(abs(zc - 2.5 * h)))
+    j_last = int(np.nonzero(solid[0, :, layer])[0].max())
+    assert grid.y[j_last + 1] > L / 2 + h  # beyond the run, on the arc
+    edge = ties[np.ravel_multi_index((2, j_last + 1, layer), node_shape)]
+    normal = contact.contact.normal[edge]
+    assert not contact.contact.full[edge] and normal[1] > 0 and normal[2] < 0
+    assert np.linalg.norm(normal) == pytest.approx(1.0)
+
+
+def test_the_track_lands_in_3d_and_its_fields_open(compose_cfg, tmp_path):
+    """The default scene (Einav–Randolph, 4.5 t at 1.5 m/s) with ``solver=cel3d`` on a coarse grid: it
+    comes to rest ``ok`` with the soil's mass kept to 1e-10 and the energy audit closed within 2 %,
+    no soil inside the track, and field files meshio reads as hexahedra with the named arrays."""
+    import meshio
+
+    from dsmv import fields
+    from dsmv.cel.solver3d import Cel3DSolver
+    from tests.test_fields import CELL_FIELDS_3D
+
+    scene = build_scene(compose_cfg(["solver=cel3d", "mesh.cell_size_m=0.15", "tracking=disabled",
+                                     "output.plots=false", "solver.progress=off", "output.fields=true",
+                                     "output.field_frames=2"]))
+    result = Cel3DSolver(scene).solve(tmp_path)
+    assert result.status == "ok", result.message
+    m = result.metrics
+    assert m["mass_error"] <= 1e-10 and m["energy_error"] <= 0.02
+    assert 0.0 < m["max_sinkage_m"] < scene.geometry.width_m
+    frames = fields.series(tmp_path)
+    last = meshio.read(frames[-1][1])
+    (block,) = last.cells
+    assert block.type == "hexahedron" and set(last.cell_data) == CELL_FIELDS_3D
+    body = last.cell_data["body"][0] == 1.0
+    assert body.any() and (last.cell_data["volume_fraction"][0][body] == 0.0).all()

@@ -88,8 +88,8 @@ def refused_key(geometry: str, landing: str, solver: str) -> str | None:
         return "landing.kind"  # it lands bodies; a push is the energy method's
     if solver == "cel2d" and geometry == "rectangular_plate":
         return "geometry.kind"  # a rectangle is a 3D body (a circle is axisymmetric in 2D)
-    if solver == "cel3d" and geometry not in ("strip", *PLATES):
-        return "geometry.kind"  # the 3D solver runs strips (as slabs) and plates
+    if solver == "cel3d" and geometry not in ("strip", "track_pioneer_i", *PLATES):
+        return "geometry.kind"  # the 3D solver runs strips (as slabs), plates and the track
     return None
 
 

@@ -81,14 +81,23 @@ class TrackSideView:
             (x - half) ** 2 + (y - gh - radius) ** 2 <= radius**2 * (1 + ON_BOUNDARY)) | (
             (x <= half + radius) & (y >= gh + radius))
 
+    def grouser_cells(self, along: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Which cells, along the track and up, the grousers fill: along, the cell that starts at each
+        plate pitch from the axis (the same distance on either side of it); up, the cells whose
+        centres lie between the base and the grouser height. ``along`` and ``up`` are node coordinates."""
+        positions = np.arange(0.0, self.half_length + 1e-12, self.plate_pitch)[None, :]
+        near, far = np.minimum(np.abs(along[:-1]), np.abs(along[1:])), np.maximum(np.abs(along[:-1]), np.abs(along[1:]))
+        slack = (ON_BOUNDARY * (far - near))[:, None]  # a position on a node line starts the cell beyond it
+        columns = ((positions >= near[:, None] - slack) & (positions < far[:, None] - slack)).any(axis=1)
+        centres = 0.5 * (up[:-1] + up[1:])
+        return columns, (centres > 0.0) & (centres < self.grouser)
+
     def extra_solid(self, grid: Grid, solid: np.ndarray) -> None:
         """The grousers: a column of cells below the plates at every plate pitch."""
         if self.grouser <= 0:
             return
-        positions = np.arange(0.0, self.half_length + 1e-12, self.plate_pitch)
-        columns = np.unique(np.clip(np.searchsorted(grid.x, positions, side="right") - 1, 0, grid.nx - 1))
-        rows = (grid.yc > 0.0) & (grid.yc < self.grouser)
-        solid[np.ix_(columns, np.nonzero(rows)[0])] = True
+        columns, rows = self.grouser_cells(grid.x, grid.y)
+        solid[np.ix_(np.nonzero(columns)[0], np.nonzero(rows)[0])] = True
 
 
 @dataclass(frozen=True)
@@ -112,6 +121,27 @@ class Disc:
 
     def inside(self, x, y, z):
         return (x * x + y * y <= self.radius**2 * (1 + ON_BOUNDARY)) & (z >= -ON_BOUNDARY)
+
+
+@dataclass(frozen=True)
+class TrackBody:
+    """The track in 3D: its width B across x (|x| ≤ B/2); along y and up, the side view
+    (:class:`TrackSideView`): the flat run of plates with a grouser at every pitch, the sprocket
+    arcs at its ends, the vehicle above. The arcs are a staircase of cells, as a circle's."""
+
+    half_width: float
+    side: TrackSideView
+
+    def inside(self, x, y, z):
+        return (np.abs(x) <= self.half_width * (1 + ON_BOUNDARY)) & self.side.inside(y, z)
+
+    def extra_solid(self, grid, solid: np.ndarray) -> None:
+        """The grousers, across the whole width."""
+        if self.side.grouser <= 0:
+            return
+        columns, rows = self.side.grouser_cells(grid.y, grid.z)
+        across = np.abs(0.5 * (grid.x[:-1] + grid.x[1:])) <= self.half_width
+        solid[np.ix_(np.nonzero(across)[0], np.nonzero(columns)[0], np.nonzero(rows)[0])] = True
 
 
 def inside_nodes(shape, grid) -> np.ndarray:

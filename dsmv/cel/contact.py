@@ -347,6 +347,19 @@ def wall_share(solid, i, j, k, dx, dy, dz) -> float:
     return share
 
 
+def flat_share(solid, i, j, k, dx, dy) -> float:
+    """Node (i, j, k)'s share of a body's horizontal faces (m²): a quarter of each face between a
+    body cell and a soil cell, one above the other, that it is a corner of."""
+    nx, ny, nz = solid.shape
+    share = 0.0
+    if 0 < k < nz:
+        for ci in (i - 1, i):
+            for cj in (j - 1, j):
+                if 0 <= ci < nx and 0 <= cj < ny and solid[ci, cj, k - 1] != solid[ci, cj, k]:
+                    share += dx[ci] * dy[cj] / 4
+    return share
+
+
 def build_plate_contact(shape, grid, k_base: int, alpha: float, wall_area: float = 1.0,
                         staircase: bool = False) -> BodyContact:
     """The contact of a flat-based body on a 3D grid (a plate, a strip slab), from the same ideas as
@@ -367,6 +380,9 @@ def build_plate_contact(shape, grid, k_base: int, alpha: float, wall_area: float
       edges, along the bisector of the two faces: the staircase stands for a smooth wall, and a
       full tie there held the soil as a rough corner, whatever α (the pushed circle read 1.4 %
       above the axisymmetric plate at 0.1 B, 0.9 % with the edges tied along the bisector);
+      a face that looks down above the base (a track's plates between its grousers) holds its
+      nodes along its normal as the base does, and a curved body's steps seen from below (a
+      sprocket's arc) hold theirs along the bisector of their faces;
       the body's other nodes move with it.
 
     ``shape`` is in the grid frame (x = y = 0 on the symmetry planes, z = 0 at the base);
@@ -396,10 +412,19 @@ def build_plate_contact(shape, grid, k_base: int, alpha: float, wall_area: float
         soil = soil_cells(i, j, k)
         n_wall = np.array([sum(ci + 0.5 - i for ci, _, _ in soil) * (0 < i < nx),
                            sum(cj + 0.5 - j for _, cj, _ in soil) * (0 < j < ny)])
+        n_up = sum(ck + 0.5 - k for _, _, ck in soil)  # soil below (< 0) or above (> 0) the node
         faces = np.count_nonzero(n_wall)
-        if faces == 1 or (faces == 2 and staircase):  # on a flat face, or on a step of a curved one
+        if n_up == 0.0 and (faces == 1 or (faces == 2 and staircase)):  # on a flat face, or on a step of a curved one
             full[t], normal[t, :2] = False, n_wall / np.linalg.norm(n_wall)
             cap[t] = alpha * wall_area * wall_share(solid, i, j, k, dx, dy, dz)
+            grips[t] = soil
+        elif n_up != 0.0 and (faces == 0 or (staircase and len(soil) > touching[i, j, k])):
+            # a face that looks down above the base (a track's plates between its grousers) as the base;
+            # the outer edge of a step of a curved one (a sprocket's arc) along the bisector of its faces
+            # (an inner edge, where a grouser meets its plate, holds its node wholly)
+            n_face = np.array([*n_wall, n_up])
+            full[t], normal[t] = False, n_face / np.linalg.norm(n_face)
+            cap[t] = alpha * (wall_area * wall_share(solid, i, j, k, dx, dy, dz) + flat_share(solid, i, j, k, dx, dy))
             grips[t] = soil
     split_node, split_parent, split_normal, split_fixed, split_cap, split_grips = [], [], [], [], [], []
     for t in np.nonzero(tie_k == k_base)[0]:

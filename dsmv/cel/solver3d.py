@@ -20,7 +20,7 @@ import math
 import numpy as np
 
 from dsmv.cel import ledger
-from dsmv.cel.body import Box, Disc
+from dsmv.cel.body import Box, Disc, TrackBody, TrackSideView
 from dsmv.cel.config import Cel3DConfig
 from dsmv.cel.contact import ContactRules, build_plate_contact
 from dsmv.cel.grid import SolidGrid, build_solid_grid
@@ -64,7 +64,7 @@ class Cel3DSolver(CelSolver):
     name = "cel3d"
     dim = 3
     config_model = Cel3DConfig
-    bodies = ("strip", "rectangular_plate", "circular_plate")
+    bodies = ("strip", "rectangular_plate", "circular_plate", "track")
     cell_updates_per_s = CELL_UPDATES_PER_S_3D
     bytes_per_cell = BYTES_PER_CELL_3D
 
@@ -83,16 +83,21 @@ class Cel3DSolver(CelSolver):
         return self.scene.geometry.kind == "strip"
 
     def half_length_m(self) -> float:
-        """Half the body's length along y (m): L/2, B/2 for a circle, unbounded for a strip."""
+        """Half the body's length along y (m): L/2, B/2 for a circle, unbounded for a strip; a track's
+        flat run L/2 and a sprocket's radius beyond it."""
         body = self.scene.geometry
         if body.kind == "strip":
             return math.inf
+        if body.kind == "track":
+            return 0.5 * body.contact_length_m + body.sprocket_radius_m
         return 0.5 * (body.width_m if body.kind == "circular_plate" else body.contact_length_m)
 
     def shape(self):
         body = self.scene.geometry
         if body.kind == "circular_plate":
             return Disc(0.5 * body.width_m)
+        if body.kind == "track":
+            return TrackBody(0.5 * body.width_m, TrackSideView.of(body, self.h))
         return Box(0.5 * body.width_m, self.half_length_m())
 
     def build(self):
@@ -131,7 +136,10 @@ class Cel3DSolver(CelSolver):
 
     def contact_area_m2(self) -> float:
         """The area the bearing factor refers to (m²): the footprint the body's cells press, per track
-        (B·L for a rectangle on node lines; a circle's inscribed staircase, a little less than π·B²/4)."""
+        (B·L for a rectangle on node lines; a circle's inscribed staircase, a little less than π·B²/4);
+        a track's B·L, its plates' flat run, as in 2D (its grousers' tips press far less)."""
+        if self.scene.geometry.kind == "track":
+            return super().contact_area_m2()
         return self.footprint_m2 * self.model_scale()
 
     # ------------------------------------------------------------------ state
@@ -151,7 +159,7 @@ class Cel3DSolver(CelSolver):
         shape = self.shape()
         body_contact = build_plate_contact(shape, grid, k_base, scene.geometry.adhesion_factor,
                                            wall_area=math.pi / 4 if isinstance(shape, Disc) else 1.0,
-                                           staircase=isinstance(shape, Disc))
+                                           staircase=isinstance(shape, (Disc, TrackBody)))
         footprint = body_contact.solid[:, :, k_base]
         self.footprint_m2 = float((np.diff(grid.x)[:, None] * np.diff(grid.y)[None, :])[footprint].sum())
         fill, depth = layers_below(grid.z, self.mudline)
