@@ -274,6 +274,11 @@ def scene_label(scene: Scene) -> str:
     return f"{scene.soil.name} soil ({scene.soil.law}), {scene.geometry.name}, {motion}"
 
 
+#: the reference study's 3D track model at 0.04 m core cells: 1,248,912 Eulerian elements (Zeng et al.
+#: 2025, Table 2, case 3)
+REFERENCE_TRACK_ELEMENTS = 1_248_912
+
+
 def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, multirun: bool) -> None:
     """A short human summary: status, what the run found (with units), where outputs and MLflow are."""
     what = _answer(scene, result)
@@ -286,6 +291,16 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
     if assumed:
         print(f"  assumed : {', '.join(assumed)} (provisional: no published source)")
     print(f"  message : {result.message}")
+    m = result.metrics
+    if "cells" in m and "cell_updates_per_s" in m:  # a CEL run: its grid and what it cost
+        whole = m.get("cells_whole_body", m["cells"])
+        whole_text = (f" ({whole:,.0f} for the whole {'section' if scene.solver.name == 'cel2d' else 'body'}"
+                      if whole != m["cells"] else "")
+        if whole_text and scene.geometry.kind == "track" and scene.solver.name == "cel3d":
+            whole_text += f"; the reference study's track: {REFERENCE_TRACK_ELEMENTS / 1e6:.2f} M elements"
+        whole_text += ")" if whole_text else ""
+        print(f"  model   : {m['cells']:,.0f} cells{whole_text}, {m['steps']:,.0f} steps, {m['wall_s']:.1f} s, "
+              f"{m['cell_updates_per_s'] / 1e6:.2f} M cell-updates/s")
     print(f"  outputs : {run_dir}")
     if tracker is not None:
         uri = tracker.uri

@@ -159,6 +159,7 @@ def test_a_quarter_a_half_and_the_whole_plate_agree(compose_cfg):
     runs = {sym: _solve(compose_cfg, [*case, f"solver.economies.symmetry={sym}"]).metrics
             for sym in ("quarter", "half", "full")}
     assert runs["half"]["cells"] == 2 * runs["quarter"]["cells"] == runs["full"]["cells"] / 2
+    assert runs["quarter"]["cells_whole_body"] == runs["half"]["cells_whole_body"] == runs["full"]["cells"]
     for sym in ("half", "full"):
         assert runs[sym]["nc_at_0p02B"] == pytest.approx(runs["quarter"]["nc_at_0p02B"], rel=1e-6)
 

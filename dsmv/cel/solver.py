@@ -375,6 +375,7 @@ class CelSolver:
             "steps": float(run.steps),
             "time_step_s": par.dt,
             "cells": float(cells),
+            "cells_whole_body": float(self.whole_body_cells(cells)),
             "cell_updates_per_s": cells * max(run.steps - 1, 1) / max(wall_s, 1e-9),
             "core_cell_size_m": self.h,
             # the zig-zag in the velocity field: hourglass against linear modes, over the run
@@ -382,7 +383,7 @@ class CelSolver:
             "hourglass_mode_ratio": zigzag,
         }
         units = {"mass_error": "-", "phi_max": "-", "phi_min": "-", "compile_s": "s", "wall_s": "s", "steps": "-",
-                 "time_step_s": "s", "cells": "-", "cell_updates_per_s": "1/s", "core_cell_size_m": "m",
+                 "time_step_s": "s", "cells": "-", "cells_whole_body": "-", "cell_updates_per_s": "1/s", "core_cell_size_m": "m",
                  "hourglass_mode_ratio": "-"}
         audit = ledger.audit(
             state.energy, kinetic_in=state.kinetic_in, kinetic_soil=self.soil_kinetic_energy(state),
@@ -600,6 +601,11 @@ class Cel2DSolver(CelSolver):
     def body_contact(self, grid):
         """The body's cells, openings and contact table on ``grid`` (:func:`dsmv.cel.contact.build_contact`)."""
         return build_contact(self.rules, self.rules.shape(self.scene.geometry, grid.h), grid, grid.row_of(0.0))
+
+    def whole_body_cells(self, cells: float) -> float:
+        """The cells the whole section would take on this grid (the half model mirrored; an
+        axisymmetric model is its own whole)."""
+        return 2 * cells if self.scene.solver.economies.symmetry and not self.axisym else cells
 
     def model_scale(self) -> float:
         """The model carries a share of the body: the half-section per metre of the out-of-plane length

@@ -134,6 +134,13 @@ class Cel3DSolver(CelSolver):
             return (1.0 if symmetry == "full" else 2.0) * self.scene.geometry.contact_length_m / self.h
         return {"quarter": 4.0, "half": 2.0, "full": 1.0}[symmetry]
 
+    def whole_body_cells(self, cells: float) -> float:
+        """The cells the whole body would take on this grid: the quarter model mirrored twice, the half
+        once (a strip slab is its own whole)."""
+        if self.slab:
+            return cells
+        return cells * {"quarter": 4, "half": 2, "full": 1}[self.scene.solver.economies.symmetry]
+
     def contact_area_m2(self) -> float:
         """The area the bearing factor refers to (m²): the footprint the body's cells press, per track
         (B·L for a rectangle on node lines; a circle's inscribed staircase, a little less than π·B²/4);
