@@ -293,13 +293,13 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
     print(f"  message : {result.message}")
     m = result.metrics
     if "cells" in m and "cell_updates_per_s" in m:  # a CEL run: its grid and what it cost
-        whole = m.get("cells_whole_body", m["cells"])
-        whole_text = (f" ({whole:,.0f} for the whole {'section' if scene.solver.name == 'cel2d' else 'body'}"
-                      if whole != m["cells"] else "")
-        if whole_text and scene.geometry.kind == "track" and scene.solver.name == "cel3d":
-            whole_text += f"; the reference study's track: {REFERENCE_TRACK_ELEMENTS / 1e6:.2f} M elements"
-        whole_text += ")" if whole_text else ""
-        print(f"  model   : {m['cells']:,.0f} cells{whole_text}, {m['steps']:,.0f} steps, {m['wall_s']:.1f} s, "
+        whole, notes = m.get("cells_whole_body", m["cells"]), []
+        if whole != m["cells"]:
+            notes.append(f"{whole:,.0f} for the whole {'section' if scene.solver.name == 'cel2d' else 'body'}")
+            if scene.geometry.kind == "track" and scene.solver.name == "cel3d":
+                notes.append(f"the reference study's track: {REFERENCE_TRACK_ELEMENTS / 1e6:.2f} M elements")
+        extent = f" ({'; '.join(notes)})" if notes else ""
+        print(f"  model   : {m['cells']:,.0f} cells{extent}, {m['steps']:,.0f} steps, {m['wall_s']:.1f} s, "
               f"{m['cell_updates_per_s'] / 1e6:.2f} M cell-updates/s")
     print(f"  outputs : {run_dir}")
     if tracker is not None:

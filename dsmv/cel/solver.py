@@ -383,7 +383,8 @@ class CelSolver:
             "hourglass_mode_ratio": zigzag,
         }
         units = {"mass_error": "-", "phi_max": "-", "phi_min": "-", "compile_s": "s", "wall_s": "s", "steps": "-",
-                 "time_step_s": "s", "cells": "-", "cells_whole_body": "-", "cell_updates_per_s": "1/s", "core_cell_size_m": "m",
+                 "time_step_s": "s", "cells": "-", "cells_whole_body": "-",
+                 "cell_updates_per_s": "1/s", "core_cell_size_m": "m",
                  "hourglass_mode_ratio": "-"}
         audit = ledger.audit(
             state.energy, kinetic_in=state.kinetic_in, kinetic_soil=self.soil_kinetic_energy(state),

@@ -2,11 +2,12 @@
 
 The step of :mod:`dsmv.cel.stepper` on hexahedra: nodal forces (:mod:`dsmv.cel.kernels.hexahedra`),
 the body's motion and the tied nodes (the shared stages of :mod:`dsmv.cel.kernels.nodes`), the
-explicit velocity update (in parallel over blocks of nodes), the boundary conditions, the stress update; then, once some node has
-travelled ``par.remap_travel``, the Eulerian phase in three directional sweeps whose order
-alternates (x, y, z, then z, y, x) (:mod:`dsmv.cel.kernels.remap3d`), with soil entering at the base as the grid moves
-down with the body. The node stages after the velocity update (boundary conditions, ties and
-the faces' capped adhesive pull) are 2D's, :func:`dsmv.cel.stepper.hold_nodes`.
+explicit velocity update (in parallel over blocks of nodes), the boundary conditions, the stress
+update; then, once some node has travelled ``par.remap_travel``, the Eulerian phase in three
+directional sweeps whose order alternates (x, y, z, then z, y, x) (:mod:`dsmv.cel.kernels.remap3d`),
+with soil entering at the base as the grid moves down with the body. The node stages after the
+velocity update (boundary conditions, ties and the faces' capped adhesive pull) are 2D's,
+:func:`dsmv.cel.stepper.hold_nodes`.
 """
 
 from __future__ import annotations

@@ -131,6 +131,18 @@ def compiled_entry(dispatcher, args: tuple):
     return dispatcher.overloads[signature].entry_point
 
 
+@njit(**INLINE)
+def ordered_sums(parts):
+    """The sums of the two rows of ``parts`` (2, n), each in index order: the per-slab or per-block
+    partial sums of a parallel loop, added up the same way on any number of threads."""
+    first = 0.0
+    second = 0.0
+    for i in range(parts.shape[1]):
+        first += parts[0, i]
+        second += parts[1, i]
+    return first, second
+
+
 @njit(**JIT)
 def spread_order(n):
     """The indices 0 … n−1 in van der Corput order (sorted by their bits reversed): 0, 4, 2, 6, 1, 5,

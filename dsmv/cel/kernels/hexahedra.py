@@ -23,8 +23,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from dsmv.cel.kernels.common import (INLINE, JIT, PARALLEL, law_factor, law_state, radial_return, spread_order,
-                                     tresca_return)
+from dsmv.cel.kernels.common import (INLINE, JIT, PARALLEL, law_factor, law_state, ordered_sums, radial_return,
+                                     spread_order, tresca_return)
 from dsmv.cel.kernels.nodes import zero_in_blocks
 from dsmv.cel.layout import CellRows
 
@@ -193,9 +193,9 @@ def nodal_forces(mesh, cells, nodes, par, work):
     the power of hourglass [0] and bulk viscosity [1] (W). Cells without soil are skipped.
 
     Parallel over slabs of constant i in two colours: the even slabs, then the odd ones, each
-    colour's in :func:`~dsmv.cel.kernels.common.spread_order`. Slabs of one colour share no node, so each node sums its cells' forces in the same order whatever the
-    number of threads, and the slabs' powers are summed in slab order: results are bit for bit
-    the same on any thread count."""
+    colour's in :func:`~dsmv.cel.kernels.common.spread_order`. Slabs of one colour share no node,
+    so each node sums its cells' forces in the same order whatever the number of threads, and the
+    slabs' powers are summed in slab order: results are bit for bit the same on any thread count."""
     nx = cells.phi.shape[0]
     fn = nodes.f
     zero_in_blocks(fn)
@@ -481,9 +481,4 @@ def hourglass_modes(corner, phi, v, full):
     sums = np.zeros((2, nx))
     for i in prange(nx):
         sums[0, i], sums[1, i] = slab_modes(i, corner, phi, v, full)
-    hourglass_sq = 0.0
-    linear_sq = 0.0
-    for i in range(nx):
-        hourglass_sq += sums[0, i]
-        linear_sq += sums[1, i]
-    return hourglass_sq, linear_sq
+    return ordered_sums(sums)

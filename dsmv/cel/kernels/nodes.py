@@ -23,7 +23,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from dsmv.cel.kernels.common import INLINE, JIT, PARALLEL
+from dsmv.cel.kernels.common import INLINE, JIT, PARALLEL, ordered_sums
 
 #: a cell the body cuts lends its nodes at least the mass of this fill of the whole cell: its open
 #: faces are as stiff as a full cell's, and the explicit step stays stable (see nodal_mass)
@@ -136,12 +136,7 @@ def update_velocities_in_blocks(nodes, gravity, dt, mass_floor):
     for b in prange(n_blocks):
         parts[0, b], parts[1, b] = update_velocity_range(nodes.v, nodes.f, nodes.mass, gravity, dt, mass_floor,
                                                          b * NODE_BLOCK, min(n, (b + 1) * NODE_BLOCK))
-    momentum_before = 0.0
-    momentum_after = 0.0
-    for b in range(n_blocks):
-        momentum_before += parts[0, b]
-        momentum_after += parts[1, b]
-    return momentum_before, momentum_after
+    return ordered_sums(parts)
 
 
 @njit(**JIT)
@@ -401,7 +396,8 @@ def gather_travel_in_blocks(nodes, v_grid, dt):
     n_blocks = (n + NODE_BLOCK - 1) // NODE_BLOCK
     largest = np.zeros(n_blocks)
     for b in prange(n_blocks):
-        largest[b] = gather_travel_range(nodes.v, nodes.travel, v_grid, dt, b * NODE_BLOCK, min(n, (b + 1) * NODE_BLOCK))
+        largest[b] = gather_travel_range(nodes.v, nodes.travel, v_grid, dt, b * NODE_BLOCK,
+                                         min(n, (b + 1) * NODE_BLOCK))
     return largest.max() if n_blocks > 0 else 0.0
 
 
