@@ -154,6 +154,10 @@ class TrackGeometry(BodyConfig):
     plate_pitch_m: Number = Field(gt=0)
     plate_thickness_m: Number = Field(gt=0)
     grouser_height_m: Number = Field(ge=0)
+    grousers: Literal["trapped_soil", "cells"] = Field("trapped_soil", description=(
+        "how the side view (longitudinal, 3D) models the grousers: trapped_soil, the soil between them "
+        "moves with the track (a flat base at their tips, the same on every mesh) | cells, a column of "
+        "core cells at every pitch, at least one cell high"))
 
 
 class StripGeometry(BodyConfig):

@@ -71,8 +71,14 @@ class TrackSideView:
 
     @classmethod
     def of(cls, track, h: float) -> "TrackSideView":
-        grouser = 0.0 if track.grouser_height_m == 0 else h * max(1, round(track.grouser_height_m / h))
-        return cls(0.5 * track.contact_length_m, track.sprocket_radius_m, grouser, track.plate_pitch_m)
+        """The track on cells h: with ``grousers=cells`` as above; with ``trapped_soil`` the grousers'
+        envelope, whose soil between the grousers moves with the track: a flat base at their tips and
+        sprocket arcs of radius R + gh, the same shape on every mesh."""
+        half, gh = 0.5 * track.contact_length_m, track.grouser_height_m
+        if track.grousers == "trapped_soil":
+            return cls(half, track.sprocket_radius_m + gh, 0.0, track.plate_pitch_m)
+        grouser = 0.0 if gh == 0 else h * max(1, round(gh / h))
+        return cls(half, track.sprocket_radius_m, grouser, track.plate_pitch_m)
 
     def inside(self, x, y):
         half, radius, gh = self.half_length, self.sprocket_radius, self.grouser

@@ -356,6 +356,7 @@ class Rest:
 
     weightless: bool
     stop_at_rest: bool
+    start_sinkage_m: float = 0.0  # where the body's sinkage starts (a trapped-soil track's grouser height)
     rest_time_s: Optional[float] = None
 
     def after_chunk(self, run: Run) -> Optional[Ending]:
@@ -363,7 +364,7 @@ class Rest:
             return Ending("ok", "the body neither moves nor weighs anything: it stays at rest")
         if run.code == AT_REST and self.rest_time_s is None:
             self.rest_time_s = run.time_s
-            run.message = f"came to rest at {run.body[B_MAXDISP]:.4g} m after {self.rest_time_s:.4g} s"
+            run.message = f"came to rest at {run.body[B_MAXDISP] + self.start_sinkage_m:.4g} m after {self.rest_time_s:.4g} s"
         if self.rest_time_s is not None:
             if self.stop_at_rest or run.time_s >= 2.0 * self.rest_time_s:
                 return Ending("ok", run.message)

@@ -106,6 +106,17 @@ class State:
     stepper: object = None  # the compiled loop's machine code for these containers (Cel2DSolver.advance)
 
 
+@dataclass(frozen=True)
+class Start:
+    """The body at the start of a landing, per track."""
+
+    depth_m: float          # its base below the mudline
+    velocity_m_s: float     # downward
+    inertia_kg: float
+    weight_n: float
+    sinkage_m: float        # the sinkage it has already (a trapped-soil track's grouser height)
+
+
 class CelSolver:
     """What every CEL solver shares: set-up → touchdown → controller → ledger → SolveResult.
 
@@ -206,6 +217,41 @@ class CelSolver:
         n_half = max(1, int(round(half / self.scene.mesh.cell_size_m)))
         return half / n_half, n_half
 
+    def trapped_soil_m(self) -> float:
+        """The grouser height gh (m) when a track's grousers are modelled as the soil they trap
+        (``geometry.grousers=trapped_soil``, where the track's side is modelled: the longitudinal view
+        and 3D), else 0. The track is then its grousers' envelope, a flat base at their tips
+        (:meth:`dsmv.cel.body.TrackSideView.of`), and its landing starts once the grousers have cut in
+        (:meth:`start`). docs/decisions/0019 says why and what it was measured against."""
+        body = self.scene.geometry
+        if body.kind != "track" or getattr(body, "grousers", "cells") != "trapped_soil" or not self.models_track_side:
+            return 0.0
+        return body.grouser_height_m
+
+    @property
+    def models_track_side(self) -> bool:
+        """Whether a track's plates, grousers and sprockets are in the model (not its cross-section)."""
+        return self.longitudinal
+
+    def start(self) -> "Start":
+        """The body at the start, per track: the landing's, or a track whose grousers trap soil once
+        they have cut in: its base (the tips) gh below the mudline, the speed it gained falling gh
+        under its wet weight (the thin blades' own resistance neglected), and the trapped soil's
+        (buoyant) weight and mass carried with it."""
+        landing, gh = self.scene.landing, self.trapped_soil_m()
+        trapped_kg = self.scene.soil.density_kg_m3 * self.scene.geometry.width_m * self.scene.geometry.contact_length_m * gh
+        speed = landing.velocity_m_s
+        if landing.kind == "drop" and gh > 0:
+            speed = math.sqrt(speed**2 + 2.0 * landing.weight_per_track_n / landing.inertia_per_track_kg * gh)
+        return Start(landing.initial_depth_m + gh, speed, landing.inertia_per_track_kg + trapped_kg,
+                     landing.weight_per_track_n + trapped_kg * landing.gravity_m_s2, gh)
+
+    def mudline_m(self, h: float) -> float:
+        """The mudline's height above the body's base (m): the landing's initial depth rounded to a node
+        row of the uniform core (beyond it a cell the mudline cuts is partly filled), and a trapped-soil
+        track's grouser height exactly, the same on every mesh."""
+        return h * round(self.scene.landing.initial_depth_m / h) + self.trapped_soil_m()
+
     # ------------------------------------------------------------------ run
 
     def trackers(self, state: State, run_dir) -> tuple[list, C.Zigzag]:
@@ -237,7 +283,7 @@ class CelSolver:
             width = scene.geometry.width_m
             if self.cone or scene.soil.ks_pa_per_m > 0:
                 width = max(width, self.travel)
-            trackers += [C.Rest(state.par.body_weight == 0.0, cfg.economies.stop_at_rest),
+            trackers += [C.Rest(state.par.body_weight == 0.0, cfg.economies.stop_at_rest, self.start().sinkage_m),
                          C.BearingFailure(width, width == scene.geometry.width_m), C.TravelLimit(self.travel)]
         else:
             trackers.append(C.PushEnd(landing.displacement_m))
@@ -365,6 +411,7 @@ class CelSolver:
         mass_now = float(par.density * (state.cells.phi * state.mesh.vol).sum())
         mass_expected = state.mass0 + par.density * body[B_INFLOW]
         history = {k: np.asarray(v) for k, v in run.history.items()}
+        history["sinkage_m"] = history["sinkage_m"] + self.start().sinkage_m  # at a track's grouser tips
         cells = state.cells.phi.size
         metrics = {
             "mass_error": abs(mass_now - mass_expected) / state.mass0,
@@ -394,7 +441,7 @@ class CelSolver:
         metrics |= audit
         units |= {k: ("-" if k == "energy_error" else "J") for k in audit}
         if status in ("ok", "out_of_domain", "bearing_failure"):
-            metrics["max_sinkage_m"] = float(body[B_MAXDISP])
+            metrics["max_sinkage_m"] = float(body[B_MAXDISP]) + self.start().sinkage_m  # at a track's grouser tips
             units["max_sinkage_m"] = "m"
         grav = landing.gravity_m_s2
         if drop and status == "ok" and self.cone and grav > 0:  # Hansbo's factor implied by the penetration
@@ -452,12 +499,13 @@ class CelSolver:
     def touchdown(self, state: State) -> None:
         """A drop's touchdown: the body and the soil nodes it meets share momentum (the kinetic energy
         lost is the touchdown's); the tied nodes start with the body's velocity."""
-        landing, contact, par = self.scene.landing, state.contact, state.par
-        v0 = -landing.velocity_m_s
+        contact, par = state.contact, state.par
+        speed = self.start().velocity_m_s
+        v0 = -speed
         if par.drop:
             tied_mass = touchdown_mass(contact, state.nodes.mass)
             v0 = par.body_mass * v0 / (par.body_mass + tied_mass)
-            state.touchdown_loss = 0.5 * par.body_mass * landing.velocity_m_s**2 - 0.5 * (par.body_mass + tied_mass) * v0**2
+            state.touchdown_loss = 0.5 * par.body_mass * speed**2 - 0.5 * (par.body_mass + tied_mass) * v0**2
         state.body[B_VEL] = v0
         v, full, normal = state.nodes.v, contact.full, contact.normal
         up = v.shape[0] - 1
@@ -579,9 +627,7 @@ class Cel2DSolver(CelSolver):
         half = 0.5 * B
         h, n_half = self.core_cell_size(half)
         core_half_width = h * math.ceil((half + cfg.core_margin_widths * B) / h)
-        # a body wished in place at depth d0: the mudline lies d0 above the base (rounded to a
-        # node row of the uniform core; beyond it a cell the mudline cuts is partly filled)
-        self.mudline = h * round(scene.landing.initial_depth_m / h)
+        self.mudline = self.mudline_m(h)
         grid = build_grid(
             h=h,
             core_half_width=core_half_width,
@@ -645,13 +691,13 @@ class Cel2DSolver(CelSolver):
         faces = Faces(openings.aperture_x, openings.aperture_y, np.zeros((nx + 1, ny)), np.zeros((ny + 1, nx)))
         n_nodes = body_contact.n_nodes
         nodes = Nodes(np.zeros((2, n_nodes)), np.zeros((2, n_nodes)), np.zeros(n_nodes), np.zeros((2, n_nodes)))
-        scale = self.model_scale()
+        scale, start = self.model_scale(), self.start()
         drop = landing.kind == "drop"
         par = step_parameters(
             dt=cfg.cfl * self.h / elastic.wave_speed_m_s, density=rho, elastic=elastic, h=self.h, gravity=grav,
             su0=soil.su0_pa, ks=soil.ks_pa_per_m, hourglass=cfg.hourglass, bulk_linear=cfg.bulk_viscosity_linear,
             bulk_quadratic=cfg.bulk_viscosity_quadratic, stress_cutoff=cfg.stress_cutoff,
-            body_mass=landing.inertia_per_track_kg / scale, body_weight=landing.weight_per_track_n / scale,
+            body_mass=start.inertia_kg / scale, body_weight=start.weight_n / scale,
             push_velocity=landing.velocity_m_s, remap_courant=cfg.remap_courant,
             axisymmetric=self.axisym, advection_order=cfg.advection_order, drop=drop, inflow=True, remap=cfg.remap,
             law_active=self.law.active or not cfg.economies.skip_inactive_law, skip_void=cfg.economies.skip_void,
@@ -667,6 +713,6 @@ class Cel2DSolver(CelSolver):
                       self.law_kernel(par, len(initial_state)), scale,
                       float(rho * (phi * mesh.vol).sum()),
                       self.kernels.elastic_energy(phi, q, mesh.vol, par.shear, par.bulk),
-                      0.0, 0.5 * par.body_mass * landing.velocity_m_s**2 if drop else 0.0)
+                      0.0, 0.5 * par.body_mass * start.velocity_m_s**2 if drop else 0.0)
         self.touchdown(state)
         return state

@@ -82,6 +82,10 @@ class Cel3DSolver(CelSolver):
         """A strip: a slab one cell thick between two plane-strain planes."""
         return self.scene.geometry.kind == "strip"
 
+    @property
+    def models_track_side(self) -> bool:
+        return True
+
     def half_length_m(self) -> float:
         """Half the body's length along y (m): L/2, B/2 for a circle, unbounded for a strip; a track's
         flat run L/2 and a sprocket's radius beyond it."""
@@ -107,9 +111,7 @@ class Cel3DSolver(CelSolver):
         B = self.characteristic_width_m(travel)
         h, n_half = self.core_cell_size(0.5 * B)
         margin = cfg.core_margin_widths * B
-        # a body wished in place at depth d0: the mudline lies d0 above the base (rounded to a node
-        # layer of the uniform core, as in 2D)
-        self.mudline = h * round(scene.landing.initial_depth_m / h)
+        self.mudline = self.mudline_m(h)
         half_length = self.half_length_m() if not self.slab else 0.5 * B
         core = (h * math.ceil((0.5 * B + margin) / h), h * math.ceil((half_length + margin) / h))
         far = (max(cfg.domain_half_width_widths * B, core[0] + h),
@@ -191,14 +193,14 @@ class Cel3DSolver(CelSolver):
                       hourglass_factor(open_frac, cfg.hourglass_cells(scene.geometry.kind)))
         n_nodes = body_contact.n_nodes
         nodes = Nodes(np.zeros((3, n_nodes)), np.zeros((3, n_nodes)), np.zeros(n_nodes), np.zeros((3, n_nodes)))
-        scale = self.model_scale()
+        scale, start = self.model_scale(), self.start()
         drop = landing.kind == "drop"
         separation = cfg.contact_separation is True or (cfg.contact_separation == "auto" and drop)
         par = step_parameters(
             dt=cfg.cfl * self.h / elastic.wave_speed_m_s, density=rho, elastic=elastic, h=self.h, gravity=grav,
             su0=soil.su0_pa, ks=soil.ks_pa_per_m, hourglass=cfg.hourglass, bulk_linear=cfg.bulk_viscosity_linear,
             bulk_quadratic=cfg.bulk_viscosity_quadratic, stress_cutoff=cfg.stress_cutoff,
-            body_mass=landing.inertia_per_track_kg / scale, body_weight=landing.weight_per_track_n / scale,
+            body_mass=start.inertia_kg / scale, body_weight=start.weight_n / scale,
             push_velocity=landing.velocity_m_s, remap_courant=cfg.remap_courant, axisymmetric=False,
             advection_order=cfg.advection_order, drop=drop, inflow=True, remap=cfg.remap,
             law_active=self.law.active or not cfg.economies.skip_inactive_law, skip_void=cfg.economies.skip_void,
@@ -208,7 +210,7 @@ class Cel3DSolver(CelSolver):
         state = State(grid, mesh, cells, faces, nodes, body_contact.contact, inflow, par, np.zeros(N_BODY),
                       np.zeros(ledger.N_ENERGY), self.law_kernel(par, len(initial_law_state)), scale,
                       float(rho * (phi * vol).sum()), self.kernels.elastic_energy(phi, q, vol, par.shear, par.bulk),
-                      0.0, 0.5 * par.body_mass * landing.velocity_m_s**2 if drop else 0.0)
+                      0.0, 0.5 * par.body_mass * start.velocity_m_s**2 if drop else 0.0)
         self.touchdown(state)
         return state
 
