@@ -115,6 +115,7 @@ SWEEP_PLOTS = {
     "one_at_a_time": studies.one_at_a_time,
     "compare_analytic": studies.compare_analytic,
     "mesh_study": studies.mesh_study,
+    "section_factors": studies.section_factors,
     "bearing_curves": studies.bearing_curves,
 }
 

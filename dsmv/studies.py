@@ -12,6 +12,8 @@ logs both to the sweep's parent MLflow run. Nothing here runs a solver.
   (Einav–Randolph against Tresca in the CEL: softening and rate).
 - :func:`mesh_study` — Table 2 and Figure 6: resistance against depth for each core cell size,
   its relative error against the finest mesh, and wall times.
+- :func:`section_factors` — the 2D cross-section against the 3D track, the gap as a product of
+  factors, each measured on its own scene (``compare_2d_3d``).
 - :func:`bearing_curves` — the verification pushes (``verify_prandtl``, ``verify_tbar``): q/su
   against travel for each job, beside the exact factors and the embedded strip's bounds.
 """
@@ -174,6 +176,10 @@ def compare_analytic(sweep_dir: Path, path: Path) -> Path | None:
             z_d, z_dt = (sinkage(by_run.get(("analytic_dynamic", law))) for law in ("einav_randolph", "tresca"))
             row |= {"dynamic_m": z_d, "dynamic_tresca_m": z_dt, "dynamic_error": z_d / z_er - 1,
                     "dynamic_tresca_error": z_dt / z_t - 1}
+        if ("cel3d", "einav_randolph") in by_run:  # the track in 3D beside its cross-section
+            z_3, z_3t = (sinkage(by_run.get(("cel3d", law))) for law in ("einav_randolph", "tresca"))
+            row |= {"cel3d_einav_randolph_m": z_3, "cel3d_tresca_m": z_3t, "cel3d_over_cel2d": z_3 / z_er,
+                    "cel3d_over_cel2d_tresca": z_3t / z_t}
         rows.append(row)
     if not rows:
         return None
@@ -185,7 +191,8 @@ def compare_analytic(sweep_dir: Path, path: Path) -> Path | None:
     z_t = np.array([r["cel_tresca_m"] for r in rows])
     z_er = np.array([r["cel_einav_randolph_m"] for r in rows])
     z_d = np.array([r.get("dynamic_m", np.nan) for r in rows])
-    top = 1.15 * np.nanmax(np.concatenate([z_a, z_t, z_er, z_d]))
+    z_3 = np.array([r.get("cel3d_einav_randolph_m", np.nan) for r in rows])
+    top = 1.15 * np.nanmax(np.concatenate([z_a, z_t, z_er, z_d, z_3]))
     line = np.array([0, top])
     left.plot(line, line, "k-", lw=1, label="equal")
     left.fill_between(line, 0.85 * line, 1.15 * line, color="0.88", label="±15 %")
@@ -193,6 +200,8 @@ def compare_analytic(sweep_dir: Path, path: Path) -> Path | None:
     left.plot(z_a, z_t, "o", mfc="none", color="tab:gray", label="energy method, CEL Tresca")
     if np.isfinite(z_d).any():
         left.plot(z_d, z_er, "^", color="tab:red", label="fast model (analytic_dynamic), CEL Einav–Randolph")
+    if np.isfinite(z_3).any():
+        left.plot(z_a, z_3, "D", mfc="none", color="tab:green", label="energy method, CEL 3D track Einav–Randolph")
     for r in rows:
         left.annotate(str(r["case"]), (r["analytic_m"], r["cel_einav_randolph_m"]), fontsize=7,
                       xytext=(3, 3), textcoords="offset points")
@@ -215,6 +224,58 @@ def compare_analytic(sweep_dir: Path, path: Path) -> Path | None:
     right.set_ylabel("difference (%)")
     right.legend(fontsize=8)
     right.grid(alpha=0.3, axis="y")
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return Path(path)
+
+
+#: the scenes of ``compare_2d_3d`` in order, each told by its overrides, and what its factor on the
+#: scene before it measures
+SECTION_SCENES = (
+    ("cross-section (cel2d)", lambda v: v.get("solver") == "cel2d", ""),
+    ("flat plate B × L", lambda v: v.get("geometry") == "rectangular_plate", "the ends of a finite L"),
+    ("track, no grousers", lambda v: v.get("geometry.grouser_height_m") in ("0", "0.0"), "the sprocket arcs"),
+    ("track", lambda v: v.get("solver") == "cel3d" and "geometry.grouser_height_m" not in v, "the grousers"),
+)
+
+
+def section_factors(sweep_dir: Path, path: Path) -> Path | None:
+    """The 2D cross-section against the 3D track: each scene's max sinkage and its factor on the scene
+    before it (a flat plate's over the section: its finite length; the track without grousers over the
+    plate: the sprocket arcs; the track over that: its grousers); writes ``section_factors.csv``
+    (with the factors' product, the track over the section) and the PNG."""
+    jobs = sweep_jobs(sweep_dir)
+    found = [(name, why, next((job for job in jobs if test(job.values)), None)) for name, test, why in SECTION_SCENES]
+    if any(job is None for _, _, job in found):
+        return None
+    rows, before = [], None
+    for name, why, job in found:
+        sinkage = job.metric("max_sinkage_m") if job.ok else np.nan
+        rows.append({"scene": name, "status": job.result["status"], "max_sinkage_m": sinkage,
+                     "core_cell_size_m": job.metric("core_cell_size_m"), "cells": job.metric("cells"),
+                     "wall_s": job.metric("wall_s"), "factor": "" if before is None else sinkage / before,
+                     "measures": why})
+        before = sinkage
+    product = rows[-1]["max_sinkage_m"] / rows[0]["max_sinkage_m"]
+    rows.append({"scene": "product: track / cross-section", "status": "", "max_sinkage_m": "",
+                 "core_cell_size_m": "", "cells": "", "wall_s": "", "factor": product, "measures": "the whole gap"})
+    _write_csv(Path(path).with_suffix(".csv"), rows)
+
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(7.5, 4), constrained_layout=True)
+    scenes = rows[:-1]
+    index = np.arange(len(scenes))
+    ax.bar(index, [r["max_sinkage_m"] for r in scenes], 0.6, color=["tab:gray"] + ["tab:blue"] * (len(scenes) - 1))
+    for i, r in enumerate(scenes):
+        label = f"{r['max_sinkage_m']:.4f} m" + (f"\n×{r['factor']:.3f}: {r['measures']}" if r["factor"] != "" else "")
+        ax.annotate(label, (i, r["max_sinkage_m"]), ha="center", va="bottom", fontsize=8, xytext=(0, 2),
+                    textcoords="offset points")
+    ax.set_xticks(index, [r["scene"] for r in scenes], fontsize=8)
+    ax.set_ylabel("max sinkage (m)")
+    ax.set_ylim(0, 1.3 * np.nanmax([r["max_sinkage_m"] for r in scenes]))
+    ax.set_title(f"2D cross-section to 3D track: ×{product:.3f} (core cells {scenes[0]['core_cell_size_m']:.3g} m)",
+                 fontsize=9)
+    ax.grid(alpha=0.3, axis="y")
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return Path(path)

@@ -53,10 +53,13 @@ def test_trend_is_strict(values, sinkages, expected):
     assert studies.trend(values, sinkages) == expected
 
 
+@pytest.mark.parametrize("solver", ["cel2d", pytest.param("cel3d", marks=pytest.mark.slow)])
 @pytest.mark.parametrize("study", sorted(STUDY_DIRECTIONS))
-def test_parameter_studies_move_in_the_reference_directions_on_the_coarse_mesh(run_cli, tmp_path, study):
-    done = run_cli("dsmv", f"experiment={study}", "mesh=coarse", "tracking=disabled", "output.plots=false",
-                   timeout=900)
+def test_parameter_studies_move_in_the_reference_directions_on_the_coarse_mesh(run_cli, tmp_path, study, solver):
+    """Each study on the coarse mesh, the track's cross-section (cel2d) or the track in 3D (cel3d, its
+    grousers as trapped soil: 2–3 minutes a study on one core)."""
+    done = run_cli("dsmv", f"experiment={study}", f"solver={solver}", "mesh=coarse", "tracking=disabled",
+                   "output.plots=false", timeout=1800)
     assert done.returncode == 0, done.stderr[-2000:]
     sweep = _sweep_dir(tmp_path)
     rows = _read_csv(sweep / "one_at_a_time.csv")
@@ -90,6 +93,31 @@ def test_compare_analytic_pairs_cases_and_splits_the_gap(run_cli, tmp_path):
     for key in ("analytic_m", "cel_tresca_m", "cel_einav_randolph_m", "dynamic_m", "dynamic_tresca_m"):
         assert float(light[key]) < float(heavy[key])
     assert (sweep / "compare_analytic.png").exists()
+
+
+def test_section_factors_multiply_from_the_cross_section_to_the_track(tmp_path):
+    """Synthetic sweep of ``compare_2d_3d``: each scene's factor is its sinkage over the scene before it
+    (jobs in any order), and their product is the track's over the cross-section."""
+    sweep = tmp_path / "sweep"
+    scenes = [  # job order differs from the factors' order
+        (["solver=cel3d"], 0.13),
+        (["solver=cel2d"], 0.10),
+        (["solver=cel3d", "geometry.grouser_height_m=0"], 0.08),
+        (["geometry=rectangular_plate", "geometry.width_m=0.6"], 0.09),
+    ]
+    for job, (overrides, sinkage) in enumerate(scenes):
+        job_dir = sweep / str(job)
+        (job_dir / ".hydra").mkdir(parents=True)
+        (job_dir / ".hydra" / "overrides.yaml").write_text("".join(f"- {o}\n" for o in overrides))
+        (job_dir / "result.json").write_text('{"status": "ok", "message": "", "metrics": {"max_sinkage_m": %r, '
+                                             '"wall_s": 1.0, "cells": 10, "core_cell_size_m": 0.075}}' % sinkage)
+    assert studies.section_factors(sweep, sweep / "section_factors.png") is not None
+    rows = _read_csv(sweep / "section_factors.csv")
+    assert [r["scene"] for r in rows[:4]] == [name for name, _, _ in studies.SECTION_SCENES]
+    factors = [float(r["factor"]) for r in rows[1:4]]
+    assert factors == pytest.approx([0.9, 0.08 / 0.09, 0.13 / 0.08], rel=1e-12)
+    assert float(rows[4]["factor"]) == pytest.approx(np.prod(factors), rel=1e-12)
+    assert float(rows[4]["factor"]) == pytest.approx(1.3, rel=1e-12)
 
 
 def test_mesh_study_reports_errors_against_the_finest_mesh(tmp_path):
