@@ -197,7 +197,8 @@ def _contour_panel(fig, ax, view, values, label, cmap, title, window, arrows=Fal
 
 
 def plot_field_contours(frame_path: Path, path: Path, title: str, flow_frame_path: Path | None = None) -> list[Path]:
-    """Banded contours of su, ξ and the soil velocity around the body at one field frame.
+    """Banded contours of su, ξ, the shear strain rate and the soil velocity around the body at one
+    field frame.
 
     Like the reference study's Figures 3 and 10 (strength), 8 (accumulated plastic shear
     strain) and 12 (velocity). The half model is mirrored to show the whole section; only
@@ -241,14 +242,21 @@ def _plot_section(frame, flow: list, path: Path, title: str) -> Path:
     half_width, bottom, top = window
     # panels 8 in wide at the window's aspect, kept between 2.2 and 5 in high (inches, matplotlib's unit)
     panel_height = min(max(2.2, 3.5 * (top - bottom) / half_width), 5.0)
-    fig, axes = plt.subplots(3 + len(flow), 1, constrained_layout=True, figsize=(8, (3 + len(flow)) * panel_height + 1))
+    fig, axes = plt.subplots(4 + len(flow), 1, constrained_layout=True, figsize=(8, (4 + len(flow)) * panel_height + 1))
     view = _mirrored_view(frame, window)
     when = f"t = {frame.time_s:.4f} s, sinkage {frame.sinkage_m:.4f} m"
     _contour_panel(fig, axes[0], view, view["cells"]["su_pa"] / 1e3, "su (kPa)", "viridis",
                    f"undrained strength su, {when}", window)
     _contour_panel(fig, axes[1], view, view["cells"]["plastic_shear_strain"], "ξ (-)", "inferno",
                    f"accumulated plastic shear strain ξ, {when}", window)
-    for ax, one in zip(axes[2:], [frame, *flow]):
+    # the strain rate spans decades (the study's rate law reads its logarithm): log10, floored at 10⁻³ 1/s;
+    # drawn while the soil still flows (the flow frame's), as at rest only the ringing is left
+    moving = (flow or [frame])[0]
+    rate_view = _mirrored_view(moving, window)
+    rate = np.log10(np.maximum(rate_view["cells"]["shear_strain_rate_per_s"], 1e-3))
+    _contour_panel(fig, axes[2], rate_view, rate, "log10 γ̇ (1/s)", "magma",
+                   f"shear strain rate γ̇, t = {moving.time_s:.4f} s, sinkage {moving.sinkage_m:.4f} m", window)
+    for ax, one in zip(axes[3:], [frame, *flow]):
         view = _mirrored_view(one, window)
         _contour_panel(fig, ax, view, np.hypot(view["ux"], view["uy"]), "|v| (m/s)", "plasma",
                        f"soil velocity, t = {one.time_s:.4f} s, sinkage {one.sinkage_m:.4f} m", window, arrows=True)
