@@ -53,6 +53,7 @@ class Run:
     steps: int = 0
     force_scale: float = 1.0     # model force → force per track
     message: str = ""            # the ok run's message, set by the tracker that knows
+    start_sinkage_m: float = 0.0  # the sinkage the body starts with (a trapped-soil track's grouser height)
     history: dict = field(default_factory=lambda: {"time_s": [], "sinkage_m": [], "velocity_m_s": [], "force_n": []})
 
     @property
@@ -61,7 +62,11 @@ class Run:
 
     @property
     def sinkage_m(self) -> float:
-        return float(-self.body[B_OFFSET])
+        return self.start_sinkage_m - float(self.body[B_OFFSET])
+
+    @property
+    def max_sinkage_m(self) -> float:
+        return self.start_sinkage_m + float(self.body[B_MAXDISP])
 
     @property
     def force_n(self) -> float:
@@ -172,7 +177,7 @@ class History:
         self.velocity0_m_s = velocity0_m_s
 
     def start(self, run: Run) -> None:
-        for name, value in (("time_s", 0.0), ("sinkage_m", 0.0), ("velocity_m_s", self.velocity0_m_s),
+        for name, value in (("time_s", 0.0), ("sinkage_m", run.sinkage_m), ("velocity_m_s", self.velocity0_m_s),
                             ("force_n", 0.0)):
             run.history[name].append(value)
 
@@ -356,7 +361,6 @@ class Rest:
 
     weightless: bool
     stop_at_rest: bool
-    start_sinkage_m: float = 0.0  # where the body's sinkage starts (a trapped-soil track's grouser height)
     rest_time_s: Optional[float] = None
 
     def after_chunk(self, run: Run) -> Optional[Ending]:
@@ -364,7 +368,7 @@ class Rest:
             return Ending("ok", "the body neither moves nor weighs anything: it stays at rest")
         if run.code == AT_REST and self.rest_time_s is None:
             self.rest_time_s = run.time_s
-            run.message = f"came to rest at {run.body[B_MAXDISP] + self.start_sinkage_m:.4g} m after {self.rest_time_s:.4g} s"
+            run.message = f"came to rest at {run.max_sinkage_m:.4g} m after {self.rest_time_s:.4g} s"
         if self.rest_time_s is not None:
             if self.stop_at_rest or run.time_s >= 2.0 * self.rest_time_s:
                 return Ending("ok", run.message)

@@ -35,7 +35,7 @@ from dsmv.cel.config import Cel2DConfig, CelConfig, Economies  # noqa: F401  (th
 from dsmv.cel.contact import ContactRules, build_contact, touchdown_mass
 from dsmv.cel.kernels import DimensionKernels, for_dimension
 from dsmv.cel.layout import (
-    B_INFLOW, B_MAXDISP, B_TIME, B_VEL, N_BODY, NQ_BASE, CellRows, Cells, Faces, Inflow, Mesh, Nodes, Params,
+    B_INFLOW, B_TIME, B_VEL, N_BODY, NQ_BASE, CellRows, Cells, Faces, Inflow, Mesh, Nodes, Params,
     SoilLawKernel, split_cells,
 )
 from dsmv.cel.state import Elastic, geostatic_state, hourglass_factor, step_parameters
@@ -283,7 +283,7 @@ class CelSolver:
             width = scene.geometry.width_m
             if self.cone or scene.soil.ks_pa_per_m > 0:
                 width = max(width, self.travel)
-            trackers += [C.Rest(state.par.body_weight == 0.0, cfg.economies.stop_at_rest, self.start().sinkage_m),
+            trackers += [C.Rest(state.par.body_weight == 0.0, cfg.economies.stop_at_rest),
                          C.BearingFailure(width, width == scene.geometry.width_m), C.TravelLimit(self.travel)]
         else:
             trackers.append(C.PushEnd(landing.displacement_m))
@@ -392,7 +392,7 @@ class CelSolver:
                   f"about {cost['wall_s']:,.0f} s", file=sys.stderr)
         state = self.initial_state()
         trackers, zigzag = self.trackers(state, run_dir)
-        run = C.Run(state, state.body, state.energy, force_scale=state.scale)
+        run = C.Run(state, state.body, state.energy, force_scale=state.scale, start_sinkage_m=self.start().sinkage_m)
         controller = C.Controller(lambda n: self.advance(state, n), trackers, self.steps_per_sample(state),
                                   self.scene.solver.max_steps)
         ending, compile_s, wall_s = controller.run(run)
@@ -411,7 +411,6 @@ class CelSolver:
         mass_now = float(par.density * (state.cells.phi * state.mesh.vol).sum())
         mass_expected = state.mass0 + par.density * body[B_INFLOW]
         history = {k: np.asarray(v) for k, v in run.history.items()}
-        history["sinkage_m"] = history["sinkage_m"] + self.start().sinkage_m  # at a track's grouser tips
         cells = state.cells.phi.size
         metrics = {
             "mass_error": abs(mass_now - mass_expected) / state.mass0,
@@ -441,7 +440,7 @@ class CelSolver:
         metrics |= audit
         units |= {k: ("-" if k == "energy_error" else "J") for k in audit}
         if status in ("ok", "out_of_domain", "bearing_failure"):
-            metrics["max_sinkage_m"] = float(body[B_MAXDISP]) + self.start().sinkage_m  # at a track's grouser tips
+            metrics["max_sinkage_m"] = run.max_sinkage_m  # a track's at its grousers' tips
             units["max_sinkage_m"] = "m"
         grav = landing.gravity_m_s2
         if drop and status == "ok" and self.cone and grav > 0:  # Hansbo's factor implied by the penetration
