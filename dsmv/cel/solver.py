@@ -238,8 +238,8 @@ class CelSolver:
         they have cut in: its base (the tips) gh below the mudline, the speed it gained falling gh
         under its wet weight (the thin blades' own resistance neglected), and the trapped soil's
         (buoyant) weight and mass carried with it."""
-        landing, gh = self.scene.landing, self.trapped_soil_m()
-        trapped_kg = self.scene.soil.density_kg_m3 * self.scene.geometry.width_m * self.scene.geometry.contact_length_m * gh
+        landing, body, gh = self.scene.landing, self.scene.geometry, self.trapped_soil_m()
+        trapped_kg = self.scene.soil.density_kg_m3 * body.width_m * body.contact_length_m * gh if gh > 0 else 0.0
         speed = landing.velocity_m_s
         if landing.kind == "drop" and gh > 0:
             speed = math.sqrt(speed**2 + 2.0 * landing.weight_per_track_n / landing.inertia_per_track_kg * gh)
