@@ -306,8 +306,9 @@ def mesh_study(sweep_dir: Path, path: Path) -> Path | None:
         return None
     curves.sort(key=lambda c: c[0])
     reference_depth, reference_force = curves[0][2], curves[0][3]
-    reach = min(c[2].max() for c in curves)
-    depths = np.linspace(0.1 * reach, reach, 50)
+    # the depths every run went through, less the first tenth (a trapped-soil track starts below the mudline)
+    start, reach = max(c[2][0] for c in curves), min(c[2].max() for c in curves)
+    depths = np.linspace(start + 0.1 * (reach - start), reach, 50)
     reference = np.interp(depths, *_absorbed_energy(reference_depth, reference_force))
     finest_sinkage = curves[0][1].metric("max_sinkage_m")
     rows, errors = [], []
