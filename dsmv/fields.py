@@ -299,16 +299,21 @@ PENETRATION_FRACTION = 0.5
 
 
 def penetration_frame(run_dir: Path, history: dict[str, np.ndarray]) -> Path | None:
-    """The frame nearest the time the body first passed half its deepest sinkage (None before any sinkage).
+    """The frame nearest the time the body first passed half its travel to its deepest sinkage (None
+    before any travel).
 
     The soil's flow shows there; at the deepest point a landing body is at rest (the study's
-    Figure 3 shows the "penetration process" between the initial and the final state).
+    Figure 3 shows the "penetration process" between the initial and the final state). The travel
+    starts where the body does (a trapped-soil track's grousers have cut in).
     """
     sinkage, time_s = np.asarray(history["sinkage_m"]), np.asarray(history["time_s"])
     finite = np.isfinite(sinkage)
-    if not finite.any() or np.nanmax(sinkage) <= 0.0:
+    if not finite.any():
         return None
-    t_mid = time_s[np.argmax(finite & (sinkage >= PENETRATION_FRACTION * np.nanmax(sinkage)))]
+    start, deepest = sinkage[finite][0], np.nanmax(sinkage)
+    if deepest <= start:
+        return None
+    t_mid = time_s[np.argmax(finite & (sinkage >= start + PENETRATION_FRACTION * (deepest - start)))]
     frames = series(run_dir)
     return min(frames, key=lambda item: abs(item[0] - t_mid))[1]
 
