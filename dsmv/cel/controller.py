@@ -177,7 +177,7 @@ class History:
         self.velocity0_m_s = velocity0_m_s
 
     def start(self, run: Run) -> None:
-        for name, value in (("time_s", 0.0), ("sinkage_m", run.sinkage_m), ("velocity_m_s", self.velocity0_m_s),
+        for name, value in (("time_s", 0.0), ("sinkage_m", run.start_sinkage_m), ("velocity_m_s", self.velocity0_m_s),
                             ("force_n", 0.0)):
             run.history[name].append(value)
 
