@@ -298,3 +298,25 @@ def test_the_track_lands_in_3d_and_its_fields_open(compose_cfg, tmp_path):
     assert block.type == "hexahedron" and set(last.cell_data) == CELL_FIELDS_3D
     body = last.cell_data["body"][0] == 1.0
     assert body.any() and (last.cell_data["volume_fraction"][0][body] == 0.0).all()
+
+
+def test_a_track_s_shape_carries_a_pose():
+    """The body's description is not vertical-only: a track pitched nose down by 5° about its x axis
+    reaches below its upright base ahead (y > 0) by L/2·sin 5° at the end of its run, and not behind;
+    upright, the pose changes nothing."""
+    from dsmv.cel.body import Pose, TrackBody, TrackSideView, inside_nodes
+    from dsmv.cel.grid import SolidGrid
+
+    h, L = 0.05, 2.0
+    side = TrackSideView(half_length=L / 2, sprocket_radius=0.3, grouser=0.0, plate_pitch=0.15)
+    grid = SolidGrid(np.arange(-0.5, 0.5 + 1e-9, h), np.arange(-1.6, 1.6 + 1e-9, h), np.arange(-0.3, 0.8 + 1e-9, h), h)
+    upright = inside_nodes(TrackBody(0.3, side), grid)
+    assert np.array_equal(upright, inside_nodes(TrackBody(0.3, side, Pose()), grid))
+    pitched = inside_nodes(TrackBody(0.3, side, Pose.pitched(5.0)), grid)
+    z = grid.z[None, None, :]
+    below = pitched & (z < -1e-9)
+    assert not (upright & (z < -1e-9)).any() and below.any()
+    y_below = grid.y[np.nonzero(below.any(axis=(0, 2)))[0]]
+    assert y_below.min() > 0  # only the nose, ahead, goes below the upright base
+    deepest = -grid.z[np.nonzero(below.any(axis=(0, 1)))[0]].min()
+    assert deepest == pytest.approx(L / 2 * math.sin(math.radians(5.0)), abs=h)

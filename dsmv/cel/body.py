@@ -130,21 +130,60 @@ class Disc:
 
 
 @dataclass(frozen=True)
+class Pose:
+    """Where a 3D body stands in the grid: the grid point its own origin (the middle of its base) sits
+    on (m), and the rotation from its axes (x across, y along, z up) to the grid's. Upright
+    (:data:`UPRIGHT`) is no rotation; :meth:`pitched` tips the body about its x axis (nose down for a
+    positive pitch) and then rolls it about its y axis. A landing moves the body vertically; the
+    pose is how its shape is drawn."""
+
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rotation: tuple[tuple[float, float, float], ...] = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+
+    @classmethod
+    def pitched(cls, pitch_deg: float, roll_deg: float = 0.0, origin=(0.0, 0.0, 0.0)) -> "Pose":
+        p, r = math.radians(pitch_deg), math.radians(roll_deg)
+        pitch = np.array([[1.0, 0.0, 0.0], [0.0, math.cos(p), math.sin(p)], [0.0, -math.sin(p), math.cos(p)]])
+        roll = np.array([[math.cos(r), 0.0, math.sin(r)], [0.0, 1.0, 0.0], [-math.sin(r), 0.0, math.cos(r)]])
+        return cls(tuple(origin), tuple(map(tuple, roll @ pitch)))
+
+    @property
+    def upright(self) -> bool:
+        return self == UPRIGHT
+
+    def to_body(self, x, y, z):
+        """Grid coordinates (arrays that broadcast) in the body's axes: Rᵀ·(p − origin)."""
+        if self.upright:
+            return x, y, z
+        d = (x - self.origin[0], y - self.origin[1], z - self.origin[2])
+        R = self.rotation
+        return tuple(R[0][a] * d[0] + R[1][a] * d[1] + R[2][a] * d[2] for a in range(3))
+
+
+UPRIGHT = Pose()
+
+
+@dataclass(frozen=True)
 class TrackBody:
     """The track in 3D: its width B across x (|x| ≤ B/2); along y and up, the side view
     (:class:`TrackSideView`): the flat run of plates with a grouser at every pitch, the sprocket
-    arcs at its ends, the vehicle above. The arcs are a staircase of cells, as a circle's."""
+    arcs at its ends, the vehicle above. The arcs are a staircase of cells, as a circle's. Its
+    ``pose`` places it in the grid (upright: its base on z = 0, as the quarter model needs)."""
 
     half_width: float
     side: TrackSideView
+    pose: Pose = UPRIGHT
 
     def inside(self, x, y, z):
+        x, y, z = self.pose.to_body(x, y, z)
         return (np.abs(x) <= self.half_width * (1 + ON_BOUNDARY)) & self.side.inside(y, z)
 
     def extra_solid(self, grid, solid: np.ndarray) -> None:
-        """The grousers, across the whole width."""
+        """The grousers, across the whole width (drawn as cells on an upright track only)."""
         if self.side.grouser <= 0:
             return
+        if not self.pose.upright:
+            raise NotImplementedError("grousers as cells on a pitched or rolled track: use geometry.grousers=trapped_soil")
         columns, rows = self.side.grouser_cells(grid.y, grid.z)
         across = np.abs(0.5 * (grid.x[:-1] + grid.x[1:])) <= self.half_width
         solid[np.ix_(np.nonzero(across)[0], np.nonzero(columns)[0], np.nonzero(rows)[0])] = True
