@@ -61,8 +61,13 @@ class Run:
         return float(self.body[B_TIME])
 
     @property
+    def travel_m(self) -> float:
+        """How far the body has gone since the start (m, down +)."""
+        return -float(self.body[B_OFFSET])
+
+    @property
     def sinkage_m(self) -> float:
-        return self.start_sinkage_m - float(self.body[B_OFFSET])
+        return self.start_sinkage_m + self.travel_m
 
     @property
     def max_sinkage_m(self) -> float:
@@ -403,7 +408,7 @@ class PushEnd:
     displacement: float
 
     def after_chunk(self, run: Run) -> Optional[Ending]:
-        if run.sinkage_m >= self.displacement - 1e-12:
+        if run.travel_m >= self.displacement - 1e-12:
             return Ending("ok", f"pushed to {run.sinkage_m:.4g} m")
         return None
 
@@ -415,7 +420,7 @@ class TravelLimit:
     travel: float
 
     def after_chunk(self, run: Run) -> Optional[Ending]:
-        if run.sinkage_m > self.travel:
+        if run.travel_m > self.travel:
             return Ending("out_of_domain", f"the body passed the travel the domain was sized for ({self.travel:.3g} m); "
                                            f"raise solver.initial_travel_m")
         return None
