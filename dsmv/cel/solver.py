@@ -224,7 +224,7 @@ class CelSolver:
         (:meth:`dsmv.cel.body.TrackSideView.of`), and its landing starts once the grousers have cut in
         (:meth:`start`). docs/decisions/0019 says why and what it was measured against."""
         body = self.scene.geometry
-        if body.kind != "track" or getattr(body, "grousers", "cells") != "trapped_soil" or not self.models_track_side:
+        if body.kind != "track" or body.grousers != "trapped_soil" or not self.models_track_side:
             return 0.0
         return body.grouser_height_m
 
