@@ -1,20 +1,32 @@
-"""Command-line entry points: thin Hydra mains and plain tools."""
+"""Command-line entry points: thin Hydra mains and plain tools.
+
+Hydra and the config tree are imported when a command runs, not with this module: ``dsmv`` starts
+its MLflow writer first, so that MLflow's import overlaps all of the command's own work.
+"""
 
 from __future__ import annotations
 
 import argparse
 import sys
 from pathlib import Path
-
-import hydra
-from omegaconf import DictConfig
+from typing import TYPE_CHECKING
 
 from dsmv import registry
-from dsmv.command_line import CONFIG_DIR, check_command_line
+
+if TYPE_CHECKING:
+    from omegaconf import DictConfig
 
 
-@hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="config")
-def _simulate_app(cfg: DictConfig) -> float:
+def _hydra_main(task, config_name: str):
+    """``task`` as a Hydra main over dsmv's config tree."""
+    import hydra
+
+    from dsmv.command_line import CONFIG_DIR
+
+    return hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name=config_name)(task)
+
+
+def _simulate_job(cfg: DictConfig) -> float:
     """One job; returns its objective (dsmv.objective), the number an optimising sweeper minimises."""
     from omegaconf import OmegaConf
 
@@ -38,14 +50,18 @@ def simulate() -> None:
     # MLflow's messages go to the job's log (dsmv.joblog), not to a console handler of MLflow's own
     os.environ.setdefault("MLFLOW_CONFIGURE_LOGGING", "false")
     args = sys.argv[1:]
+    if not set(args) & INFO_FLAGS and "tracking=disabled" not in args:
+        from dsmv.run_writer import writer
+
+        # first of all: MLflow's import (2-3 s) runs on the other core while the command line is
+        # checked, Hydra composes and the job solves; a command line refused below closes it unused
+        writer()
+    from dsmv.command_line import check_command_line
+
     registry.register_plugin_configs()
     try:
         check_command_line(args, "dsmv", "config", scene=True)
-        if not set(args) & INFO_FLAGS and "tracking=disabled" not in args:
-            from dsmv.run_writer import writer
-
-            writer()  # MLflow is imported on the other core while Hydra composes and the job solves
-        _simulate_app()
+        _hydra_main(_simulate_job, "config")()
     except KeyboardInterrupt as exc:  # before a job started, or a sweep aborted by a second signal
         from dsmv import tracking
         from dsmv.results import EXIT_CODES
@@ -56,8 +72,7 @@ def simulate() -> None:
         sys.exit(EXIT_CODES["interrupted"])
 
 
-@hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="train")
-def _train_app(cfg: DictConfig) -> None:
+def _train_job(cfg: DictConfig) -> None:
     from dsmv.surrogate.train import main
 
     main(cfg)
@@ -66,8 +81,10 @@ def _train_app(cfg: DictConfig) -> None:
 def train() -> None:
     """``dsmv-train``: train and evaluate a surrogate on a study's tracked runs."""
     registry.register_plugin_configs()
+    from dsmv.command_line import check_command_line
+
     check_command_line(sys.argv[1:], "dsmv-train", "train")
-    _train_app()
+    _hydra_main(_train_job, "train")()
 
 
 def list_plugins(argv: list[str] | None = None) -> None:
