@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}  # never 'nnan'/'ninf': the guards need NaN
 JIT = dict(cache=True, error_model="numpy", fastmath=FAST)
@@ -21,6 +21,9 @@ INLINE = dict(JIT, inline="always")
 #: the 3D per-cell kernels' drivers: parallel over slabs of cells, in an order that does not depend on
 #: the number of threads (:mod:`dsmv.cel.kernels.hexahedra`)
 PARALLEL = dict(JIT, parallel=True)
+#: values per block of the parallel loops over flat arrays (node stages, reductions): a fixed size, so
+#: that their partial results combine in the same order on any number of threads
+BLOCK = 8192
 
 
 @njit(**JIT)
@@ -162,10 +165,16 @@ def spread_order(n):
     return np.argsort(key)
 
 
-@njit(**JIT)
+@njit(**PARALLEL)
 def all_finite(values):
-    """Whether every value of a contiguous array is finite (read flat, without a temporary)."""
-    for x in values.ravel():
-        if not math.isfinite(x):
-            return False
-    return True
+    """Whether every value of a contiguous array is finite (read flat in blocks, without a temporary)."""
+    flat = values.ravel()
+    n = flat.size
+    n_blocks = (n + BLOCK - 1) // BLOCK
+    finite = np.ones(n_blocks, dtype=np.bool_)
+    for b in prange(n_blocks):
+        for k in range(b * BLOCK, min(n, (b + 1) * BLOCK)):
+            if not math.isfinite(flat[k]):
+                finite[b] = False
+                break
+    return finite.all()

@@ -23,11 +23,13 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from dsmv.cel.kernels.common import INLINE, JIT, PARALLEL, ordered_sums
+from dsmv.cel.kernels.common import BLOCK, INLINE, JIT, PARALLEL, ordered_sums
 
 #: a cell the body cuts lends its nodes at least the mass of this fill of the whole cell: its open
 #: faces are as stiff as a full cell's, and the explicit step stays stable (see nodal_mass)
 CUT_MASS_FILL = 0.5
+#: nodes per block of the parallel node stages
+NODE_BLOCK = BLOCK
 
 
 @njit(**JIT)
@@ -56,30 +58,53 @@ def nodal_mass(mesh, cells, density, mass):
                 mass[np.uint64(corner[c, k])] += m
 
 
-@njit(**JIT)
+@njit(**INLINE)
+def squared_speed(v, n):
+    """|v|² of node n."""
+    speed_sq = 0.0
+    for a in range(v.shape[0]):
+        speed_sq += v[a, n] * v[a, n]
+    return speed_sq
+
+
+@njit(**PARALLEL)
 def kinetic_energy(mass, v):
-    """½·Σ m·|v|² over the nodes (J per unit thickness or per radian in 2D), without temporaries."""
+    """½·Σ m·|v|² over the nodes (J per unit thickness or per radian in 2D), without temporaries; in
+    parallel over blocks of :data:`NODE_BLOCK` nodes, the blocks' sums added in block order."""
+    n = v.shape[1]
+    n_blocks = (n + NODE_BLOCK - 1) // NODE_BLOCK
+    parts = np.zeros(n_blocks)
+    for b in prange(n_blocks):
+        total = 0.0
+        for k in range(b * NODE_BLOCK, min(n, (b + 1) * NODE_BLOCK)):
+            total += mass[k] * squared_speed(v, k)
+        parts[b] = total
     total = 0.0
-    for n in range(v.shape[1]):
-        speed_sq = 0.0
-        for a in range(v.shape[0]):
-            speed_sq += v[a, n] * v[a, n]
-        total += mass[n] * speed_sq
+    for b in range(n_blocks):
+        total += parts[b]
     return 0.5 * total
 
 
-@njit(**JIT)
+@njit(**PARALLEL)
 def largest_speed(v):
-    """The largest node speed |v| (m/s)."""
-    largest = 0.0
-    for n in range(v.shape[1]):
-        speed_sq = 0.0
-        for a in range(v.shape[0]):
-            speed_sq += v[a, n] * v[a, n]
-        if math.isnan(speed_sq):  # a NaN wins, as in NumPy's max: the guards that read this then see it
+    """The largest node speed |v| (m/s), NaN if any is (as NumPy's max: the guards that read it then
+    see it); in parallel over blocks of :data:`NODE_BLOCK` nodes."""
+    n = v.shape[1]
+    n_blocks = (n + NODE_BLOCK - 1) // NODE_BLOCK
+    largest = np.zeros(n_blocks)
+    for b in prange(n_blocks):
+        block_largest = 0.0
+        for k in range(b * NODE_BLOCK, min(n, (b + 1) * NODE_BLOCK)):
+            speed_sq = squared_speed(v, k)
+            if math.isnan(speed_sq):
+                block_largest = math.nan
+                break
+            block_largest = max(block_largest, speed_sq)
+        largest[b] = block_largest
+    for b in range(n_blocks):
+        if math.isnan(largest[b]):
             return math.nan
-        largest = max(largest, speed_sq)
-    return math.sqrt(largest)
+    return math.sqrt(largest.max()) if n_blocks > 0 else 0.0
 
 
 @njit(**INLINE)
@@ -111,11 +136,6 @@ def update_velocities(nodes, gravity, dt, mass_floor):
     Returns the soil's vertical momentum Σ m·v_up before and after (kg·m/s per unit thickness or
     per radian), which the audit of gravity's work needs."""
     return update_velocity_range(nodes.v, nodes.f, nodes.mass, gravity, dt, mass_floor, 0, nodes.v.shape[1])
-
-
-#: nodes per block of the parallel node stages: a fixed size, so that their sums run in the same
-#: order on any number of threads
-NODE_BLOCK = 8192
 
 
 @njit(**PARALLEL)
