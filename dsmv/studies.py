@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -233,48 +234,76 @@ def compare_analytic(sweep_dir: Path, path: Path) -> Path | None:
 #: scene before it measures
 SECTION_SCENES = (
     ("cross-section (cel2d)", lambda v: v.get("solver") == "cel2d", ""),
+    ("cross-section as a 3D slab", lambda v: v.get("geometry") == "strip", "the 3D solver on the same section"),
     ("flat plate B × L", lambda v: v.get("geometry") == "rectangular_plate", "the ends of a finite L"),
     ("track, no grousers", lambda v: v.get("geometry.grouser_height_m") in ("0", "0.0"), "the sprocket arcs"),
-    ("track", lambda v: v.get("solver") == "cel3d" and "geometry.grouser_height_m" not in v, "the grousers"),
+    ("track", lambda v: v.get("solver") == "cel3d" and "geometry" not in v and "geometry.grouser_height_m" not in v,
+     "the grousers"),
 )
+
+
+def _answer(job: Job) -> tuple[float, float]:
+    """A job's max sinkage and its mesh error (m): the extrapolated answer when the job estimated it
+    (``solver.error_estimate``), else its own mesh's with no error known (NaN)."""
+    if not job.ok:
+        return np.nan, np.nan
+    extrapolated = job.metric("max_sinkage_extrapolated_m")
+    if np.isfinite(extrapolated):
+        return extrapolated, job.metric("max_sinkage_error_m")
+    return job.metric("max_sinkage_m"), np.nan
+
+
+def _ratio(top: tuple[float, float], bottom: tuple[float, float]) -> tuple[float, float]:
+    """top / bottom and its error, the two mesh errors taken as independent."""
+    ratio = top[0] / bottom[0]
+    return ratio, abs(ratio) * math.hypot(top[1] / top[0], bottom[1] / bottom[0])
 
 
 def section_factors(sweep_dir: Path, path: Path) -> Path | None:
     """The 2D cross-section against the 3D track: each scene's max sinkage and its factor on the scene
-    before it (a flat plate's over the section: its finite length; the track without grousers over the
-    plate: the sprocket arcs; the track over that: its grousers); writes ``section_factors.csv``
-    (with the factors' product, the track over the section) and the PNG."""
+    before it (the section as a 3D slab over the section: the 3D solver itself; a flat plate over the
+    slab: its finite length; the track without grousers over the plate: the sprocket arcs; the track
+    over that: its grousers); writes ``section_factors.csv`` (with the factors' product, the track over
+    the section) and the PNG. With ``solver.error_estimate`` every sinkage is the extrapolated answer
+    and every factor carries the error of its two answers (m)."""
     jobs = sweep_jobs(sweep_dir)
     found = [(name, why, next((job for job in jobs if test(job.values)), None)) for name, test, why in SECTION_SCENES]
     if any(job is None for _, _, job in found):
         return None
-    rows, before = [], None
+    rows, answers = [], []
     for name, why, job in found:
-        sinkage = job.metric("max_sinkage_m") if job.ok else np.nan
-        rows.append({"scene": name, "status": job.result["status"], "max_sinkage_m": sinkage,
+        answer = _answer(job)
+        factor = _ratio(answer, answers[-1]) if answers else ("", "")
+        answers.append(answer)
+        rows.append({"scene": name, "status": job.result["status"], "max_sinkage_m": answer[0],
+                     "mesh_error_m": answer[1], "finest_mesh_sinkage_m": job.metric("max_sinkage_m"),
                      "core_cell_size_m": job.metric("core_cell_size_m"), "cells": job.metric("cells"),
-                     "wall_s": job.metric("wall_s"), "factor": "" if before is None else sinkage / before,
-                     "measures": why})
-        before = sinkage
-    product = rows[-1]["max_sinkage_m"] / rows[0]["max_sinkage_m"]
-    rows.append({"scene": "product: track / cross-section", "status": "", "max_sinkage_m": "",
-                 "core_cell_size_m": "", "cells": "", "wall_s": "", "factor": product, "measures": "the whole gap"})
+                     "wall_s": job.metric("wall_s"), "factor": factor[0], "factor_error": factor[1], "measures": why})
+    # the factors' product is the track over the section: only the two ends' errors remain
+    product, product_error = _ratio(answers[-1], answers[0])
+    rows.append({"scene": "product: track / cross-section", "status": "", "max_sinkage_m": "", "mesh_error_m": "",
+                 "finest_mesh_sinkage_m": "", "core_cell_size_m": "", "cells": "", "wall_s": "", "factor": product,
+                 "factor_error": product_error, "measures": "the whole gap"})
     _write_csv(Path(path).with_suffix(".csv"), rows)
 
     plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(7.5, 4), constrained_layout=True)
+    fig, ax = plt.subplots(figsize=(8.5, 4), constrained_layout=True)
     scenes = rows[:-1]
     index = np.arange(len(scenes))
-    ax.bar(index, [r["max_sinkage_m"] for r in scenes], 0.6, color=["tab:gray"] + ["tab:blue"] * (len(scenes) - 1))
+    values = [r["max_sinkage_m"] for r in scenes]
+    errors = [r["mesh_error_m"] if np.isfinite(r["mesh_error_m"]) else 0.0 for r in scenes]
+    ax.bar(index, values, 0.6, yerr=errors, capsize=3, color=["tab:gray"] + ["tab:blue"] * (len(scenes) - 1))
     for i, r in enumerate(scenes):
         label = f"{r['max_sinkage_m']:.4f} m" + (f"\n×{r['factor']:.3f}: {r['measures']}" if r["factor"] != "" else "")
-        ax.annotate(label, (i, r["max_sinkage_m"]), ha="center", va="bottom", fontsize=8, xytext=(0, 2),
+        ax.annotate(label, (i, r["max_sinkage_m"] + errors[i]), ha="center", va="bottom", fontsize=7, xytext=(0, 2),
                     textcoords="offset points")
-    ax.set_xticks(index, [r["scene"] for r in scenes], fontsize=8)
-    ax.set_ylabel("max sinkage (m)")
-    ax.set_ylim(0, 1.3 * np.nanmax([r["max_sinkage_m"] for r in scenes]))
-    ax.set_title(f"2D cross-section to 3D track: ×{product:.3f} (core cells {scenes[0]['core_cell_size_m']:.3g} m)",
-                 fontsize=9)
+    ax.set_xticks(index, [r["scene"] for r in scenes], fontsize=7)
+    extrapolated = all(np.isfinite(errors_m) for errors_m in (r["mesh_error_m"] for r in scenes))
+    ax.set_ylabel("max sinkage, extrapolated ± mesh error (m)" if extrapolated else "max sinkage (m)")
+    ax.set_ylim(0, 1.3 * np.nanmax(values))
+    ax.set_title(f"2D cross-section to 3D track: ×{product:.3f}"
+                 + (f" ± {product_error:.3f}" if np.isfinite(product_error) else "")
+                 + f" (finest core cells {scenes[0]['core_cell_size_m']:.3g} m)", fontsize=9)
     ax.grid(alpha=0.3, axis="y")
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)

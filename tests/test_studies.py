@@ -9,6 +9,7 @@ velocity.
 from __future__ import annotations
 
 import csv
+import json
 from pathlib import Path
 
 import numpy as np
@@ -95,29 +96,56 @@ def test_compare_analytic_pairs_cases_and_splits_the_gap(run_cli, tmp_path):
     assert (sweep / "compare_analytic.png").exists()
 
 
-def test_section_factors_multiply_from_the_cross_section_to_the_track(tmp_path):
-    """Synthetic sweep of ``compare_2d_3d``: each scene's factor is its sinkage over the scene before it
-    (jobs in any order), and their product is the track's over the cross-section."""
+def _section_sweep(tmp_path, scenes) -> Path:
+    """A synthetic ``compare_2d_3d`` sweep: (overrides, metrics) per job."""
     sweep = tmp_path / "sweep"
-    scenes = [  # job order differs from the factors' order
-        (["solver=cel3d"], 0.13),
-        (["solver=cel2d"], 0.10),
-        (["solver=cel3d", "geometry.grouser_height_m=0"], 0.08),
-        (["geometry=rectangular_plate", "geometry.width_m=0.6"], 0.09),
-    ]
-    for job, (overrides, sinkage) in enumerate(scenes):
+    for job, (overrides, metrics) in enumerate(scenes):
         job_dir = sweep / str(job)
         (job_dir / ".hydra").mkdir(parents=True)
         (job_dir / ".hydra" / "overrides.yaml").write_text("".join(f"- {o}\n" for o in overrides))
-        (job_dir / "result.json").write_text('{"status": "ok", "message": "", "metrics": {"max_sinkage_m": %r, '
-                                             '"wall_s": 1.0, "cells": 10, "core_cell_size_m": 0.075}}' % sinkage)
+        metrics = {"wall_s": 1.0, "cells": 10, "core_cell_size_m": 0.075, **metrics}
+        (job_dir / "result.json").write_text(json.dumps({"status": "ok", "message": "", "metrics": metrics}))
+    return sweep
+
+
+#: compare_2d_3d's scenes, in another order than the factors'
+SECTION_OVERRIDES = (["solver=cel3d"], ["solver=cel2d"], ["solver=cel3d", "geometry.grouser_height_m=0"],
+                     ["solver=cel3d", "geometry=strip", "geometry.width_m=0.6"],
+                     ["geometry=rectangular_plate", "geometry.width_m=0.6"])
+
+
+def test_section_factors_multiply_from_the_cross_section_to_the_track(tmp_path):
+    """Each scene's factor is its sinkage over the scene before it (jobs in any order), and their product
+    is the track's over the cross-section."""
+    sinkages = (0.13, 0.10, 0.08, 0.095, 0.09)
+    sweep = _section_sweep(tmp_path, [(o, {"max_sinkage_m": z}) for o, z in zip(SECTION_OVERRIDES, sinkages)])
     assert studies.section_factors(sweep, sweep / "section_factors.png") is not None
     rows = _read_csv(sweep / "section_factors.csv")
-    assert [r["scene"] for r in rows[:4]] == [name for name, _, _ in studies.SECTION_SCENES]
-    factors = [float(r["factor"]) for r in rows[1:4]]
-    assert factors == pytest.approx([0.9, 0.08 / 0.09, 0.13 / 0.08], rel=1e-12)
-    assert float(rows[4]["factor"]) == pytest.approx(np.prod(factors), rel=1e-12)
-    assert float(rows[4]["factor"]) == pytest.approx(1.3, rel=1e-12)
+    assert [r["scene"] for r in rows[:5]] == [name for name, _, _ in studies.SECTION_SCENES]
+    factors = [float(r["factor"]) for r in rows[1:5]]
+    assert factors == pytest.approx([0.95, 0.09 / 0.095, 0.08 / 0.09, 0.13 / 0.08], rel=1e-12)
+    assert float(rows[5]["factor"]) == pytest.approx(np.prod(factors), rel=1e-12)
+    assert float(rows[5]["factor"]) == pytest.approx(1.3, rel=1e-12)
+    assert all(r["factor_error"] == "nan" for r in rows[1:6])  # one mesh each: no error known
+
+
+def test_section_factors_use_the_extrapolated_answers_and_their_errors(tmp_path):
+    """With solver.error_estimate each factor is a ratio of extrapolated answers, its error the two
+    relative errors added in quadrature; the product keeps only the two ends' errors."""
+    answers = ((0.12, 0.001), (0.06, 0.0012), (0.058, 0.0005), (0.0645, 0.0011), (0.063, 0.002))
+    sweep = _section_sweep(tmp_path, [(o, {"max_sinkage_m": z + 0.01, "max_sinkage_extrapolated_m": z,
+                                           "max_sinkage_error_m": e})
+                                      for o, (z, e) in zip(SECTION_OVERRIDES, answers)])
+    studies.section_factors(sweep, sweep / "section_factors.png")
+    rows = _read_csv(sweep / "section_factors.csv")
+    section, bare, track = answers[1], answers[2], answers[0]
+    assert float(rows[0]["max_sinkage_m"]) == section[0] and float(rows[0]["finest_mesh_sinkage_m"]) == 0.06 + 0.01
+    grousers = track[0] / bare[0]
+    assert float(rows[4]["factor"]) == pytest.approx(grousers, rel=1e-12)
+    assert float(rows[4]["factor_error"]) == pytest.approx(grousers * np.hypot(0.001 / 0.12, 0.0005 / 0.058),
+                                                           rel=1e-12)
+    assert float(rows[5]["factor"]) == pytest.approx(2.0, rel=1e-12)
+    assert float(rows[5]["factor_error"]) == pytest.approx(2.0 * np.hypot(0.001 / 0.12, 0.0012 / 0.06), rel=1e-12)
 
 
 def test_mesh_study_reports_errors_against_the_finest_mesh(tmp_path):
