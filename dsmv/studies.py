@@ -234,7 +234,7 @@ def compare_analytic(sweep_dir: Path, path: Path) -> Path | None:
 #: scene before it measures
 SECTION_SCENES = (
     ("cross-section (cel2d)", lambda v: v.get("solver") == "cel2d", ""),
-    ("cross-section as a 3D slab", lambda v: v.get("geometry") == "strip", "the 3D solver on the same section"),
+    ("cross-section as a 3D slab", lambda v: v.get("geometry") == "strip", "the 3D solver itself"),
     ("flat plate B × L", lambda v: v.get("geometry") == "rectangular_plate", "the ends of a finite L"),
     ("track, no grousers", lambda v: v.get("geometry.grouser_height_m") in ("0", "0.0"), "the sprocket arcs"),
     ("track", lambda v: v.get("solver") == "cel3d" and "geometry" not in v and "geometry.grouser_height_m" not in v,
@@ -294,7 +294,7 @@ def section_factors(sweep_dir: Path, path: Path) -> Path | None:
     errors = [r["mesh_error_m"] if np.isfinite(r["mesh_error_m"]) else 0.0 for r in scenes]
     ax.bar(index, values, 0.6, yerr=errors, capsize=3, color=["tab:gray"] + ["tab:blue"] * (len(scenes) - 1))
     for i, r in enumerate(scenes):
-        label = f"{r['max_sinkage_m']:.4f} m" + (f"\n×{r['factor']:.3f}: {r['measures']}" if r["factor"] != "" else "")
+        label = f"{r['max_sinkage_m']:.4f} m" + (f"\n×{r['factor']:.3f}\n{r['measures']}" if r["factor"] != "" else "")
         ax.annotate(label, (i, r["max_sinkage_m"] + errors[i]), ha="center", va="bottom", fontsize=7, xytext=(0, 2),
                     textcoords="offset points")
     ax.set_xticks(index, [r["scene"] for r in scenes], fontsize=7)
