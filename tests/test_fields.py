@@ -287,7 +287,8 @@ def test_3d_field_measures_of_known_states():
     x, y, z = np.linspace(0.0, 1.0, 4), np.linspace(0.0, 0.5, 3), np.linspace(-1.0, 0.0, 5)
     shape = (3, 2, 4)
     corner = structured_corners(shape)
-    mesh = SolidMesh(x, y, z, cell_volumes(x, y, z), corner, corner.max() + 1, split_cells(corner))
+    mesh = SolidMesh(x, y, z, cell_volumes(x, y, z), corner, corner.max() + 1, split_cells(corner),
+                     np.zeros(shape, dtype=np.uint8))
     solid = np.zeros(shape, bool)
     cells = Cells(np.ones(shape), np.zeros((SOLID.base, *shape)), np.zeros(shape), np.ones(shape), solid,
                   np.ones(shape), np.zeros(shape), np.full(shape, np.nan), np.ones(shape))

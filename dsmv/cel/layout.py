@@ -77,7 +77,8 @@ class Mesh(NamedTuple):
 class SolidMesh(NamedTuple):
     """A 3D grid's geometry, as :class:`Mesh` with the third axis: node coordinates x (across the
     body), y (along it) and z (up) in m, cell volumes (m³), the corner table (cells × 8), the
-    structured node count and the cells that use a split node."""
+    structured node count, the cells that use a split node, and each cell's faces against the body
+    (``closed``, uint8: bit 2a its lower face along axis a, bit 2a + 1 its upper one)."""
 
     x: np.ndarray
     y: np.ndarray
@@ -86,6 +87,7 @@ class SolidMesh(NamedTuple):
     corner: np.ndarray
     n_grid: int
     split: np.ndarray
+    closed: np.ndarray
 
 
 class Cells(NamedTuple):

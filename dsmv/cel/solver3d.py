@@ -58,6 +58,19 @@ def solid_faces(solid: np.ndarray) -> SolidFaces:
     return SolidFaces(*apertures, *(np.zeros_like(a) for a in apertures))
 
 
+def closed_faces(solid: np.ndarray) -> np.ndarray:
+    """Each soil cell's faces against a body cell, as the bits of :attr:`~dsmv.cel.layout.SolidMesh.closed`
+    (the grid's own edges are not among them: their boundary conditions hold the soil there)."""
+    closed = np.zeros(solid.shape, dtype=np.uint8)
+    for axis in range(3):
+        padded = np.pad(solid, [(1, 1) if a == axis else (0, 0) for a in range(3)]).astype(np.uint8)
+        n = solid.shape[axis]
+        below, above = np.take(padded, range(n), axis=axis), np.take(padded, range(2, n + 2), axis=axis)
+        closed |= (below << 2 * axis) | (above << 2 * axis + 1)
+    closed[solid] = 0
+    return closed
+
+
 class Cel3DSolver(CelSolver):
     """Solver plugin ``cel3d``."""
 
@@ -183,7 +196,7 @@ class Cel3DSolver(CelSolver):
         q[NQ_BASE:] = initial_law_state[:, None, None, None]
         vol = cell_volumes(grid.x, grid.y, grid.z)
         mesh = SolidMesh(grid.x, grid.y, grid.z, vol, body_contact.corner, int(np.prod([len(a) for a in grid.axes])),
-                         split_cells(body_contact.corner))
+                         split_cells(body_contact.corner), closed_faces(body_contact.solid))
         faces = solid_faces(body_contact.solid)
         ghost = np.zeros((q.shape[0], *shape3[:2]))
         ghost[NQ_BASE:] = initial_law_state[:, None, None]  # soil entering at the base brings the initial state

@@ -30,18 +30,19 @@ from dsmv.cel.stepper import AT_REST, NOT_FINITE, OUTRAN, RUNNING, hold_nodes, m
 @njit(**INLINE)
 def lagrange_step(mesh, cells, nodes, contact, par, body, energy, law):
     """One step; returns the soil's force on the body (N) and the body's old velocity."""
-    work = np.zeros(2)
-    nodal_forces(mesh, cells, nodes, par, work)
+    work = np.zeros(3)
+    nodal_forces(mesh, cells, nodes, par, body[B_VEL], contact.split_parent, work)
     energy[E_HOURGLASS] += work[0] * par.dt
     energy[E_BULK] += work[1] * par.dt
     if par.separation:  # which face ties hold this step: those the soil would otherwise cross
         ties_that_hold(contact, nodes, par.dt, par.gravity, par.mass_floor,
                        body[B_VEL] if par.drop else -par.push_velocity)
-    resistance, v_old = move_body(nodes, contact, par, body, energy, body[B_FRICTION])  # last step's pull
+    # last step's adhesive pull, the mean stress on the closed faces
+    resistance, v_old = move_body(nodes, contact, par, body, energy, body[B_FRICTION] + work[2])
     momentum_before, momentum_after = update_velocities_in_blocks(nodes, par.gravity, par.dt, par.mass_floor)
     hold_nodes(cells, nodes, contact, par, body, energy, momentum_before, momentum_after)
     plastic = np.zeros(1)
-    update_stress(mesh, cells, nodes, par, law, plastic)
+    update_stress(mesh, cells, nodes, par, body[B_VEL], contact.split_parent, law, plastic)
     energy[E_PLASTIC] += plastic[0]
     body[B_OFFSET] += body[B_VEL] * par.dt
     body[B_TIME] += par.dt

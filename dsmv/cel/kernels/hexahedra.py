@@ -102,26 +102,81 @@ def corner_walsh(v, a, n0, n1, n2, n3, n4, n5, n6, n7):
 
 
 @njit(**INLINE)
-def velocity_gradient(v, nodes8, ix, iy, iz, grad):
-    """The one-point velocity gradient grad[a, b] = ∂v_a/∂x_b (1/s) of a cell from its nodes' velocities
-    ``v`` (3, nodes); ``ix, iy, iz`` = 1/(4dx), 1/(4dy), 1/(4dz)."""
+def corner_coefficients(v, nodes8, coeff):
+    """The :func:`walsh` coefficients of each velocity component over a cell's nodes into ``coeff``
+    (3, 8): coeff[a, 1 << b]·(1/(4·d_b)) is ∂v_a/∂x_b, coeff[a, 0] eight times the mean."""
     for a in range(3):
         c = corner_walsh(v, a, nodes8[0], nodes8[1], nodes8[2], nodes8[3], nodes8[4], nodes8[5], nodes8[6], nodes8[7])
-        grad[a, 0] = c[1] * ix
-        grad[a, 1] = c[2] * iy
-        grad[a, 2] = c[4] * iz
+        for m in range(8):
+            coeff[a, m] = c[m]
+
+
+@njit(**INLINE)
+def remap_velocity(v, a, n, n_grid, parent):
+    """Velocity component a of node n as the remap moves soil with it: a split node's copy (n ≥
+    ``n_grid``) lends its parent its vertical travel and keeps none of its own
+    (:func:`~dsmv.cel.kernels.nodes.hand_travel_to_parents`), so horizontally it is its parent."""
+    if a < 2 and n >= n_grid:
+        return v[a, parent[n - n_grid]]
+    return v[a, n]
+
+
+@njit(**INLINE)
+def remap_divergence(v, nodes8, closed, n_grid, parent, dx, dy, dz, v_body):
+    """The volumetric strain rate (1/s) the remap makes of a cell: the net flux of its faces' mean
+    velocities, the nodes' as the remap takes them (:func:`remap_velocity`), each closed face (bits of
+    ``closed``, :attr:`~dsmv.cel.layout.SolidMesh.closed`) moving with the body (vertical velocity
+    ``v_body``, m/s) whatever its nodes do, for the remap lets no soil through it."""
+    div = 0.0
+    for a in range(3):
+        c = walsh(remap_velocity(v, a, nodes8[0], n_grid, parent), remap_velocity(v, a, nodes8[1], n_grid, parent),
+                  remap_velocity(v, a, nodes8[3], n_grid, parent), remap_velocity(v, a, nodes8[2], n_grid, parent),
+                  remap_velocity(v, a, nodes8[4], n_grid, parent), remap_velocity(v, a, nodes8[5], n_grid, parent),
+                  remap_velocity(v, a, nodes8[7], n_grid, parent), remap_velocity(v, a, nodes8[6], n_grid, parent))
+        total, across = c[0], c[1 << a]  # Σ of all eight, Σ upper face − Σ lower face
+        lower, upper = 0.125 * (total - across), 0.125 * (total + across)  # the faces' mean velocities
+        on_body = v_body if a == 2 else 0.0
+        if closed & (1 << 2 * a):
+            lower = on_body
+        if closed & (1 << 2 * a + 1):
+            upper = on_body
+        div += (upper - lower) / (dx if a == 0 else (dy if a == 1 else dz))
+    return div
+
+
+@njit(**INLINE)
+def strain_increment(v, nodes8, dx, dy, dz, dt, coeff, d):
+    """A cell's strain increment over Δt into ``d`` (xx, yy, zz, then xy, yz, zx as tensor components)
+    and its spin increments (wxy, wyz, wzx) returned, from its nodes' velocities by the one-point rule;
+    ``coeff`` (3, 8) is work space (:func:`corner_coefficients`)."""
+    corner_coefficients(v, nodes8, coeff)
+    ix, iy, iz = 0.25 / dx, 0.25 / dy, 0.25 / dz
+    d[0], d[1], d[2] = dt * (coeff[0, 1] * ix), dt * (coeff[1, 2] * iy), dt * (coeff[2, 4] * iz)
+    d[3] = 0.5 * dt * (coeff[0, 2] * iy + coeff[1, 1] * ix)
+    d[4] = 0.5 * dt * (coeff[1, 4] * iz + coeff[2, 2] * iy)
+    d[5] = 0.5 * dt * (coeff[0, 4] * iz + coeff[2, 1] * ix)
+    # spin W_ab = ½(∂v_a/∂x_b − ∂v_b/∂x_a)Δt
+    return (0.5 * dt * (coeff[0, 2] * iy - coeff[1, 1] * ix), 0.5 * dt * (coeff[1, 4] * iz - coeff[2, 2] * iy),
+            0.5 * dt * (coeff[2, 1] * ix - coeff[0, 4] * iz))
 
 
 @njit(**JIT)
-def slab_forces(i, x, y, z, corner, split, v, phi, q, hourglass_factor, fn, par):
+def slab_forces(i, x, y, z, corner, split, closed, n_grid, parent, v, v_body, phi, q, hourglass_factor, fn, par):
     """The nodal forces of the cells of slab i (all j, k), added into ``fn``; returns the slab's
-    hourglass and bulk-viscosity power (W). A slab's cells touch the nodes of planes i and i + 1
-    only (split nodes included: a copy sits on its parent's plane).
+    hourglass and bulk-viscosity power (W) and the vertical force its cells beside the body put on
+    the body (N, up +). A slab's cells touch the nodes of planes i and i + 1 only (split nodes
+    included: a copy sits on its parent's plane).
 
     Per axis a, the corner velocities go to their sign-product coefficients (:func:`walsh`): three
     are the velocity gradient's, four the hourglass amplitudes g. The forces' coefficients are
     −V·φ·σ_ab/(4·d_b) on the gradient's and −coef·g on the hourglass vectors, and go back to the
-    corners by the transposed transform."""
+    corners by the transposed transform.
+
+    With the remap on (``par.remap``), in a cell beside the body or with a split node the mean stress
+    m acts as the work-conjugate of :func:`remap_divergence`: through the open faces only (a closed
+    face's four nodes get none of it, the body gets m·φ·A per closed face normal to z instead, A the
+    face's area: the coefficients take ±m·V·φ/(4·d_a), half on the sum (index 0) and half on the
+    gradient's (index 1 << a)), and a split node's horizontal share goes to its parent."""
     rho, c_wave = par.density, par.wave_speed
     _, ny, nz = phi.shape
     ny1, nz1 = np.uint64(ny + 1), np.uint64(nz + 1)
@@ -129,6 +184,7 @@ def slab_forces(i, x, y, z, corner, split, v, phi, q, hourglass_factor, fn, par)
     coeff = np.empty((3, 8))
     hg_power = 0.0
     bv_power = 0.0
+    body_fz = 0.0
     dx = x[i + 1] - x[i]
     hourglass = par.hourglass > 0.0
     for j in range(ny):
@@ -147,7 +203,12 @@ def slab_forces(i, x, y, z, corner, split, v, phi, q, hourglass_factor, fn, par)
                 for m in range(8):
                     coeff[a, m] = c[m]
             ix, iy, iz = 0.25 / dx, 0.25 / dy, 0.25 / dz
-            div = coeff[0, 1] * ix + coeff[1, 2] * iy + coeff[2, 4] * iz
+            beside = closed[i, j, k]
+            remapped = par.remap and (beside != 0 or split[i, j, k])
+            if remapped:
+                div = remap_divergence(v, nodes8, beside, n_grid, parent, dx, dy, dz, v_body)
+            else:
+                div = coeff[0, 1] * ix + coeff[1, 2] * iy + coeff[2, 4] * iz
             qb = 0.0
             if div < 0.0:  # bulk viscosity, a pressure of the soil itself (Pa), in compression only
                 h = min(dx, dy, dz)
@@ -163,17 +224,34 @@ def slab_forces(i, x, y, z, corner, split, v, phi, q, hourglass_factor, fn, par)
             if hourglass and hourglass_factor[i, j, k] > 0.0:
                 coef = (HOURGLASS_SCALE * par.hourglass * hourglass_factor[i, j, k] * rho * f * c_wave
                         * vol ** (2.0 / 3.0))
+            mean = (sxx + syy + szz) / 3.0 if remapped else 0.0
             for a in range(3):
                 if a == 0:
-                    sx, sy, sz = sxx, sxy, szx
+                    sx, sy, sz, wa = sxx, sxy, szx, wx
                 elif a == 1:
-                    sx, sy, sz = sxy, syy, syz
+                    sx, sy, sz, wa = sxy, syy, syz, wy
                 else:
-                    sx, sy, sz = szx, syz, szz
+                    sx, sy, sz, wa = szx, syz, szz, wz
                 g3, g5, g6, g7 = coeff[a, 3], coeff[a, 5], coeff[a, 6], coeff[a, 7]
                 hg_power += coef * (g3 * g3 + g5 * g5 + g6 * g6 + g7 * g7)
+                on_sum = 0.0
+                on_x, on_y, on_z = 0.0, 0.0, 0.0
+                if remapped and beside:  # cancel the mean stress on each closed face's nodes
+                    upper = mean * wa if beside & (1 << 2 * a + 1) else 0.0
+                    lower = -mean * wa if beside & (1 << 2 * a) else 0.0
+                    on_sum = 0.5 * (upper + lower)
+                    on_gradient = 0.5 * (upper - lower)
+                    if a == 0:
+                        on_x = on_gradient
+                    elif a == 1:
+                        on_y = on_gradient
+                    else:
+                        on_z = on_gradient
+                        # the body's share, 4·m·V·φ/(4·dz) = m·φ·A: a closed upper face is the body above
+                        body_fz -= 4.0 * (upper + lower)
                 f0, f1, f3, f2, f4, f5, f7, f6 = walsh_transposed(
-                    0.0, -sx * wx, -sy * wy, -coef * g3, -sz * wz, -coef * g5, -coef * g6, -coef * g7)
+                    on_sum, on_x - sx * wx, on_y - sy * wy, -coef * g3, on_z - sz * wz, -coef * g5, -coef * g6,
+                    -coef * g7)
                 fn[a, n0] += f0
                 fn[a, n1] += f1
                 fn[a, n2] += f2
@@ -182,33 +260,48 @@ def slab_forces(i, x, y, z, corner, split, v, phi, q, hourglass_factor, fn, par)
                 fn[a, n5] += f5
                 fn[a, n6] += f6
                 fn[a, n7] += f7
-    return hg_power, bv_power
+            if remapped and split[i, j, k]:  # a copy's horizontal share of the mean stress to its parent
+                for b in range(8):
+                    n = nodes8[b]
+                    if n < n_grid:
+                        continue
+                    for a in range(2):
+                        if beside & (1 << 2 * a + (1 if SIDE[a, b] > 0.0 else 0)):
+                            continue  # its face is closed: no share
+                        share = -mean * (wx if a == 0 else wy) * SIDE[a, b]
+                        fn[a, n] -= share
+                        fn[a, parent[n - n_grid]] += share
+    return hg_power, bv_power, body_fz
 
 
 @njit(**PARALLEL)
-def nodal_forces(mesh, cells, nodes, par, work):
+def nodal_forces(mesh, cells, nodes, par, v_body, parent, work):
     """Internal nodal forces (N) from the cell stresses: f_a = −V·φ·σ·∇N_a at the centre; viscous
     hourglass control on the four hourglass vectors (coefficient ``par.hourglass`` times the cell's
-    ``hourglass_factor``); linear and quadratic bulk viscosity in compression. ``work`` accumulates
-    the power of hourglass [0] and bulk viscosity [1] (W). Cells without soil are skipped.
+    ``hourglass_factor``); linear and quadratic bulk viscosity in compression; in the cells beside the
+    body (moving with vertical velocity ``v_body``, m/s) or with a split node (``parent``: each
+    copy's parent) the mean stress as the remap sees the cell (:func:`slab_forces`). ``work``
+    accumulates the power of hourglass [0] and bulk viscosity [1] (W) and [2] the vertical force
+    those cells put on the body (N, up +). Cells without soil are skipped.
 
     Parallel over slabs of constant i in two colours: the even slabs, then the odd ones, each
     colour's in :func:`~dsmv.cel.kernels.common.spread_order`. Slabs of one colour share no node,
     so each node sums its cells' forces in the same order whatever the number of threads, and the
-    slabs' powers are summed in slab order: results are bit for bit the same on any thread count."""
+    slabs' sums are added in slab order: results are bit for bit the same on any thread count."""
     nx = cells.phi.shape[0]
     fn = nodes.f
     zero_in_blocks(fn)
-    power = np.zeros((2, nx))
+    sums = np.zeros((3, nx))
     for colour in range(2):
         order = spread_order((nx - colour + 1) // 2)
         for s in prange(len(order)):
             i = 2 * order[s] + colour
-            power[0, i], power[1, i] = slab_forces(i, mesh.x, mesh.y, mesh.z, mesh.corner, mesh.split, nodes.v,
-                                                   cells.phi, cells.q, cells.hourglass_factor, fn, par)
+            sums[0, i], sums[1, i], sums[2, i] = slab_forces(
+                i, mesh.x, mesh.y, mesh.z, mesh.corner, mesh.split, mesh.closed, np.uint64(mesh.n_grid), parent,
+                nodes.v, v_body, cells.phi, cells.q, cells.hourglass_factor, fn, par)
     for i in range(nx):
-        work[0] += power[0, i]
-        work[1] += power[1, i]
+        for m in range(3):
+            work[m] += sums[m, i]
 
 
 @njit(**INLINE)
@@ -288,10 +381,11 @@ def shear_rate_solid(d, a, vec):
 
 
 @njit(**JIT)
-def slab_stress(i, mesh, cells, v, par, law):
+def slab_stress(i, mesh, cells, v, v_body, parent, par, law):
     """The stress update of the cells of slab i (:func:`update_stress`); returns their plastic work (J).
     Containers are read once per slab (a container passed per cell costs a reference count per array)."""
-    x, y, z, corner, split = mesh.x, mesh.y, mesh.z, mesh.corner, mesh.split
+    x, y, z, corner, split, closed = mesh.x, mesh.y, mesh.z, mesh.corner, mesh.split, mesh.closed
+    n_grid = np.uint64(mesh.n_grid)
     phi, q, su_cell, factor, open_frac = cells.phi, cells.q, cells.su, cells.strength_factor, cells.open_frac
     _, ny, nz = phi.shape
     ny1, nz1 = np.uint64(ny + 1), np.uint64(nz + 1)
@@ -299,7 +393,7 @@ def slab_stress(i, mesh, cells, v, par, law):
     shear_mod, dt = par.shear, par.dt
     lam = par.bulk - 2.0 * shear_mod / 3.0
     nodes8 = np.empty(8, dtype=np.uint64)
-    grad = np.empty((3, 3))
+    coeff = np.empty((3, 8))
     s = np.empty(6)
     d = np.empty(6)
     a = np.empty((3, 3))
@@ -317,14 +411,15 @@ def slab_stress(i, mesh, cells, v, par, law):
                 continue
             dz = z[k + 1] - z[k]
             cell_nodes(corner, split, i, j, k, ny1, nz1, nodes8)
-            velocity_gradient(v, nodes8, 0.25 / dx, 0.25 / dy, 0.25 / dz, grad)
-            d[0], d[1], d[2] = dt * grad[0, 0], dt * grad[1, 1], dt * grad[2, 2]
-            d[3] = 0.5 * dt * (grad[0, 1] + grad[1, 0])
-            d[4] = 0.5 * dt * (grad[1, 2] + grad[2, 1])
-            d[5] = 0.5 * dt * (grad[0, 2] + grad[2, 0])
-            wxy = 0.5 * dt * (grad[0, 1] - grad[1, 0])  # spin increments W_ab = ½(∂v_a/∂x_b − ∂v_b/∂x_a)Δt
-            wyz = 0.5 * dt * (grad[1, 2] - grad[2, 1])
-            wzx = 0.5 * dt * (grad[2, 0] - grad[0, 2])
+            wxy, wyz, wzx = strain_increment(v, nodes8, dx, dy, dz, dt, coeff, d)
+            if par.remap and (closed[i, j, k] or split[i, j, k]):
+                # the volumetric part the remap makes, the deviatoric the cell's own: the pressure then
+                # feels the soil the remap packs against the body (2D's cut cells do the same,
+                # :func:`dsmv.cel.kernels.plane.volumetric_override`); without a remap nothing packs
+                div = remap_divergence(v, nodes8, closed[i, j, k], n_grid, parent, dx, dy, dz, v_body)
+                shift = (dt * div - d[0] - d[1] - d[2]) / 3.0
+                for m in range(3):
+                    d[m] += shift
             sxx, syy, szz = q[SXX, i, j, k], q[SYY, i, j, k], q[SZZ, i, j, k]
             sxy, syz, szx = q[SXY, i, j, k], q[SYZ, i, j, k], q[SZX, i, j, k]
             # Jaumann: σ + W·σ − σ·W (W = [[0, wxy, −wzx], [−wxy, 0, wyz], [wzx, −wyz, 0]])
@@ -380,11 +475,13 @@ def slab_stress(i, mesh, cells, v, par, law):
 
 
 @njit(**PARALLEL)
-def update_stress(mesh, cells, nodes, par, law, out):
+def update_stress(mesh, cells, nodes, par, v_body, parent, law, out):
     """Stress update for undrained soil of strength su = (su0 + ks·z0)·f·law(ξ, γ̇, state): Jaumann
     rotation by the spin, elastic trial, return (Tresca with ``par.tresca``, else von Mises √J2 ≤ su).
     ξ accumulates Δε1^p − Δε3^p; ``out[0]`` accumulates plastic work (J); ``cells.su`` receives
-    each cell's strength (Pa). As :func:`dsmv.cel.kernels.plane.update_stress`, in three dimensions.
+    each cell's strength (Pa). Beside the body (vertical velocity ``v_body``, m/s) and in cells with a
+    split node (``parent``: each copy's parent) the volumetric strain is the remap's
+    (:func:`remap_divergence`). As :func:`dsmv.cel.kernels.plane.update_stress`, in three dimensions.
     Tresca's return needs the principal axes only where √J2 > su (s1 − s3 ≤ 2·√J2 always).
     Parallel over slabs of constant i in spread order (a cell writes only its own state); the slabs' plastic work
     is summed in slab order, so the result does not depend on the number of threads."""
@@ -393,7 +490,7 @@ def update_stress(mesh, cells, nodes, par, law, out):
     order = spread_order(nx)
     for s in prange(nx):
         i = order[s]
-        plastic[i] = slab_stress(i, mesh, cells, nodes.v, par, law)
+        plastic[i] = slab_stress(i, mesh, cells, nodes.v, v_body, parent, par, law)
     for i in range(nx):
         out[0] += plastic[i]
 
@@ -401,14 +498,14 @@ def update_stress(mesh, cells, nodes, par, law, out):
 @njit(**JIT)
 def shear_strain_rates(mesh, cells, faces, nodes, par, v_body):
     """Each cell's shear strain rate γ̇ = ε̇1 − ε̇3 (1/s) by the stress update's own rule, 0 in cells that
-    carry no stress: what the field output shows. (``faces`` and ``v_body``: the 2D kernel's signature;
-    boxes have no cut faces.)"""
+    carry no stress: what the field output shows (the remap's volumetric part, which the update takes
+    beside the body, does not change it). (``faces`` and ``v_body``: the 2D kernel's signature.)"""
     x, y, z, corner, split = mesh.x, mesh.y, mesh.z, mesh.corner, mesh.split
     nx, ny, nz = cells.phi.shape
     ny1, nz1 = np.uint64(ny + 1), np.uint64(nz + 1)
     rate = np.zeros((nx, ny, nz))
     nodes8 = np.empty(8, dtype=np.uint64)
-    grad = np.empty((3, 3))
+    coeff = np.empty((3, 8))
     d = np.empty(6)
     a = np.empty((3, 3))
     vec = np.empty((3, 3))
@@ -418,12 +515,7 @@ def shear_strain_rates(mesh, cells, faces, nodes, par, v_body):
                 if cells.phi[i, j, k] <= par.stress_cutoff * cells.open_frac[i, j, k]:
                     continue
                 cell_nodes(corner, split, i, j, k, ny1, nz1, nodes8)
-                velocity_gradient(nodes.v, nodes8, 0.25 / (x[i + 1] - x[i]), 0.25 / (y[j + 1] - y[j]),
-                                  0.25 / (z[k + 1] - z[k]), grad)
-                d[0], d[1], d[2] = grad[0, 0], grad[1, 1], grad[2, 2]
-                d[3] = 0.5 * (grad[0, 1] + grad[1, 0])
-                d[4] = 0.5 * (grad[1, 2] + grad[2, 1])
-                d[5] = 0.5 * (grad[0, 2] + grad[2, 0])
+                strain_increment(nodes.v, nodes8, x[i + 1] - x[i], y[j + 1] - y[j], z[k + 1] - z[k], 1.0, coeff, d)
                 rate[i, j, k] = shear_rate_solid(d, a, vec)
     return rate
 
