@@ -160,6 +160,29 @@ def strain_increment(v, nodes8, dx, dy, dz, dt, coeff, d):
             0.5 * dt * (coeff[2, 1] * ix - coeff[0, 4] * iz))
 
 
+@njit(**INLINE)
+def mean_stress_as_remapped(fn, nodes8, closed, n_grid, parent, mean, wx, wy, wz):
+    """Move a cell's mean stress m from its own nodes to where the remap sees the cell
+    (:func:`remap_divergence`): each corner's share along axis a, −m·w_a·s (w_a = V·φ/(4·d_a), s its
+    side), is taken back where the corner's face along a is closed, or moved to the parent where the
+    corner is a split node's copy (horizontally). Returns the closed faces' vertical share, which the
+    body takes (N, up +)."""
+    body_fz = 0.0
+    for b in range(8):
+        n = nodes8[b]
+        for a in range(3):
+            side = SIDE[a, b]
+            share = -mean * (wx if a == 0 else (wy if a == 1 else wz)) * side
+            if closed & (1 << 2 * a + (1 if side > 0.0 else 0)):
+                fn[a, n] -= share
+                if a == 2:
+                    body_fz += share
+            elif a < 2 and n >= n_grid:
+                fn[a, n] -= share
+                fn[a, parent[n - n_grid]] += share
+    return body_fz
+
+
 @njit(**JIT)
 def slab_forces(i, x, y, z, corner, split, closed, n_grid, parent, v, v_body, phi, q, hourglass_factor, fn, par):
     """The nodal forces of the cells of slab i (all j, k), added into ``fn``; returns the slab's
@@ -173,10 +196,9 @@ def slab_forces(i, x, y, z, corner, split, closed, n_grid, parent, v, v_body, ph
     corners by the transposed transform.
 
     With the remap on (``par.remap``), in a cell beside the body or with a split node the mean stress
-    m acts as the work-conjugate of :func:`remap_divergence`: through the open faces only (a closed
-    face's four nodes get none of it, the body gets m·φ·A per closed face normal to z instead, A the
-    face's area: the coefficients take ±m·V·φ/(4·d_a), half on the sum (index 0) and half on the
-    gradient's (index 1 << a)), and a split node's horizontal share goes to its parent."""
+    acts as the work-conjugate of :func:`remap_divergence` (:func:`mean_stress_as_remapped`): through
+    the open faces only, the body taking the closed faces' share, and a split node's horizontal share
+    at its parent."""
     rho, c_wave = par.density, par.wave_speed
     _, ny, nz = phi.shape
     ny1, nz1 = np.uint64(ny + 1), np.uint64(nz + 1)
@@ -224,34 +246,17 @@ def slab_forces(i, x, y, z, corner, split, closed, n_grid, parent, v, v_body, ph
             if hourglass and hourglass_factor[i, j, k] > 0.0:
                 coef = (HOURGLASS_SCALE * par.hourglass * hourglass_factor[i, j, k] * rho * f * c_wave
                         * vol ** (2.0 / 3.0))
-            mean = (sxx + syy + szz) / 3.0 if remapped else 0.0
             for a in range(3):
                 if a == 0:
-                    sx, sy, sz, wa = sxx, sxy, szx, wx
+                    sx, sy, sz = sxx, sxy, szx
                 elif a == 1:
-                    sx, sy, sz, wa = sxy, syy, syz, wy
+                    sx, sy, sz = sxy, syy, syz
                 else:
-                    sx, sy, sz, wa = szx, syz, szz, wz
+                    sx, sy, sz = szx, syz, szz
                 g3, g5, g6, g7 = coeff[a, 3], coeff[a, 5], coeff[a, 6], coeff[a, 7]
                 hg_power += coef * (g3 * g3 + g5 * g5 + g6 * g6 + g7 * g7)
-                on_sum = 0.0
-                on_x, on_y, on_z = 0.0, 0.0, 0.0
-                if remapped and beside:  # cancel the mean stress on each closed face's nodes
-                    upper = mean * wa if beside & (1 << 2 * a + 1) else 0.0
-                    lower = -mean * wa if beside & (1 << 2 * a) else 0.0
-                    on_sum = 0.5 * (upper + lower)
-                    on_gradient = 0.5 * (upper - lower)
-                    if a == 0:
-                        on_x = on_gradient
-                    elif a == 1:
-                        on_y = on_gradient
-                    else:
-                        on_z = on_gradient
-                        # the body's share, 4·m·V·φ/(4·dz) = m·φ·A: a closed upper face is the body above
-                        body_fz -= 4.0 * (upper + lower)
                 f0, f1, f3, f2, f4, f5, f7, f6 = walsh_transposed(
-                    on_sum, on_x - sx * wx, on_y - sy * wy, -coef * g3, on_z - sz * wz, -coef * g5, -coef * g6,
-                    -coef * g7)
+                    0.0, -sx * wx, -sy * wy, -coef * g3, -sz * wz, -coef * g5, -coef * g6, -coef * g7)
                 fn[a, n0] += f0
                 fn[a, n1] += f1
                 fn[a, n2] += f2
@@ -260,17 +265,9 @@ def slab_forces(i, x, y, z, corner, split, closed, n_grid, parent, v, v_body, ph
                 fn[a, n5] += f5
                 fn[a, n6] += f6
                 fn[a, n7] += f7
-            if remapped and split[i, j, k]:  # a copy's horizontal share of the mean stress to its parent
-                for b in range(8):
-                    n = nodes8[b]
-                    if n < n_grid:
-                        continue
-                    for a in range(2):
-                        if beside & (1 << 2 * a + (1 if SIDE[a, b] > 0.0 else 0)):
-                            continue  # its face is closed: no share
-                        share = -mean * (wx if a == 0 else wy) * SIDE[a, b]
-                        fn[a, n] -= share
-                        fn[a, parent[n - n_grid]] += share
+            if remapped:
+                body_fz += mean_stress_as_remapped(fn, nodes8, beside, n_grid, parent, (sxx + syy + szz) / 3.0,
+                                                   wx, wy, wz)
     return hg_power, bv_power, body_fz
 
 
