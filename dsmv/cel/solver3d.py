@@ -58,14 +58,15 @@ def solid_faces(solid: np.ndarray) -> SolidFaces:
     return SolidFaces(*apertures, *(np.zeros_like(a) for a in apertures))
 
 
-def closed_faces(solid: np.ndarray) -> np.ndarray:
-    """Each soil cell's faces against a body cell, as the bits of :attr:`~dsmv.cel.layout.SolidMesh.closed`
-    (the grid's own edges are not among them: their boundary conditions hold the soil there)."""
+def closed_faces(faces: SolidFaces, solid: np.ndarray) -> np.ndarray:
+    """Each soil cell's faces against a body cell (:func:`solid_faces`' closed ones), as the bits of
+    :attr:`~dsmv.cel.layout.SolidMesh.closed` (the grid's own edges are open: their boundary
+    conditions hold the soil there)."""
     closed = np.zeros(solid.shape, dtype=np.uint8)
-    for axis in range(3):
-        padded = np.pad(solid, [(1, 1) if a == axis else (0, 0) for a in range(3)]).astype(np.uint8)
+    for axis, aperture in enumerate(faces[:3]):
+        shut = np.moveaxis(aperture == 0.0, 0, axis).astype(np.uint8)  # back to the cells' axes
         n = solid.shape[axis]
-        below, above = np.take(padded, range(n), axis=axis), np.take(padded, range(2, n + 2), axis=axis)
+        below, above = np.take(shut, range(n), axis=axis), np.take(shut, range(1, n + 1), axis=axis)
         closed |= (below << 2 * axis) | (above << 2 * axis + 1)
     closed[solid] = 0
     return closed
@@ -195,9 +196,9 @@ class Cel3DSolver(CelSolver):
         q[SOLID.z0] = depth[None, None, :] * phi
         q[NQ_BASE:] = initial_law_state[:, None, None, None]
         vol = cell_volumes(grid.x, grid.y, grid.z)
-        mesh = SolidMesh(grid.x, grid.y, grid.z, vol, body_contact.corner, int(np.prod([len(a) for a in grid.axes])),
-                         split_cells(body_contact.corner), closed_faces(body_contact.solid))
         faces = solid_faces(body_contact.solid)
+        mesh = SolidMesh(grid.x, grid.y, grid.z, vol, body_contact.corner, int(np.prod([len(a) for a in grid.axes])),
+                         split_cells(body_contact.corner), closed_faces(faces, body_contact.solid))
         ghost = np.zeros((q.shape[0], *shape3[:2]))
         ghost[NQ_BASE:] = initial_law_state[:, None, None]  # soil entering at the base brings the initial state
         inflow = Inflow(ghost, np.full(shape3[:2], self.mudline - (grid.z[0] - 0.5 * (grid.z[1] - grid.z[0]))))

@@ -184,11 +184,12 @@ def mean_stress_as_remapped(fn, nodes8, closed, n_grid, parent, mean, wx, wy, wz
 
 
 @njit(**JIT)
-def slab_forces(i, x, y, z, corner, split, closed, n_grid, parent, v, v_body, phi, q, hourglass_factor, fn, par):
+def slab_forces(i, mesh, cells, v, v_body, parent, fn, par):
     """The nodal forces of the cells of slab i (all j, k), added into ``fn``; returns the slab's
     hourglass and bulk-viscosity power (W) and the vertical force its cells beside the body put on
     the body (N, up +). A slab's cells touch the nodes of planes i and i + 1 only (split nodes
-    included: a copy sits on its parent's plane).
+    included: a copy sits on its parent's plane). Containers are read once per slab, as in
+    :func:`slab_stress`.
 
     Per axis a, the corner velocities go to their sign-product coefficients (:func:`walsh`): three
     are the velocity gradient's, four the hourglass amplitudes g. The forces' coefficients are
@@ -199,6 +200,9 @@ def slab_forces(i, x, y, z, corner, split, closed, n_grid, parent, v, v_body, ph
     acts as the work-conjugate of :func:`remap_divergence` (:func:`mean_stress_as_remapped`): through
     the open faces only, the body taking the closed faces' share, and a split node's horizontal share
     at its parent."""
+    x, y, z, corner, split, closed = mesh.x, mesh.y, mesh.z, mesh.corner, mesh.split, mesh.closed
+    n_grid = np.uint64(mesh.n_grid)
+    phi, q, hourglass_factor = cells.phi, cells.q, cells.hourglass_factor
     rho, c_wave = par.density, par.wave_speed
     _, ny, nz = phi.shape
     ny1, nz1 = np.uint64(ny + 1), np.uint64(nz + 1)
@@ -220,10 +224,7 @@ def slab_forces(i, x, y, z, corner, split, closed, n_grid, parent, v, v_body, ph
             cell_nodes(corner, split, i, j, k, ny1, nz1, nodes8)
             n0, n1, n2, n3, n4, n5, n6, n7 = (nodes8[0], nodes8[1], nodes8[2], nodes8[3], nodes8[4], nodes8[5],
                                               nodes8[6], nodes8[7])
-            for a in range(3):
-                c = corner_walsh(v, a, n0, n1, n2, n3, n4, n5, n6, n7)
-                for m in range(8):
-                    coeff[a, m] = c[m]
+            corner_coefficients(v, nodes8, coeff)
             ix, iy, iz = 0.25 / dx, 0.25 / dy, 0.25 / dz
             beside = closed[i, j, k]
             remapped = par.remap and (beside != 0 or split[i, j, k])
@@ -293,9 +294,7 @@ def nodal_forces(mesh, cells, nodes, par, v_body, parent, work):
         order = spread_order((nx - colour + 1) // 2)
         for s in prange(len(order)):
             i = 2 * order[s] + colour
-            sums[0, i], sums[1, i], sums[2, i] = slab_forces(
-                i, mesh.x, mesh.y, mesh.z, mesh.corner, mesh.split, mesh.closed, np.uint64(mesh.n_grid), parent,
-                nodes.v, v_body, cells.phi, cells.q, cells.hourglass_factor, fn, par)
+            sums[0, i], sums[1, i], sums[2, i] = slab_forces(i, mesh, cells, nodes.v, v_body, parent, fn, par)
     for i in range(nx):
         for m in range(3):
             work[m] += sums[m, i]
