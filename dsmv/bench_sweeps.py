@@ -8,8 +8,8 @@ load changes both sides alike):
 2. **Tracking's cost per job over a sweep**: 16 jobs on two joblib workers (8 per worker), tracked
    and untracked, the difference divided by 16.
 3. **Launchers**: 8 landings on the ``medium`` (0.04 m) and the ``standard`` (0.02 m) mesh through
-   ``hydra/launcher=dsmv_local`` (submitit: a process per job, all jobs at once, one Numba thread
-   each) against ``hydra/launcher=joblib`` with two workers, both tracked.
+   ``hydra/launcher=dsmv_local`` (submitit: a worker process per core, one Numba thread each) against
+   ``hydra/launcher=joblib`` with two workers, both tracked.
 
 Writes ``bench_sweeps.md`` and ``bench_sweeps.json`` under ``--out``.
 """
@@ -121,8 +121,9 @@ def report(figures: dict, repeats: int) -> str:
         "",
         "A job's MLflow run is written by a writer process (`dsmv.run_writer`) that imports MLflow while the job "
         "composes its scene and solves; a sweep has one writer on its machine, which its jobs reach through a Unix "
-        "socket whatever the launcher. `dsmv_local` starts a process per job, all of a sweep's jobs at once: each "
-        "pays Python's start, the imports and the kernels' loading from the Numba cache.",
+        "socket whatever the launcher. `dsmv_local` starts a submitit worker per core, each taking the sweep's next "
+        "job in turn: like joblib's workers, each pays Python's start, the imports and the kernels' loading from the "
+        "Numba cache once, not once per job.",
         "",
     ]
     return "\n".join(lines)

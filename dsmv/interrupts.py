@@ -3,7 +3,9 @@
 - The sweep's main process (:class:`SweepSignals`, installed by the sweep callback) takes the first
   signal without dying: it marks the sweep interrupted (the file :data:`MARKER` in the sweep dir,
   holding the reason) and passes the signal on to the launcher's worker processes (joblib's loky
-  workers), which a signal sent to the main process alone does not reach.
+  workers; submitit's controllers as SIGTERM, which they forward to their tasks), which a signal
+  sent to the main process alone does not reach. submitit's controllers ignore Ctrl-C
+  (``dsmv_local`` starts them so): one that took it would kill its task a second later.
 - A job that is running stops as a single run does (the CEL controller ends it ``interrupted``
   within about a second, result.json and its MLflow run KILLED); while it sets up or writes its
   outputs the signal only raises a flag (:func:`sweep_job_signals`), so a job that finished keeps
@@ -62,14 +64,17 @@ def _in_main_thread() -> bool:
 
 
 def in_worker_process() -> bool:
-    """A launcher's worker process (joblib's loky), not the process that runs the sweep."""
-    return multiprocessing.current_process().name != "MainProcess" or multiprocessing.parent_process() is not None
+    """A launcher's worker process (joblib's loky, a task of submitit's local controller), not the
+    process that runs the sweep."""
+    return (multiprocessing.current_process().name != "MainProcess" or multiprocessing.parent_process() is not None
+            or "SUBMITIT_LOCAL_JOB_ID" in os.environ)
 
 
-def worker_pids() -> list[int]:
-    """The launcher's worker processes: this process's children running loky's worker (Linux /proc).
+def worker_pids() -> dict[int, signal.Signals | None]:
+    """The launcher's worker processes, each with the signal to pass it (None: the one received):
+    this process's children running loky's worker or submitit's local controller (Linux /proc).
     loky's resource tracker is left out (it ignores signals anyway)."""
-    pids = []
+    pids: dict[int, signal.Signals | None] = {}
     me = os.getpid()
     try:
         tasks = os.listdir(f"/proc/{me}/task")
@@ -86,8 +91,10 @@ def worker_pids() -> list[int]:
             except OSError:
                 continue
             if b"loky" in cmdline and b"resource_tracker" not in cmdline:
-                pids.append(int(pid))
-    return sorted(set(pids))
+                pids[int(pid)] = None
+            elif b"submitit.local._local" in cmdline:  # forwards SIGTERM to its task
+                pids[int(pid)] = signal.SIGTERM
+    return pids
 
 
 class SweepSignals:
@@ -113,13 +120,27 @@ class SweepSignals:
         if self.count > 1:
             raise KeyboardInterrupt(name)
         mark(self.sweep_dir, f"{name} to the sweep")
-        for pid in worker_pids():
+        for pid, passed in worker_pids().items():
             try:
-                os.kill(pid, signum)
+                os.kill(pid, passed or signum)
             except OSError:
                 pass
         print(f"dsmv: {name}: stopping the sweep (running jobs end 'interrupted', the others are not started; "
               f"a second signal aborts)", file=sys.stderr, flush=True)
+
+
+@contextmanager
+def children_ignore_ctrl_c():
+    """Processes started inside start with SIGINT ignored (it survives exec, and Python keeps it
+    ignored); this process's own handler is back afterwards."""
+    if not _in_main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 @contextmanager
@@ -135,6 +156,8 @@ def sweep_job_signals(sweep_dir: Path):
     def flag(signum, frame):
         caught["signal"] = signum
         mark(sweep_dir, f"{signal.Signals(signum).name} to a job")
+
+    flag.caught = caught  # a run the job starts after the signal ends at once (dsmv.cel.controller)
 
     previous = {s: signal.signal(s, flag) for s in SIGNALS}
     try:

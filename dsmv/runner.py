@@ -56,7 +56,7 @@ def run_job(cfg: DictConfig) -> dict:
     launcher = str(hydra_cfg.launcher.get("_target_", "")) if multirun else ""
     if "joblib" in launcher:  # jobs share the machine's cores
         pin_numba_threads(1)
-    elif "submitit" in launcher:  # a job owns the cpus its task was given
+    elif "submitit" in launcher:  # a job owns the cpus its task (dsmv_local: its worker) was given
         pin_numba_threads(int(hydra_cfg.launcher.get("cpus_per_task") or 1))
     elif "ray" in launcher.lower():  # a Ray task holds the cpus it asked for: one unless ray.remote says more
         remote = hydra_cfg.launcher.get("ray", {}).get("remote", {}) or {}

@@ -379,6 +379,22 @@ def test_slicing_chunks_for_interrupts_changes_no_bit(compose_cfg, monkeypatch):
         assert (column == runs[1].history[name]).all(), name
 
 
+
+def test_a_signal_a_sweep_job_caught_while_setting_up_ends_its_run_at_once(compose_cfg, tmp_path):
+    """A sweep's job that takes SIGTERM after its last check and before the controller steps (building
+    the grid, loading the kernels) ends its run 'interrupted' in the first chunk, not minutes later."""
+    import os
+    import signal
+
+    from dsmv import interrupts
+
+    with interrupts.sweep_job_signals(tmp_path) as caught:
+        os.kill(os.getpid(), signal.SIGTERM)
+        assert caught["signal"] == signal.SIGTERM
+        result = solve(compose_cfg, Cel2DSolver, ["solver=cel2d", "mesh=coarse", "solver.progress=off"])
+    assert result.status == "interrupted" and result.message.startswith("interrupted by SIGTERM at t = ")
+    assert result.history["sinkage_m"].max() < 0.01  # the default landing comes to rest at 0.065 m
+
 def test_strength_growing_with_depth_converges_into_the_limit_analysis_bracket(compose_cfg):
     """Davis & Booker's smooth strip, k·B/su0 = 4 (q/su0 = 7.80), small strain at 0.02 B: B/20 and
     B/40 read 8.659 and 8.263 (+11 %, +6 %: first order with a large constant, the shallow mechanism

@@ -164,6 +164,9 @@ class Controller:
             self.signal = signum
 
         previous = {s: signal.signal(s, raise_flag) for s in SIGNALS}
+        for handler in previous.values():  # a sweep's job caught one while it set the run up
+            earlier = getattr(handler, "caught", {}).get("signal")
+            self.signal = self.signal or earlier
         try:
             yield
         finally:
