@@ -159,7 +159,7 @@ class Cel3DSolver(CelSolver):
 
     def contact_area_m2(self) -> float:
         """The area the bearing factor refers to (m²): the footprint the body's cells press, per track
-        (B·L for a rectangle on node lines; a circle's inscribed staircase, a little less than π·B²/4);
+        (B·L for a rectangle on node lines; a circle's staircase, within a fraction of a cell per row of π·B²/4);
         a track's B·L, its plates' flat run, as in 2D (its grousers' tips press far less)."""
         if self.scene.geometry.kind == "track":
             return super().contact_area_m2()
