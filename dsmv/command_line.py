@@ -14,14 +14,15 @@ from omegaconf import DictConfig, OmegaConf
 
 import dsmv.scene  # noqa: F401  (registers the OmegaConf resolvers used by conf/)
 from dsmv import registry
-from hydra_plugins.dsmv_launcher import submitit_workers
+from hydra_plugins.dsmv_launcher import submitit_launchers
 from hydra_plugins.dsmv_sweeper.case_sweeper import CaseSweeper
 
 # Hydra finds sweepers and launchers by walking the hydra_plugins namespace, which an editable
 # install does not expose to that walk: register ours by hand (a no-op when Hydra found them).
 Plugins.instance().register(CaseSweeper)
-if submitit_workers.plugin is not None:  # dsmv_local needs dsmv[cluster]
-    Plugins.instance().register(submitit_workers.LocalLauncher)
+if submitit_launchers.plugin is not None:  # dsmv_local and dsmv_slurm need dsmv[cluster]
+    Plugins.instance().register(submitit_launchers.LocalLauncher)
+    Plugins.instance().register(submitit_launchers.SlurmLauncher)
 
 
 def find_config_dir() -> Path:

@@ -45,6 +45,17 @@ def fail_user_error(error: DsmvError, program: str = "dsmv") -> None:
     sys.exit(2)
 
 
+def estimated_wall_s(cfg: DictConfig) -> float:
+    """What a job's solve is estimated to take (s; :meth:`dsmv.cel.solver.CelSolver.cost`), 0 for a
+    solver without a cost estimate or a scene that will fail (the job itself says why)."""
+    try:
+        scene = build_scene(cfg)
+    except DsmvError:
+        return 0.0
+    solver = registry.load("solvers", scene.solver.name, "solver.name")(scene)
+    return float(solver.cost()["wall_s"]) if hasattr(solver, "cost") else 0.0
+
+
 def run_job(cfg: DictConfig) -> dict:
     """Run the scene of one Hydra job; return result.json's content.
 

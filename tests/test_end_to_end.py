@@ -2,12 +2,13 @@
 
 import json
 import os
+import subprocess
 from pathlib import Path
 
 import pytest
 
 from dsmv.results import HISTORY_COLUMNS
-from tests.conftest import mlflow_runs, mlflow_server
+from tests.conftest import BIN, mlflow_runs, mlflow_server
 
 RESULT_KEYS = {"status", "message", "solver", "soil_law", "metrics", "units", "dsmv_version", "config_hash"}
 
@@ -198,9 +199,50 @@ def test_the_slurm_launcher_composes_with_dsmv_s_defaults(compose_cfg):
     """hydra/launcher=dsmv_slurm: submitit's SLURM launcher, one cpu and one Numba thread per job."""
     cfg = compose_cfg(["hydra/launcher=dsmv_slurm", "hydra.launcher.partition=long"], return_hydra_config=True)
     launcher = cfg.hydra.launcher
-    assert launcher._target_.endswith("submitit_launcher.SlurmLauncher")
+    assert launcher._target_.endswith("submitit_launchers.SlurmLauncher")
     assert launcher.partition == "long" and launcher.cpus_per_task == 1
     assert list(launcher.setup) == ["export NUMBA_NUM_THREADS=1"]
+
+
+def test_a_job_s_time_limit_is_its_cost_estimate_with_a_margin_never_below_the_floor():
+    """Each job 3× its estimate plus the cold start, at least ``timeout_min``; a SLURM array task the
+    longest job's; a local worker among W the longest plus its share of all (list scheduling)."""
+    from hydra_plugins.dsmv_launcher.submitit_launchers import COLD_START_S, COST_MARGIN, time_limit_min
+
+    assert (COST_MARGIN, COLD_START_S) == (3.0, 120.0)
+    assert time_limit_min([10.0, 20.0], 60) == 60  # short jobs: the floor
+    assert time_limit_min([1200.0, 60.0], 1) == 62  # (3 · 1200 + 120) / 60
+    assert time_limit_min([1200.0, 60.0], 1, workers=2) == 62
+    assert time_limit_min([600.0] * 4, 1, workers=2) == 96  # 4 · 32 / 2 + 32
+    assert time_limit_min([600.0] * 4, 40, workers=2) == 120
+
+
+def test_the_slurm_array_asks_for_its_longest_job_s_limit(tmp_path):
+    """The sbatch script dsmv_slurm submits (``sbatch`` stands in here and refuses the job): one array
+    task per job, two at most at once, ``--time`` from the longest job's cost estimate."""
+    from dsmv.runner import estimated_wall_s
+    from dsmv.testing import compose_config
+    from hydra_plugins.dsmv_launcher.submitit_launchers import time_limit_min
+
+    fake = tmp_path / "bin"
+    fake.mkdir()
+    (fake / "sbatch").write_text(f"#!/bin/sh\ncp \"$1\" {tmp_path}/submitted.sh\necho 'no cluster here' >&2\nexit 1\n")
+    (fake / "sbatch").chmod(0o755)
+    (fake / "srun").write_text("#!/bin/sh\nexit 1\n")  # submitit looks for it before it submits
+    (fake / "srun").chmod(0o755)
+    cells_m = ("0.04", "0.005")
+    env = dict(os.environ, PATH=f"{fake}:{os.environ['PATH']}", HYDRA_FULL_ERROR="0")
+    proc = subprocess.run([str(BIN / "dsmv"), "-m", "hydra/launcher=dsmv_slurm", "hydra.launcher.timeout_min=1",
+                           "hydra.launcher.array_parallelism=2", f"mesh.cell_size_m={','.join(cells_m)}", "tracking=disabled"],
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
+    assert proc.returncode != 0 and "no cluster here" in proc.stdout + proc.stderr
+    script = (tmp_path / "submitted.sh").read_text()
+    estimates = [estimated_wall_s(compose_config("config", f"mesh.cell_size_m={h}", "tracking=disabled")) for h in cells_m]
+    assert 0 < estimates[0] < estimates[1]
+    expected = time_limit_min(estimates, 1)
+    assert expected >= 4  # the fine job's estimate (over 40 s), not the cold start alone
+    assert f"#SBATCH --time={expected}\n" in script and "#SBATCH --array=0-1%2\n" in script
+    assert "#SBATCH --cpus-per-task=1\n" in script and "export NUMBA_NUM_THREADS=1" in script
 
 
 def test_a_resumed_sweep_runs_only_the_jobs_not_yet_finished(run_cli, tmp_path):

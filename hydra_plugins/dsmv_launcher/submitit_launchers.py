@@ -1,4 +1,5 @@
-"""``hydra/launcher=dsmv_local``: Hydra's submitit launcher with a worker per core, not a process per job.
+"""``hydra/launcher=dsmv_local`` and ``dsmv_slurm``: Hydra's submitit launchers, with a worker per core
+on this machine, and time limits from the jobs' cost estimates.
 
 Hydra's ``submitit_local`` starts one process per job, all of a sweep's jobs at once. Each pays
 Python's start, the imports and the kernels' loading from Numba's cache, about 1.3 s of CPU, which
@@ -8,10 +9,16 @@ runs the sweep's jobs in turn, taking the next unclaimed one as joblib's workers
 claimed by creating its file in the launch's claims folder, which one process only can do. Every
 Hydra job still runs through the plugin's own ``__call__`` (its config composed, its own directory),
 and the results come back in the sweep's order. SLURM keeps one array task per job (``dsmv_slurm``).
+
+A job's time limit is its cost estimate with a margin (:func:`time_limit_min`), never below
+``timeout_min``: each job's config is composed and its scene sized in the sweep's process, as the
+job will (:func:`dsmv.runner.estimated_wall_s`). A SLURM array takes its longest job's limit; a
+local worker the longest job's plus its share of all the others'.
 """
 
 from __future__ import annotations
 
+import math
 import os
 import uuid
 from pathlib import Path
@@ -27,7 +34,34 @@ try:
 except ImportError:  # without dsmv[cluster] there is no dsmv_local, and Hydra's plugin scan must not warn
     plugin = None
 
-__all__ = ["LocalLauncher", "worker_count"]
+__all__ = ["LocalLauncher", "SlurmLauncher", "time_limit_min", "worker_count"]
+
+#: a job's limit over its cost estimate: over 180 tracked runs on the 2-core machines the wall time
+#: was 0.20–2.14× the estimate (which assumes a throughput, dsmv.cel.solver.CELL_UPDATES_PER_S)
+COST_MARGIN = 3.0
+#: what a job may take before it steps (s): the 3D kernels' cold compile took 76.5 s (dsmv-bench --3d)
+COLD_START_S = 120.0
+
+
+def time_limit_min(estimates_s: Sequence[float], floor_min: float, workers: int | None = None) -> int:
+    """The time limit (min) of a worker taking jobs of ``estimates_s`` from a queue with ``workers - 1``
+    others: each job's limit is its estimate times :data:`COST_MARGIN` plus :data:`COLD_START_S`, at
+    least ``floor_min``; a worker may have to run its share of them and the longest (list
+    scheduling's bound). A worker per job (``None``, a SLURM array's tasks): the longest."""
+    limits = [max(float(floor_min), (COST_MARGIN * s + COLD_START_S) / 60.0) for s in estimates_s]
+    if workers is None or workers >= len(limits):
+        return math.ceil(max(limits))
+    return math.ceil(sum(limits) / workers + max(limits))
+
+
+class _CostLimited:
+    """What both launchers share: each job's cost estimate, from its config composed as the job's."""
+
+    def estimates_s(self, job_overrides: Sequence[Sequence[str]]) -> list[float]:
+        from dsmv.runner import estimated_wall_s
+
+        loader = self.hydra_context.config_loader
+        return [estimated_wall_s(loader.load_sweep_config(self.config, list(o))) for o in job_overrides]
 
 
 def worker_count(cpus_per_task: int | None) -> int:
@@ -44,7 +78,7 @@ def _claim(claims: Path, index: int) -> bool:
         return False
 
 
-class LocalLauncher(plugin.LocalLauncher if plugin else object):
+class LocalLauncher(_CostLimited, plugin.LocalLauncher if plugin else object):
     """submitit's local executor with one process per worker; each takes the sweep's jobs in turn."""
 
     def launch(self, job_overrides: Sequence[Sequence[str]], initial_job_idx: int) -> Sequence[JobReturn]:
@@ -59,8 +93,7 @@ class LocalLauncher(plugin.LocalLauncher if plugin else object):
             os.chmod(sweep_dir, mode=int(str(self.config.hydra.sweep.mode), 8))
         executor = submitit.AutoExecutor(cluster=self._EXECUTOR, folder=self.params["submitit_folder"])
         parameters = {k: v for k, v in self.params.items() if k != "submitit_folder"}
-        rounds = -(-len(job_overrides) // workers)  # a worker's limit is its share of the jobs' limits
-        parameters["timeout_min"] = int(parameters.get("timeout_min") or 60) * rounds
+        parameters["timeout_min"] = time_limit_min(self.estimates_s(job_overrides), parameters["timeout_min"], workers)
         executor.update_parameters(**parameters)
         plugin.log.info(f"Submitit '{self._EXECUTOR}' sweep output dir : {sweep_dir} ({workers} workers)")
         state = Singleton.get_state()
@@ -81,3 +114,12 @@ class LocalLauncher(plugin.LocalLauncher if plugin else object):
     def work(self, claims: Path, jobs: list[tuple[Any, ...]]) -> dict[int, JobReturn]:
         """A worker's loop: run every job no other worker has claimed, in the sweep's order."""
         return {job[2]: self(*job) for job in jobs if _claim(claims, job[2])}
+
+
+class SlurmLauncher(_CostLimited, plugin.SlurmLauncher if plugin else object):
+    """submitit's SLURM array, its time limit that of the sweep's longest job (:func:`time_limit_min`)."""
+
+    def launch(self, job_overrides: Sequence[Sequence[str]], initial_job_idx: int) -> Sequence[JobReturn]:
+        self.params = {**self.params, "timeout_min": time_limit_min(self.estimates_s(job_overrides),
+                                                                    self.params["timeout_min"])}
+        return super().launch(job_overrides, initial_job_idx)
