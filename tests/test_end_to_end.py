@@ -204,17 +204,14 @@ def test_the_slurm_launcher_composes_with_dsmv_s_defaults(compose_cfg):
     assert list(launcher.setup) == ["export NUMBA_NUM_THREADS=1"]
 
 
-def test_a_job_s_time_limit_is_its_cost_estimate_with_a_margin_never_below_the_floor():
-    """Each job 3× its estimate plus the cold start, at least ``timeout_min``; a SLURM array task the
-    longest job's; a local worker among W the longest plus its share of all (list scheduling)."""
+def test_a_slurm_array_s_time_limit_is_its_longest_cost_estimate_with_a_margin_never_below_the_floor():
+    """3× the longest job's estimate plus the cold start, at least ``timeout_min``."""
     from hydra_plugins.dsmv_launcher.submitit_launchers import COLD_START_S, COST_MARGIN, time_limit_min
 
     assert (COST_MARGIN, COLD_START_S) == (3.0, 120.0)
     assert time_limit_min([10.0, 20.0], 60) == 60  # short jobs: the floor
     assert time_limit_min([1200.0, 60.0], 1) == 62  # (3 · 1200 + 120) / 60
-    assert time_limit_min([1200.0, 60.0], 1, workers=2) == 62
-    assert time_limit_min([600.0] * 4, 1, workers=2) == 96  # 4 · 32 / 2 + 32
-    assert time_limit_min([600.0] * 4, 40, workers=2) == 120
+    assert time_limit_min([1200.0, 1201.0], 1) == 63
 
 
 def test_the_slurm_array_asks_for_its_longest_job_s_limit(tmp_path):

@@ -93,17 +93,6 @@ def wrong_numeric(draw):
     return path, draw(st.one_of(options))
 
 
-@pytest.fixture(scope="module", autouse=True)
-def plugins_listed_once():
-    """Entry points are read once for this module: reading them costs 70 ms a call (three per
-    build_scene), which would be most of each example; the validation under test is unchanged."""
-    import functools
-
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(registry, "available", functools.lru_cache(registry.available))
-        yield
-
-
 @pytest.fixture(scope="module")
 def base_scene():
     """The default scene with the CEL solver, composed and resolved once (plain data)."""

@@ -10,10 +10,11 @@ claimed by creating its file in the launch's claims folder, which one process on
 Hydra job still runs through the plugin's own ``__call__`` (its config composed, its own directory),
 and the results come back in the sweep's order. SLURM keeps one array task per job (``dsmv_slurm``).
 
-A job's time limit is its cost estimate with a margin (:func:`time_limit_min`), never below
-``timeout_min``: each job's config is composed and its scene sized in the sweep's process, as the
-job will (:func:`dsmv.runner.estimated_wall_s`). A SLURM array takes its longest job's limit; a
-local worker the longest job's plus its share of all the others'.
+A SLURM array's time limit is its longest job's cost estimate with a margin (:func:`time_limit_min`),
+never below ``timeout_min``: each job's config is composed and its scene sized in the sweep's
+process, as the job will (:func:`dsmv.runner.estimated_wall_s`). A local worker's is ``timeout_min``
+per job of its share: composing every job beforehand took 0.45 s a job on the busy 2-core machine
+(7.2 s for 16), more than a medium-mesh job's solve, and a local run waits in no queue.
 """
 
 from __future__ import annotations
@@ -43,25 +44,10 @@ COST_MARGIN = 3.0
 COLD_START_S = 120.0
 
 
-def time_limit_min(estimates_s: Sequence[float], floor_min: float, workers: int | None = None) -> int:
-    """The time limit (min) of a worker taking jobs of ``estimates_s`` from a queue with ``workers - 1``
-    others: each job's limit is its estimate times :data:`COST_MARGIN` plus :data:`COLD_START_S`, at
-    least ``floor_min``; a worker may have to run its share of them and the longest (list
-    scheduling's bound). A worker per job (``None``, a SLURM array's tasks): the longest."""
-    limits = [max(float(floor_min), (COST_MARGIN * s + COLD_START_S) / 60.0) for s in estimates_s]
-    if workers is None or workers >= len(limits):
-        return math.ceil(max(limits))
-    return math.ceil(sum(limits) / workers + max(limits))
-
-
-class _CostLimited:
-    """What both launchers share: each job's cost estimate, from its config composed as the job's."""
-
-    def estimates_s(self, job_overrides: Sequence[Sequence[str]]) -> list[float]:
-        from dsmv.runner import estimated_wall_s
-
-        loader = self.hydra_context.config_loader
-        return [estimated_wall_s(loader.load_sweep_config(self.config, list(o))) for o in job_overrides]
+def time_limit_min(estimates_s: Sequence[float], floor_min: float) -> int:
+    """The time limit (min) for jobs of these cost estimates (s), each its own task: the longest
+    estimate times :data:`COST_MARGIN` plus :data:`COLD_START_S`, at least ``floor_min``."""
+    return math.ceil(max(float(floor_min), (COST_MARGIN * max(estimates_s) + COLD_START_S) / 60.0))
 
 
 def worker_count(cpus_per_task: int | None) -> int:
@@ -78,7 +64,7 @@ def _claim(claims: Path, index: int) -> bool:
         return False
 
 
-class LocalLauncher(_CostLimited, plugin.LocalLauncher if plugin else object):
+class LocalLauncher(plugin.LocalLauncher if plugin else object):
     """submitit's local executor with one process per worker; each takes the sweep's jobs in turn."""
 
     def launch(self, job_overrides: Sequence[Sequence[str]], initial_job_idx: int) -> Sequence[JobReturn]:
@@ -93,7 +79,8 @@ class LocalLauncher(_CostLimited, plugin.LocalLauncher if plugin else object):
             os.chmod(sweep_dir, mode=int(str(self.config.hydra.sweep.mode), 8))
         executor = submitit.AutoExecutor(cluster=self._EXECUTOR, folder=self.params["submitit_folder"])
         parameters = {k: v for k, v in self.params.items() if k != "submitit_folder"}
-        parameters["timeout_min"] = time_limit_min(self.estimates_s(job_overrides), parameters["timeout_min"], workers)
+        rounds = -(-len(job_overrides) // workers)  # a worker's limit: its share of the jobs' limits
+        parameters["timeout_min"] = int(parameters["timeout_min"]) * rounds
         executor.update_parameters(**parameters)
         plugin.log.info(f"Submitit '{self._EXECUTOR}' sweep output dir : {sweep_dir} ({workers} workers)")
         state = Singleton.get_state()
@@ -116,10 +103,18 @@ class LocalLauncher(_CostLimited, plugin.LocalLauncher if plugin else object):
         return {job[2]: self(*job) for job in jobs if _claim(claims, job[2])}
 
 
-class SlurmLauncher(_CostLimited, plugin.SlurmLauncher if plugin else object):
+class SlurmLauncher(plugin.SlurmLauncher if plugin else object):
     """submitit's SLURM array, its time limit that of the sweep's longest job (:func:`time_limit_min`)."""
 
     def launch(self, job_overrides: Sequence[Sequence[str]], initial_job_idx: int) -> Sequence[JobReturn]:
-        self.params = {**self.params, "timeout_min": time_limit_min(self.estimates_s(job_overrides),
-                                                                    self.params["timeout_min"])}
+        import time
+
+        from dsmv.runner import estimated_wall_s
+
+        started = time.perf_counter()
+        loader = self.hydra_context.config_loader
+        estimates = [estimated_wall_s(loader.load_sweep_config(self.config, list(o))) for o in job_overrides]
+        self.params = {**self.params, "timeout_min": time_limit_min(estimates, self.params["timeout_min"])}
+        plugin.log.info(f"time limit {self.params['timeout_min']} min: the longest of {len(estimates)} jobs is "
+                        f"estimated at {max(estimates):.0f} s ({time.perf_counter() - started:.1f} s to estimate)")
         return super().launch(job_overrides, initial_job_idx)
