@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 import os
+import time
 import uuid
 from pathlib import Path
 from typing import Any, Sequence
@@ -96,7 +97,7 @@ class LocalLauncher(plugin.LocalLauncher if plugin else object):
         returns: dict[int, JobReturn] = {}
         for worker in submitted:
             returns.update(worker.results()[0])
-        return [returns[initial_job_idx + offset] for offset in range(len(jobs))]
+        return [returns[job[2]] for job in jobs]
 
     def work(self, claims: Path, jobs: list[tuple[Any, ...]]) -> dict[int, JobReturn]:
         """A worker's loop: run every job no other worker has claimed, in the sweep's order."""
@@ -107,14 +108,13 @@ class SlurmLauncher(plugin.SlurmLauncher if plugin else object):
     """submitit's SLURM array, its time limit that of the sweep's longest job (:func:`time_limit_min`)."""
 
     def launch(self, job_overrides: Sequence[Sequence[str]], initial_job_idx: int) -> Sequence[JobReturn]:
-        import time
-
         from dsmv.runner import estimated_wall_s
 
         started = time.perf_counter()
         loader = self.hydra_context.config_loader
         estimates = [estimated_wall_s(loader.load_sweep_config(self.config, list(o))) for o in job_overrides]
-        self.params = {**self.params, "timeout_min": time_limit_min(estimates, self.params["timeout_min"])}
+        floor = self.config.hydra.launcher.timeout_min  # the configured one: a batch's limit is its own
+        self.params = {**self.params, "timeout_min": time_limit_min(estimates, floor)}
         plugin.log.info(f"time limit {self.params['timeout_min']} min: the longest of {len(estimates)} jobs is "
                         f"estimated at {max(estimates):.0f} s ({time.perf_counter() - started:.1f} s to estimate)")
         return super().launch(job_overrides, initial_job_idx)
