@@ -375,6 +375,38 @@ def test_the_forces_beside_the_track_are_the_work_conjugate_of_the_strain(compos
     assert power == pytest.approx(expected, abs=1e-12 * scale)
 
 
+def test_the_forces_a_step_carries_ahead_are_the_forces_of_the_state_it_leaves(compose_cfg):
+    """The stress update computes the next step's nodal forces with it (from the new stress and the
+    velocities it used). On the track landing, through its remaps (the split nodes, closed faces and
+    bulk viscosity all in play), they are bit for bit what the state gives afresh whenever a step
+    ends without a remap, and a remap marks them stale."""
+    from dsmv.cel.kernels.hexahedra import nodal_forces
+    from dsmv.cel.layout import B_BESIDE_N, B_BULK_W, B_FORCES_AHEAD, B_HOURGLASS_W, B_REMAPS, B_VEL
+    from dsmv.cel.solver3d import Cel3DSolver
+
+    solver = Cel3DSolver(build_scene(compose_cfg(["solver=cel3d", "mesh.cell_size_m=0.15", "tracking=disabled",
+                                                  "solver.progress=off"])))
+    state = solver.initial_state()
+    body, nodes = state.body, state.nodes
+    assert body[B_FORCES_AHEAD] == 0.0
+    checked = stale = 0
+    for _ in range(60):
+        remaps = body[B_REMAPS]
+        solver.advance(state, 1)
+        if body[B_REMAPS] > remaps:
+            assert body[B_FORCES_AHEAD] == 0.0
+            stale += 1
+            continue
+        assert body[B_FORCES_AHEAD] == 1.0
+        ahead, carried = nodes.f.copy(), body[[B_HOURGLASS_W, B_BULK_W, B_BESIDE_N]].copy()
+        work = np.zeros(3)
+        nodal_forces(state.mesh, state.cells, nodes, state.par, body[B_VEL], state.contact.split_parent, work)
+        assert np.array_equal(nodes.f, ahead) and np.array_equal(work, carried)
+        assert np.abs(ahead).max() > 0.0 and carried[1] > 0.0
+        checked += 1
+    assert checked > 30 and stale > 0
+
+
 def test_a_track_s_shape_carries_a_pose():
     """The body's description is not vertical-only: a track pitched nose down by 5° about its x axis
     reaches below its upright base ahead (y > 0) by L/2·sin 5° at the end of its run, and not behind;

@@ -223,9 +223,12 @@ class Params(NamedTuple):
 # the body's mutable state, a float array: time (s), offset of the grid (m, up +), velocity (m/s,
 # up +), deepest sinkage (m), the sum and count of the soil's force on the body over the chunk
 # (N, up +), soil volume entered at the base (m³), steps, the adhesive pull of the last step (N,
-# applied in the next), the offset at the last remap (m), remaps done
-B_TIME, B_OFFSET, B_VEL, B_MAXDISP, B_FSUM, B_FCOUNT, B_INFLOW, B_STEP, B_FRICTION, B_REMAP_OFFSET, B_REMAPS = range(11)
-N_BODY = 11
+# applied in the next), the offset at the last remap (m), remaps done; then whether the node forces
+# already hold the next step's (1.0; 3D computes them with the stress update, and a remap makes
+# them stale), and with them their hourglass and bulk-viscosity power (W) and force on the body (N)
+(B_TIME, B_OFFSET, B_VEL, B_MAXDISP, B_FSUM, B_FCOUNT, B_INFLOW, B_STEP, B_FRICTION, B_REMAP_OFFSET, B_REMAPS,
+ B_FORCES_AHEAD, B_HOURGLASS_W, B_BULK_W, B_BESIDE_N) = range(15)
+N_BODY = 15
 
 
 def corner_offsets(dim: int) -> np.ndarray:

@@ -3,7 +3,8 @@
 The step of :mod:`dsmv.cel.stepper` on hexahedra: nodal forces (:mod:`dsmv.cel.kernels.hexahedra`),
 the body's motion and the tied nodes (the shared stages of :mod:`dsmv.cel.kernels.nodes`), the
 explicit velocity update (in parallel over blocks of nodes), the boundary conditions, the stress
-update; then, once some node has travelled ``par.remap_travel``, the Eulerian phase in three
+update, which computes the next step's nodal forces in the same pass over the cells (they need the
+new stress and the velocities it used; reading each cell once instead of twice); then, once some node has travelled ``par.remap_travel``, the Eulerian phase in three
 directional sweeps whose order alternates (x, y, z, then z, y, x) (:mod:`dsmv.cel.kernels.remap3d`),
 with soil entering at the base as the grid moves down with the body. The node stages after the
 velocity update (boundary conditions, ties and the faces' capped adhesive pull) are 2D's,
@@ -18,32 +19,39 @@ import numpy as np
 from numba import njit
 
 from dsmv.cel.kernels.common import INLINE, JIT
-from dsmv.cel.kernels.hexahedra import SOLID, nodal_forces, update_stress
+from dsmv.cel.kernels.hexahedra import SOLID, nodal_forces, update_stress_and_forces
 from dsmv.cel.kernels.nodes import (gather_travel_in_blocks, hand_travel_to_parents, nodal_mass, ties_that_hold,
                                     update_velocities_in_blocks)
 from dsmv.cel.kernels.remap3d import remap_sweeps
-from dsmv.cel.layout import B_FRICTION, B_INFLOW, B_MAXDISP, B_OFFSET, B_REMAP_OFFSET, B_REMAPS, B_STEP, B_TIME, B_VEL
+from dsmv.cel.layout import (B_BESIDE_N, B_BULK_W, B_FORCES_AHEAD, B_FRICTION, B_HOURGLASS_W, B_INFLOW, B_MAXDISP,
+                              B_OFFSET, B_REMAP_OFFSET, B_REMAPS, B_STEP, B_TIME, B_VEL)
 from dsmv.cel.ledger import E_BULK, E_HOURGLASS, E_PLASTIC, E_REMAP_ELASTIC, E_REMAP_KINETIC
 from dsmv.cel.stepper import AT_REST, NOT_FINITE, OUTRAN, RUNNING, hold_nodes, move_body, settle_nodes
 
 
 @njit(**INLINE)
 def lagrange_step(mesh, cells, nodes, contact, par, body, energy, law):
-    """One step; returns the soil's force on the body (N) and the body's old velocity."""
-    work = np.zeros(3)
-    nodal_forces(mesh, cells, nodes, par, body[B_VEL], contact.split_parent, work)
-    energy[E_HOURGLASS] += work[0] * par.dt
-    energy[E_BULK] += work[1] * par.dt
+    """One step; returns the soil's force on the body (N) and the body's old velocity. The node forces
+    come from the last step's stress update (:func:`~dsmv.cel.kernels.hexahedra.update_stress_and_forces`),
+    or are computed here when there are none ahead (the first step of a run, after a remap)."""
+    if body[B_FORCES_AHEAD] == 0.0:
+        work = np.zeros(3)
+        nodal_forces(mesh, cells, nodes, par, body[B_VEL], contact.split_parent, work)
+        body[B_HOURGLASS_W], body[B_BULK_W], body[B_BESIDE_N] = work[0], work[1], work[2]
+    energy[E_HOURGLASS] += body[B_HOURGLASS_W] * par.dt
+    energy[E_BULK] += body[B_BULK_W] * par.dt
     if par.separation:  # which face ties hold this step: those the soil would otherwise cross
         ties_that_hold(contact, nodes, par.dt, par.gravity, par.mass_floor,
                        body[B_VEL] if par.drop else -par.push_velocity)
     # last step's adhesive pull, the mean stress on the closed faces
-    resistance, v_old = move_body(nodes, contact, par, body, energy, body[B_FRICTION] + work[2])
+    resistance, v_old = move_body(nodes, contact, par, body, energy, body[B_FRICTION] + body[B_BESIDE_N])
     momentum_before, momentum_after = update_velocities_in_blocks(nodes, par.gravity, par.dt, par.mass_floor)
     hold_nodes(cells, nodes, contact, par, body, energy, momentum_before, momentum_after)
-    plastic = np.zeros(1)
-    update_stress(mesh, cells, nodes, par, body[B_VEL], contact.split_parent, law, plastic)
-    energy[E_PLASTIC] += plastic[0]
+    work = np.zeros(4)
+    update_stress_and_forces(mesh, cells, nodes, par, body[B_VEL], contact.split_parent, law, work)
+    energy[E_PLASTIC] += work[0]
+    body[B_HOURGLASS_W], body[B_BULK_W], body[B_BESIDE_N] = work[1], work[2], work[3]
+    body[B_FORCES_AHEAD] = 1.0
     body[B_OFFSET] += body[B_VEL] * par.dt
     body[B_TIME] += par.dt
     body[B_STEP] += 1.0
@@ -80,6 +88,7 @@ def remap(mesh, cells, faces, nodes, contact, inflow, par, body, energy, swept):
     energy[E_REMAP_ELASTIC] += audit[0]
     energy[E_REMAP_KINETIC] += audit[1]
     settle_nodes(mesh, cells, nodes, contact, par, body, energy, swept)
+    body[B_FORCES_AHEAD] = 0.0  # the soil and its momentum have moved: the forces ahead no longer hold
 
 
 @njit(**JIT)

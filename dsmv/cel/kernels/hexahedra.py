@@ -150,6 +150,12 @@ def strain_increment(v, nodes8, dx, dy, dz, dt, coeff, d):
     and its spin increments (wxy, wyz, wzx) returned, from its nodes' velocities by the one-point rule;
     ``coeff`` (3, 8) is work space (:func:`corner_coefficients`)."""
     corner_coefficients(v, nodes8, coeff)
+    return strain_from_coefficients(coeff, dx, dy, dz, dt, d)
+
+
+@njit(**INLINE)
+def strain_from_coefficients(coeff, dx, dy, dz, dt, d):
+    """:func:`strain_increment` from the cell's velocity coefficients (:func:`corner_coefficients`)."""
     ix, iy, iz = 0.25 / dx, 0.25 / dy, 0.25 / dz
     d[0], d[1], d[2] = dt * (coeff[0, 1] * ix), dt * (coeff[1, 2] * iy), dt * (coeff[2, 4] * iz)
     d[3] = 0.5 * dt * (coeff[0, 2] * iy + coeff[1, 1] * ix)
@@ -183,121 +189,73 @@ def mean_stress_as_remapped(fn, nodes8, closed, n_grid, parent, mean, wx, wy, wz
     return body_fz
 
 
-@njit(**JIT)
-def slab_forces(i, mesh, cells, v, v_body, parent, fn, par):
-    """The nodal forces of the cells of slab i (all j, k), added into ``fn``; returns the slab's
-    hourglass and bulk-viscosity power (W) and the vertical force its cells beside the body put on
-    the body (N, up +). A slab's cells touch the nodes of planes i and i + 1 only (split nodes
-    included: a copy sits on its parent's plane). Containers are read once per slab, as in
-    :func:`slab_stress`.
-
-    Per axis a, the corner velocities go to their sign-product coefficients (:func:`walsh`): three
-    are the velocity gradient's, four the hourglass amplitudes g. The forces' coefficients are
-    −V·φ·σ_ab/(4·d_b) on the gradient's and −coef·g on the hourglass vectors, and go back to the
-    corners by the transposed transform.
-
-    With the remap on (``par.remap``), in a cell beside the body or with a split node the mean stress
-    acts as the work-conjugate of :func:`remap_divergence` (:func:`mean_stress_as_remapped`): through
-    the open faces only, the body taking the closed faces' share, and a split node's horizontal share
-    at its parent."""
-    x, y, z, corner, split, closed = mesh.x, mesh.y, mesh.z, mesh.corner, mesh.split, mesh.closed
-    n_grid = np.uint64(mesh.n_grid)
-    phi, q, hourglass_factor = cells.phi, cells.q, cells.hourglass_factor
+@njit(**INLINE)
+def cell_forces(fn, nodes8, coeff, sxx, syy, szz, sxy, syz, szx, f, hourglass_factor, dx, dy, dz, div, beside,
+                remapped, n_grid, parent, par):
+    """One cell's nodal forces, added into ``fn``, from its stress (the soil's own, Pa), its
+    velocity coefficients ``coeff`` (:func:`corner_coefficients`) and its volumetric strain rate
+    ``div`` (1/s); returns its hourglass and bulk-viscosity power (W) and the vertical force it puts
+    on the body (N, up +) where ``remapped`` (:func:`slab_update`)."""
     rho, c_wave = par.density, par.wave_speed
-    _, ny, nz = phi.shape
-    ny1, nz1 = np.uint64(ny + 1), np.uint64(nz + 1)
-    nodes8 = np.empty(8, dtype=np.uint64)
-    coeff = np.empty((3, 8))
-    hg_power = 0.0
+    vol = dx * dy * dz
+    ix, iy, iz = 0.25 / dx, 0.25 / dy, 0.25 / dz
+    qb = 0.0
     bv_power = 0.0
+    if div < 0.0:  # bulk viscosity, a pressure of the soil itself (Pa), in compression only
+        h = min(dx, dy, dz)
+        qb = rho * (par.bulk_quadratic * par.bulk_quadratic * h * h * div * div - par.bulk_linear * c_wave * h * div)
+        bv_power = f * qb * (-div) * vol
+    sxx -= qb
+    syy -= qb
+    szz -= qb
+    wx, wy, wz = vol * f * ix, vol * f * iy, vol * f * iz
+    coef = 0.0
+    if par.hourglass > 0.0 and hourglass_factor > 0.0:
+        coef = HOURGLASS_SCALE * par.hourglass * hourglass_factor * rho * f * c_wave * vol ** (2.0 / 3.0)
+    hg_power = 0.0
+    # the node numbers as scalars: the compiler cannot tell that writes to fn leave nodes8 unchanged
+    n0, n1, n2, n3, n4, n5, n6, n7 = (nodes8[0], nodes8[1], nodes8[2], nodes8[3], nodes8[4], nodes8[5], nodes8[6],
+                                      nodes8[7])
+    for a in range(3):
+        if a == 0:
+            sx, sy, sz = sxx, sxy, szx
+        elif a == 1:
+            sx, sy, sz = sxy, syy, syz
+        else:
+            sx, sy, sz = szx, syz, szz
+        g3, g5, g6, g7 = coeff[a, 3], coeff[a, 5], coeff[a, 6], coeff[a, 7]
+        hg_power += coef * (g3 * g3 + g5 * g5 + g6 * g6 + g7 * g7)
+        f0, f1, f3, f2, f4, f5, f7, f6 = walsh_transposed(
+            0.0, -sx * wx, -sy * wy, -coef * g3, -sz * wz, -coef * g5, -coef * g6, -coef * g7)
+        fn[a, n0] += f0
+        fn[a, n1] += f1
+        fn[a, n2] += f2
+        fn[a, n3] += f3
+        fn[a, n4] += f4
+        fn[a, n5] += f5
+        fn[a, n6] += f6
+        fn[a, n7] += f7
     body_fz = 0.0
-    dx = x[i + 1] - x[i]
-    hourglass = par.hourglass > 0.0
-    for j in range(ny):
-        dy = y[j + 1] - y[j]
-        for k in range(nz):
-            f = phi[i, j, k]
-            if f <= 0.0 and par.skip_void:
-                continue
-            dz = z[k + 1] - z[k]
-            vol = dx * dy * dz
-            cell_nodes(corner, split, i, j, k, ny1, nz1, nodes8)
-            n0, n1, n2, n3, n4, n5, n6, n7 = (nodes8[0], nodes8[1], nodes8[2], nodes8[3], nodes8[4], nodes8[5],
-                                              nodes8[6], nodes8[7])
-            corner_coefficients(v, nodes8, coeff)
-            ix, iy, iz = 0.25 / dx, 0.25 / dy, 0.25 / dz
-            beside = closed[i, j, k]
-            remapped = par.remap and (beside != 0 or split[i, j, k])
-            if remapped:
-                div = remap_divergence(v, nodes8, beside, n_grid, parent, dx, dy, dz, v_body)
-            else:
-                div = coeff[0, 1] * ix + coeff[1, 2] * iy + coeff[2, 4] * iz
-            qb = 0.0
-            if div < 0.0:  # bulk viscosity, a pressure of the soil itself (Pa), in compression only
-                h = min(dx, dy, dz)
-                qb = rho * (par.bulk_quadratic * par.bulk_quadratic * h * h * div * div
-                            - par.bulk_linear * c_wave * h * div)
-                bv_power += f * qb * (-div) * vol
-            sxx = q[SXX, i, j, k] - qb
-            syy = q[SYY, i, j, k] - qb
-            szz = q[SZZ, i, j, k] - qb
-            sxy, syz, szx = q[SXY, i, j, k], q[SYZ, i, j, k], q[SZX, i, j, k]
-            wx, wy, wz = vol * f * ix, vol * f * iy, vol * f * iz
-            coef = 0.0
-            if hourglass and hourglass_factor[i, j, k] > 0.0:
-                coef = (HOURGLASS_SCALE * par.hourglass * hourglass_factor[i, j, k] * rho * f * c_wave
-                        * vol ** (2.0 / 3.0))
-            for a in range(3):
-                if a == 0:
-                    sx, sy, sz = sxx, sxy, szx
-                elif a == 1:
-                    sx, sy, sz = sxy, syy, syz
-                else:
-                    sx, sy, sz = szx, syz, szz
-                g3, g5, g6, g7 = coeff[a, 3], coeff[a, 5], coeff[a, 6], coeff[a, 7]
-                hg_power += coef * (g3 * g3 + g5 * g5 + g6 * g6 + g7 * g7)
-                f0, f1, f3, f2, f4, f5, f7, f6 = walsh_transposed(
-                    0.0, -sx * wx, -sy * wy, -coef * g3, -sz * wz, -coef * g5, -coef * g6, -coef * g7)
-                fn[a, n0] += f0
-                fn[a, n1] += f1
-                fn[a, n2] += f2
-                fn[a, n3] += f3
-                fn[a, n4] += f4
-                fn[a, n5] += f5
-                fn[a, n6] += f6
-                fn[a, n7] += f7
-            if remapped:
-                body_fz += mean_stress_as_remapped(fn, nodes8, beside, n_grid, parent, (sxx + syy + szz) / 3.0,
-                                                   wx, wy, wz)
+    if remapped:
+        body_fz = mean_stress_as_remapped(fn, nodes8, beside, n_grid, parent, (sxx + syy + szz) / 3.0, wx, wy, wz)
     return hg_power, bv_power, body_fz
 
 
-@njit(**PARALLEL)
+@njit(**JIT)
 def nodal_forces(mesh, cells, nodes, par, v_body, parent, work):
     """Internal nodal forces (N) from the cell stresses: f_a = −V·φ·σ·∇N_a at the centre; viscous
     hourglass control on the four hourglass vectors (coefficient ``par.hourglass`` times the cell's
     ``hourglass_factor``); linear and quadratic bulk viscosity in compression; in the cells beside the
     body (moving with vertical velocity ``v_body``, m/s) or with a split node (``parent``: each
-    copy's parent) the mean stress as the remap sees the cell (:func:`slab_forces`). ``work``
+    copy's parent) the mean stress as the remap sees the cell (:func:`slab_update`). ``work``
     accumulates the power of hourglass [0] and bulk viscosity [1] (W) and [2] the vertical force
-    those cells put on the body (N, up +). Cells without soil are skipped.
-
-    Parallel over slabs of constant i in two colours: the even slabs, then the odd ones, each
-    colour's in :func:`~dsmv.cel.kernels.common.spread_order`. Slabs of one colour share no node,
-    so each node sums its cells' forces in the same order whatever the number of threads, and the
-    slabs' sums are added in slab order: results are bit for bit the same on any thread count."""
-    nx = cells.phi.shape[0]
-    fn = nodes.f
-    zero_in_blocks(fn)
-    sums = np.zeros((3, nx))
-    for colour in range(2):
-        order = spread_order((nx - colour + 1) // 2)
-        for s in prange(len(order)):
-            i = 2 * order[s] + colour
-            sums[0, i], sums[1, i], sums[2, i] = slab_forces(i, mesh, cells, nodes.v, v_body, parent, fn, par)
-    for i in range(nx):
-        for m in range(3):
-            work[m] += sums[m, i]
+    those cells put on the body (N, up +). Cells without soil are skipped. Parallel over slabs
+    (:func:`slabs_in_colours`). A step computes its forces here only where none are ahead of it:
+    the stress update computes the next step's (:func:`update_stress_and_forces`)."""
+    all_work = np.zeros(4)
+    slabs_in_colours(mesh, cells, nodes, par, v_body, parent, None, False, all_work)
+    for m in range(3):
+        work[m] += all_work[m + 1]
 
 
 @njit(**INLINE)
@@ -376,18 +334,93 @@ def shear_rate_solid(d, a, vec):
     return max(a[0, 0], a[1, 1], a[2, 2]) - min(a[0, 0], a[1, 1], a[2, 2])
 
 
+@njit(**INLINE)
+def cell_stress(q, su_cell, i, j, k, d, wxy, wyz, wzx, strength, volume, par, law, s, a, vec):
+    """The stress update of cell (i, j, k) (:func:`update_stress_and_forces`) from its strain increment
+    ``d`` and spin increments, its strength before the soil law (Pa) and its soil volume (m³): the new
+    stress into ``q`` and ``s``, ξ and the law's state into ``q``, the strength into ``su_cell``;
+    returns the plastic work (J)."""
+    shear_mod, dt = par.shear, par.dt
+    lam = par.bulk - 2.0 * shear_mod / 3.0
+    n_state = q.shape[0] - NQ_BASE
+    sxx, syy, szz = q[SXX, i, j, k], q[SYY, i, j, k], q[SZZ, i, j, k]
+    sxy, syz, szx = q[SXY, i, j, k], q[SYZ, i, j, k], q[SZX, i, j, k]
+    # Jaumann: σ + W·σ − σ·W (W = [[0, wxy, −wzx], [−wxy, 0, wyz], [wzx, −wyz, 0]])
+    s[0] = sxx + 2.0 * (wxy * sxy - wzx * szx)
+    s[1] = syy + 2.0 * (wyz * syz - wxy * sxy)
+    s[2] = szz + 2.0 * (wzx * szx - wyz * syz)
+    s[3] = sxy + wxy * (syy - sxx) + wyz * szx - wzx * syz
+    s[4] = syz + wyz * (szz - syy) + wzx * sxy - wxy * szx
+    s[5] = szx + wzx * (sxx - szz) + wxy * syz - wyz * sxy
+    tr = d[0] + d[1] + d[2]
+    for m in range(3):
+        s[m] += lam * tr + 2.0 * shear_mod * d[m]
+    for m in range(3, 6):
+        s[m] += 2.0 * shear_mod * d[m]
+    su = strength
+    if su < 0.0:
+        su = 0.0
+    xi_before = q[XI, i, j, k]
+    gamma_dot = 0.0
+    if law is not None and par.law_active:
+        gamma_dot = shear_rate_solid(d, a, vec) / dt
+        s0 = q[NQ_BASE, i, j, k] if n_state > 0 else 0.0
+        s1 = q[NQ_BASE + 1, i, j, k] if n_state > 1 else 0.0
+        su *= law_factor(law, xi_before, gamma_dot, s0, s1)
+    su_cell[i, j, k] = su
+    p = (s[0] + s[1] + s[2]) / 3.0
+    dev_sq = ((s[0] - p) ** 2 + (s[1] - p) ** 2 + (s[2] - p) ** 2
+              + 2.0 * (s[3] * s[3] + s[4] * s[4] + s[5] * s[5]))
+    plastic = 0.0
+    if 0.5 * dev_sq > su * su:  # J2 > su²: outside the von Mises cylinder, which contains Tresca's prism
+        if par.tresca:
+            dxi, dg = tresca_solid(s, su, shear_mod, a, vec)
+            if dg > 0.0:
+                q[XI, i, j, k] += dxi
+                plastic = 2.0 * su * dg * volume
+        else:
+            scale, dlam = radial_return(math.sqrt(dev_sq), su, shear_mod)
+            for m in range(3):
+                s[m] = p + (s[m] - p) * scale
+            for m in range(3, 6):
+                s[m] *= scale
+            q[XI, i, j, k] += math.sqrt(2.0) * dlam
+            plastic = math.sqrt(2.0) * su * dlam * volume
+    for m in range(6):
+        q[m, i, j, k] = s[m]
+    if law is not None and n_state > 0:
+        s0 = q[NQ_BASE, i, j, k]
+        s1 = q[NQ_BASE + 1, i, j, k] if n_state > 1 else 0.0
+        xi = q[XI, i, j, k]
+        for m in range(n_state):
+            q[NQ_BASE + m, i, j, k] = law_state(law, m, s0, s1, xi, xi - xi_before, gamma_dot, dt)
+    return plastic
+
+
 @njit(**JIT)
-def slab_stress(i, mesh, cells, v, v_body, parent, par, law):
-    """The stress update of the cells of slab i (:func:`update_stress`); returns their plastic work (J).
-    Containers are read once per slab (a container passed per cell costs a reference count per array)."""
+def slab_update(i, mesh, cells, v, v_body, parent, fn, par, law, stress):
+    """The cells of slab i (all j, k): with ``stress``, their stress update (:func:`update_stress_and_forces`);
+    then their nodal forces, added into ``fn``. Returns the slab's plastic work (J), hourglass and
+    bulk-viscosity power (W), and the vertical force its cells beside the body put on the body (N, up
+    +). A slab's cells touch the nodes of planes i and i + 1 only (split nodes included: a copy sits on
+    its parent's plane). Containers are read once per slab (a container passed per cell costs a
+    reference count per array).
+
+    Per axis a, the corner velocities go to their sign-product coefficients (:func:`walsh`): three
+    are the velocity gradient's, four the hourglass amplitudes g. The forces' coefficients are
+    −V·φ·σ_ab/(4·d_b) on the gradient's and −coef·g on the hourglass vectors, and go back to the
+    corners by the transposed transform.
+
+    With the remap on (``par.remap``), in a cell beside the body or with a split node the mean stress
+    acts as the work-conjugate of :func:`remap_divergence` (:func:`mean_stress_as_remapped`): through
+    the open faces only, the body taking the closed faces' share, and a split node's horizontal share
+    at its parent; the stress update takes its volumetric strain from the same divergence."""
     x, y, z, corner, split, closed = mesh.x, mesh.y, mesh.z, mesh.corner, mesh.split, mesh.closed
     n_grid = np.uint64(mesh.n_grid)
     phi, q, su_cell, factor, open_frac = cells.phi, cells.q, cells.su, cells.strength_factor, cells.open_frac
+    hourglass_factor = cells.hourglass_factor
     _, ny, nz = phi.shape
     ny1, nz1 = np.uint64(ny + 1), np.uint64(nz + 1)
-    n_state = q.shape[0] - NQ_BASE
-    shear_mod, dt = par.shear, par.dt
-    lam = par.bulk - 2.0 * shear_mod / 3.0
     nodes8 = np.empty(8, dtype=np.uint64)
     coeff = np.empty((3, 8))
     s = np.empty(6)
@@ -395,100 +428,92 @@ def slab_stress(i, mesh, cells, v, v_body, parent, par, law):
     a = np.empty((3, 3))
     vec = np.empty((3, 3))
     plastic = 0.0
+    hg_power = 0.0
+    bv_power = 0.0
+    body_fz = 0.0
     dx = x[i + 1] - x[i]
     for j in range(ny):
         dy = y[j + 1] - y[j]
         for k in range(nz):
             f = phi[i, j, k]
-            if f <= par.stress_cutoff * open_frac[i, j, k]:
+            stressed = stress and f > par.stress_cutoff * open_frac[i, j, k]
+            if stress and not stressed:
                 for m in range(6):
                     q[m, i, j, k] = 0.0
                 su_cell[i, j, k] = 0.0
+            if f <= 0.0 and par.skip_void:
                 continue
             dz = z[k + 1] - z[k]
             cell_nodes(corner, split, i, j, k, ny1, nz1, nodes8)
-            wxy, wyz, wzx = strain_increment(v, nodes8, dx, dy, dz, dt, coeff, d)
-            if par.remap and (closed[i, j, k] or split[i, j, k]):
-                # the volumetric part the remap makes, the deviatoric the cell's own: the pressure then
-                # feels the soil the remap packs against the body (2D's cut cells do the same,
-                # :func:`dsmv.cel.kernels.plane.volumetric_override`); without a remap nothing packs
-                div = remap_divergence(v, nodes8, closed[i, j, k], n_grid, parent, dx, dy, dz, v_body)
-                shift = (dt * div - d[0] - d[1] - d[2]) / 3.0
-                for m in range(3):
-                    d[m] += shift
-            sxx, syy, szz = q[SXX, i, j, k], q[SYY, i, j, k], q[SZZ, i, j, k]
-            sxy, syz, szx = q[SXY, i, j, k], q[SYZ, i, j, k], q[SZX, i, j, k]
-            # Jaumann: σ + W·σ − σ·W (W = [[0, wxy, −wzx], [−wxy, 0, wyz], [wzx, −wyz, 0]])
-            s[0] = sxx + 2.0 * (wxy * sxy - wzx * szx)
-            s[1] = syy + 2.0 * (wyz * syz - wxy * sxy)
-            s[2] = szz + 2.0 * (wzx * szx - wyz * syz)
-            s[3] = sxy + wxy * (syy - sxx) + wyz * szx - wzx * syz
-            s[4] = syz + wyz * (szz - syy) + wzx * sxy - wxy * szx
-            s[5] = szx + wzx * (sxx - szz) + wxy * syz - wyz * sxy
-            tr = d[0] + d[1] + d[2]
-            for m in range(3):
-                s[m] += lam * tr + 2.0 * shear_mod * d[m]
-            for m in range(3, 6):
-                s[m] += 2.0 * shear_mod * d[m]
-            su = (par.su0 + par.ks * q[Z0, i, j, k]) * factor[i, j, k]
-            if su < 0.0:
-                su = 0.0
-            xi_before = q[XI, i, j, k]
-            gamma_dot = 0.0
-            if law is not None and par.law_active:
-                gamma_dot = shear_rate_solid(d, a, vec) / dt
-                s0 = q[NQ_BASE, i, j, k] if n_state > 0 else 0.0
-                s1 = q[NQ_BASE + 1, i, j, k] if n_state > 1 else 0.0
-                su *= law_factor(law, xi_before, gamma_dot, s0, s1)
-            su_cell[i, j, k] = su
-            p = (s[0] + s[1] + s[2]) / 3.0
-            dev_sq = ((s[0] - p) ** 2 + (s[1] - p) ** 2 + (s[2] - p) ** 2
-                      + 2.0 * (s[3] * s[3] + s[4] * s[4] + s[5] * s[5]))
-            volume = dx * dy * dz * f
-            if 0.5 * dev_sq > su * su:  # J2 > su²: outside the von Mises cylinder, which contains Tresca's prism
-                if par.tresca:
-                    dxi, dg = tresca_solid(s, su, shear_mod, a, vec)
-                    if dg > 0.0:
-                        q[XI, i, j, k] += dxi
-                        plastic += 2.0 * su * dg * volume
-                else:
-                    scale, dlam = radial_return(math.sqrt(dev_sq), su, shear_mod)
+            corner_coefficients(v, nodes8, coeff)
+            beside = closed[i, j, k]
+            remapped = par.remap and (beside != 0 or split[i, j, k])
+            if remapped:
+                div = remap_divergence(v, nodes8, beside, n_grid, parent, dx, dy, dz, v_body)
+            else:
+                div = coeff[0, 1] * (0.25 / dx) + coeff[1, 2] * (0.25 / dy) + coeff[2, 4] * (0.25 / dz)
+            if stressed:
+                wxy, wyz, wzx = strain_from_coefficients(coeff, dx, dy, dz, par.dt, d)
+                if remapped:
+                    # the volumetric part the remap makes, the deviatoric the cell's own: the pressure then
+                    # feels the soil the remap packs against the body (2D's cut cells do the same,
+                    # :func:`dsmv.cel.kernels.plane.volumetric_override`); without a remap nothing packs
+                    shift = (par.dt * div - d[0] - d[1] - d[2]) / 3.0
                     for m in range(3):
-                        s[m] = p + (s[m] - p) * scale
-                    for m in range(3, 6):
-                        s[m] *= scale
-                    q[XI, i, j, k] += math.sqrt(2.0) * dlam
-                    plastic += math.sqrt(2.0) * su * dlam * volume
-            for m in range(6):
-                q[m, i, j, k] = s[m]
-            if law is not None and n_state > 0:
-                s0 = q[NQ_BASE, i, j, k]
-                s1 = q[NQ_BASE + 1, i, j, k] if n_state > 1 else 0.0
-                xi = q[XI, i, j, k]
-                for m in range(n_state):
-                    q[NQ_BASE + m, i, j, k] = law_state(law, m, s0, s1, xi, xi - xi_before, gamma_dot, dt)
-    return plastic
+                        d[m] += shift
+                strength = (par.su0 + par.ks * q[Z0, i, j, k]) * factor[i, j, k]
+                plastic += cell_stress(q, su_cell, i, j, k, d, wxy, wyz, wzx, strength, dx * dy * dz * f, par, law,
+                                       s, a, vec)
+            hg, bv, fz = cell_forces(fn, nodes8, coeff, q[SXX, i, j, k], q[SYY, i, j, k], q[SZZ, i, j, k],
+                                     q[SXY, i, j, k], q[SYZ, i, j, k], q[SZX, i, j, k], f, hourglass_factor[i, j, k],
+                                     dx, dy, dz, div, beside, remapped, n_grid, parent, par)
+            hg_power += hg
+            bv_power += bv
+            body_fz += fz
+    return plastic, hg_power, bv_power, body_fz
+
+
+@njit(**JIT)
+def update_stress_and_forces(mesh, cells, nodes, par, v_body, parent, law, work):
+    """Stress update for undrained soil of strength su = (su0 + ks·z0)·f·law(ξ, γ̇, state): Jaumann
+    rotation by the spin, elastic trial, return (Tresca with ``par.tresca``, else von Mises √J2 ≤ su).
+    ξ accumulates Δε1^p − Δε3^p; ``cells.su`` receives each cell's strength (Pa). Beside the body
+    (vertical velocity ``v_body``, m/s) and in cells with a split node (``parent``: each copy's
+    parent) the volumetric strain is the remap's (:func:`remap_divergence`). As
+    :func:`dsmv.cel.kernels.plane.update_stress`, in three dimensions. Tresca's return needs the
+    principal axes only where √J2 > su (s1 − s3 ≤ 2·√J2 always).
+
+    Then, cell by cell while its nodes' velocities are at hand, the nodal forces of the next step
+    (:func:`nodal_forces`): they depend on the new stress and on these same velocities, which nothing
+    changes before the next step but a remap. ``work`` receives the plastic work [0] (J), and the
+    next step's hourglass [1] and bulk-viscosity power [2] (W) and force on the body [3] (N, up +).
+    Parallel over slabs in two colours as :func:`nodal_forces` (a cell writes only its own state);
+    the slabs' sums are added in slab order, so the result does not depend on the number of threads."""
+    slabs_in_colours(mesh, cells, nodes, par, v_body, parent, law, True, work)
 
 
 @njit(**PARALLEL)
-def update_stress(mesh, cells, nodes, par, v_body, parent, law, out):
-    """Stress update for undrained soil of strength su = (su0 + ks·z0)·f·law(ξ, γ̇, state): Jaumann
-    rotation by the spin, elastic trial, return (Tresca with ``par.tresca``, else von Mises √J2 ≤ su).
-    ξ accumulates Δε1^p − Δε3^p; ``out[0]`` accumulates plastic work (J); ``cells.su`` receives
-    each cell's strength (Pa). Beside the body (vertical velocity ``v_body``, m/s) and in cells with a
-    split node (``parent``: each copy's parent) the volumetric strain is the remap's
-    (:func:`remap_divergence`). As :func:`dsmv.cel.kernels.plane.update_stress`, in three dimensions.
-    Tresca's return needs the principal axes only where √J2 > su (s1 − s3 ≤ 2·√J2 always).
-    Parallel over slabs of constant i in spread order (a cell writes only its own state); the slabs' plastic work
-    is summed in slab order, so the result does not depend on the number of threads."""
+def slabs_in_colours(mesh, cells, nodes, par, v_body, parent, law, stress, work):
+    """:func:`slab_update` over all slabs, into zeroed node forces: in two colours, the even slabs then the
+    odd ones, each colour's in :func:`~dsmv.cel.kernels.common.spread_order`. Slabs of one colour share
+    no node, so each node sums its cells' forces in the same order whatever the number of threads; the
+    slabs' sums (``work``: plastic work, hourglass and bulk-viscosity power, force on the body) are
+    added in slab order, so the results are bit for bit the same on any number of threads."""
     nx = cells.phi.shape[0]
-    plastic = np.zeros(nx)
-    order = spread_order(nx)
-    for s in prange(nx):
-        i = order[s]
-        plastic[i] = slab_stress(i, mesh, cells, nodes.v, v_body, parent, par, law)
+    fn = nodes.f
+    zero_in_blocks(fn)
+    sums = np.zeros((4, nx))
+    for colour in range(2):
+        order = spread_order((nx - colour + 1) // 2)
+        for s in prange(len(order)):
+            i = 2 * order[s] + colour
+            sums[0, i], sums[1, i], sums[2, i], sums[3, i] = slab_update(i, mesh, cells, nodes.v, v_body, parent, fn,
+                                                                         par, law, stress)
+    for m in range(4):
+        work[m] = 0.0
     for i in range(nx):
-        out[0] += plastic[i]
+        for m in range(4):
+            work[m] += sums[m, i]
 
 
 @njit(**JIT)
