@@ -208,10 +208,10 @@ def test_a_slurm_array_s_time_limit_is_its_longest_cost_estimate_with_a_margin_n
     """3× the longest job's estimate plus the cold start, at least ``timeout_min``."""
     from hydra_plugins.dsmv_launcher.submitit_launchers import COLD_START_S, COST_MARGIN, time_limit_min
 
-    assert (COST_MARGIN, COLD_START_S) == (3.0, 120.0)
+    assert (COST_MARGIN, COLD_START_S) == (3.0, 150.0)
     assert time_limit_min([10.0, 20.0], 60) == 60  # short jobs: the floor
-    assert time_limit_min([1200.0, 60.0], 1) == 62  # (3 · 1200 + 120) / 60
-    assert time_limit_min([1200.0, 1201.0], 1) == 63
+    assert time_limit_min([1230.0, 60.0], 1) == 64  # (3 · 1230 + 150) / 60, the longest job's
+    assert time_limit_min([1200.0, 60.0], 1) == 63  # 62.5, rounded up
 
 
 def test_the_slurm_array_asks_for_its_longest_job_s_limit(tmp_path):

@@ -41,8 +41,8 @@ __all__ = ["LocalLauncher", "SlurmLauncher", "time_limit_min", "worker_count"]
 #: a job's limit over its cost estimate: over 180 tracked runs on the 2-core machines the wall time
 #: was 0.20–2.14× the estimate (which assumes a throughput, dsmv.cel.solver.CELL_UPDATES_PER_S)
 COST_MARGIN = 3.0
-#: what a job may take before it steps (s): the 3D kernels' cold compile took 76.5 s (dsmv-bench --3d)
-COLD_START_S = 120.0
+#: what a job may take before it steps (s): the 3D kernels' cold compile took 92–107 s (dsmv-bench --3d)
+COLD_START_S = 150.0
 
 
 def time_limit_min(estimates_s: Sequence[float], floor_min: float) -> int:
