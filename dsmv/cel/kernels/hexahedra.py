@@ -190,12 +190,14 @@ def mean_stress_as_remapped(fn, nodes8, closed, n_grid, parent, mean, wx, wy, wz
 
 
 @njit(**INLINE)
-def cell_forces(fn, nodes8, coeff, sxx, syy, szz, sxy, syz, szx, f, hourglass_factor, dx, dy, dz, div, beside,
-                remapped, n_grid, parent, par):
-    """One cell's nodal forces, added into ``fn``, from its stress (the soil's own, Pa), its
-    velocity coefficients ``coeff`` (:func:`corner_coefficients`) and its volumetric strain rate
-    ``div`` (1/s); returns its hourglass and bulk-viscosity power (W) and the vertical force it puts
+def cell_forces(fn, nodes8, coeff, stress, cell, div, beside, remapped, n_grid, parent, par):
+    """One cell's nodal forces, added into ``fn``, from its stress (σxx, σyy, σzz, σxy, σyz, σzx, the
+    soil's own, Pa), the cell's fill φ, hourglass factor and edges (``cell``: φ, factor, dx, dy, dz
+    in m), its velocity coefficients ``coeff`` (:func:`corner_coefficients`) and its volumetric strain
+    rate ``div`` (1/s); returns its hourglass and bulk-viscosity power (W) and the vertical force it puts
     on the body (N, up +) where ``remapped`` (:func:`slab_update`)."""
+    sxx, syy, szz, sxy, syz, szx = stress
+    f, hourglass_factor, dx, dy, dz = cell
     rho, c_wave = par.density, par.wave_speed
     vol = dx * dy * dz
     ix, iy, iz = 0.25 / dx, 0.25 / dy, 0.25 / dz
@@ -335,11 +337,13 @@ def shear_rate_solid(d, a, vec):
 
 
 @njit(**INLINE)
-def cell_stress(q, su_cell, i, j, k, d, wxy, wyz, wzx, strength, volume, par, law, s, a, vec):
-    """The stress update of cell (i, j, k) (:func:`update_stress_and_forces`) from its strain increment
-    ``d`` and spin increments, its strength before the soil law (Pa) and its soil volume (m³): the new
+def cell_stress(q, su_cell, cell, d, spin, strength, volume, par, law, s, a, vec):
+    """The stress update of cell (i, j, k) = ``cell`` (:func:`update_stress_and_forces`) from its strain
+    increment ``d`` and spin increments (wxy, wyz, wzx), its strength before the soil law (Pa) and its soil volume (m³): the new
     stress into ``q`` and ``s``, ξ and the law's state into ``q``, the strength into ``su_cell``;
     returns the plastic work (J)."""
+    i, j, k = cell
+    wxy, wyz, wzx = spin
     shear_mod, dt = par.shear, par.dt
     lam = par.bulk - 2.0 * shear_mod / 3.0
     n_state = q.shape[0] - NQ_BASE
@@ -453,7 +457,7 @@ def slab_update(i, mesh, cells, v, v_body, parent, fn, par, law, stress):
             else:
                 div = coeff[0, 1] * (0.25 / dx) + coeff[1, 2] * (0.25 / dy) + coeff[2, 4] * (0.25 / dz)
             if stressed:
-                wxy, wyz, wzx = strain_from_coefficients(coeff, dx, dy, dz, par.dt, d)
+                spin = strain_from_coefficients(coeff, dx, dy, dz, par.dt, d)
                 if remapped:
                     # the volumetric part the remap makes, the deviatoric the cell's own: the pressure then
                     # feels the soil the remap packs against the body (2D's cut cells do the same,
@@ -462,11 +466,11 @@ def slab_update(i, mesh, cells, v, v_body, parent, fn, par, law, stress):
                     for m in range(3):
                         d[m] += shift
                 strength = (par.su0 + par.ks * q[Z0, i, j, k]) * factor[i, j, k]
-                plastic += cell_stress(q, su_cell, i, j, k, d, wxy, wyz, wzx, strength, dx * dy * dz * f, par, law,
-                                       s, a, vec)
-            hg, bv, fz = cell_forces(fn, nodes8, coeff, q[SXX, i, j, k], q[SYY, i, j, k], q[SZZ, i, j, k],
-                                     q[SXY, i, j, k], q[SYZ, i, j, k], q[SZX, i, j, k], f, hourglass_factor[i, j, k],
-                                     dx, dy, dz, div, beside, remapped, n_grid, parent, par)
+                plastic += cell_stress(q, su_cell, (i, j, k), d, spin, strength, dx * dy * dz * f, par, law, s, a, vec)
+            stress_now = (q[SXX, i, j, k], q[SYY, i, j, k], q[SZZ, i, j, k], q[SXY, i, j, k], q[SYZ, i, j, k],
+                          q[SZX, i, j, k])
+            hg, bv, fz = cell_forces(fn, nodes8, coeff, stress_now, (f, hourglass_factor[i, j, k], dx, dy, dz), div,
+                                     beside, remapped, n_grid, parent, par)
             hg_power += hg
             bv_power += bv
             body_fz += fz
