@@ -46,6 +46,7 @@ def test_a_geostatic_column_stays_at_rest():
     from dsmv.cel.layout import N_BODY, Cells, Contact, Inflow, Nodes, SolidMesh, structured_corners
     from dsmv.cel.solver3d import solid_faces
     from dsmv.cel.state import Elastic, layers_below, step_parameters
+    from dsmv.cel.kernels.nodes import nodal_mass
     from dsmv.cel.stepper3d import run_steps
     from types import SimpleNamespace
 
@@ -78,6 +79,7 @@ def test_a_geostatic_column_stays_at_rest():
     body = np.zeros(N_BODY)
     faces = solid_faces(np.zeros(shape, dtype=bool))
     inflow = Inflow(np.zeros((SOLID.base, 3, 2)), np.zeros((3, 2)))
+    nodal_mass(mesh, cells, rho, nodes.mass)
     steps, code = run_steps(200, mesh, cells, faces, nodes, contact, inflow, par, body, np.zeros(ledger.N_ENERGY), None)
     assert (steps, code) == (200, 0)
     assert np.abs(nodes.v).max() < 1e-12
@@ -427,3 +429,23 @@ def test_a_track_s_shape_carries_a_pose():
     assert y_below.min() > 0  # only the nose, ahead, goes below the upright base
     deepest = -grid.z[np.nonzero(below.any(axis=(0, 1)))[0]].min()
     assert deepest == pytest.approx(L / 2 * math.sin(math.radians(5.0)), abs=h)
+
+
+def test_nodal_masses_stay_those_of_the_cells_through_the_remaps(compose_cfg):
+    """The loop computes no nodal masses: the set-up does, and each remap, the one place φ changes.
+    On the track landing (split nodes at its edges and corners), after every step, remaps included,
+    they equal a fresh computation from the cells."""
+    from dsmv.cel.kernels.nodes import nodal_mass
+    from dsmv.cel.layout import B_REMAPS
+    from dsmv.cel.solver3d import Cel3DSolver
+
+    solver = Cel3DSolver(build_scene(compose_cfg(["solver=cel3d", "mesh.cell_size_m=0.15", "tracking=disabled",
+                                                  "solver.progress=off"])))
+    state = solver.initial_state()
+    assert len(state.nodes.mass) > state.mesh.n_grid  # the track's edges and corners are split
+    fresh = np.empty_like(state.nodes.mass)
+    for _ in range(40):
+        solver.advance(state, 1)
+        nodal_mass(state.mesh, state.cells, state.par.density, fresh)
+        assert np.array_equal(state.nodes.mass, fresh)
+    assert state.body[B_REMAPS] > 0

@@ -161,11 +161,11 @@ def run_steps(n_steps, mesh, cells, faces, nodes, contact, inflow, par, body, en
     ``law`` is the soil law (:class:`~dsmv.cel.layout.SoilLawKernel`); its factor is called only
     when ``par.law_active``, its ``evolve`` updates the law's state variables, the rows of
     ``cells.q`` (and ``inflow.ghost``) beyond NQ_BASE. None for a law that does neither (Tresca):
-    the loop is then compiled without the calls.
+    the loop is then compiled without the calls. The nodal masses come with the state: they change only
+    where soil moves through the grid, so the set-up computes them and each remap renews them
+    (:func:`settle_nodes`).
     """
     swept = np.zeros((len(contact.split_node), 2))
-    # nodal masses change only where soil moves through the grid: here and after each remap
-    nodal_mass(mesh, cells, par.density, nodes.mass)
     for step in range(n_steps):
         resistance, v_old = lagrange_step(mesh, cells, faces, nodes, contact, par, body, energy, law)
         # The soil moves a small fraction of a cell per step (the step is set by the elastic wave

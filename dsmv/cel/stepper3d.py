@@ -20,7 +20,7 @@ from numba import njit
 
 from dsmv.cel.kernels.common import INLINE, JIT
 from dsmv.cel.kernels.hexahedra import SOLID, nodal_forces, update_stress_and_forces
-from dsmv.cel.kernels.nodes import (gather_travel_in_blocks, hand_travel_to_parents, nodal_mass, ties_that_hold,
+from dsmv.cel.kernels.nodes import (gather_travel_in_blocks, hand_travel_to_parents, ties_that_hold,
                                     update_velocities_in_blocks)
 from dsmv.cel.kernels.remap3d import remap_sweeps
 from dsmv.cel.layout import (B_BESIDE_N, B_BULK_W, B_FORCES_AHEAD, B_FRICTION, B_HOURGLASS_W, B_INFLOW, B_MAXDISP,
@@ -93,9 +93,9 @@ def remap(mesh, cells, faces, nodes, contact, inflow, par, body, energy, swept):
 
 @njit(**JIT)
 def run_steps(n_steps, mesh, cells, faces, nodes, contact, inflow, par, body, energy, law):
-    """Advance up to ``n_steps`` steps; return (steps done, exit code) as :func:`dsmv.cel.stepper.run_steps`."""
+    """Advance up to ``n_steps`` steps; return (steps done, exit code) as :func:`dsmv.cel.stepper.run_steps`
+    (the nodal masses come with the state)."""
     swept = np.zeros((len(contact.split_node), 2))
-    nodal_mass(mesh, cells, par.density, nodes.mass)
     for step in range(n_steps):
         resistance, v_old = lagrange_step(mesh, cells, nodes, contact, par, body, energy, law)
         travel = gather_travel_in_blocks(nodes, body[B_VEL], par.dt) if par.remap else 0.0
