@@ -163,6 +163,70 @@ def test_the_controller_steers_chunks_for_any_state():
     assert np.all(np.diff(run.history["time_s"]) > 0)
 
 
+class Counting:
+    """A scan that records the steps it looked at, and may end the run from a given step on."""
+
+    scan = True
+
+    def __init__(self, ends_at=None):
+        self.seen, self.ends_at = [], ends_at
+
+    def after_chunk(self, run):
+        self.seen.append(run.steps)
+        if self.ends_at is not None and run.steps >= self.ends_at:
+            return C.Ending("unstable", "seen")
+        return None
+
+
+def test_scans_look_every_scan_steps_when_the_loop_stops_early_and_before_a_run_ends():
+    """Chunks of 3 steps: the scans look once SCAN_STEPS steps have passed since their last look,
+    at once when the compiled loop stops early, and before another tracker's ending, which theirs
+    overrides."""
+    body = np.zeros(N_BODY)
+
+    def advance(n):
+        body[B_TIME] += n
+        return n, 0
+
+    scan = Counting()
+    run = C.Run(state=None, body=body, energy=np.zeros(10))
+    ending, _, _ = C.Controller(advance, [scan, C.StepBudget(100)], 3, 100).run(run)
+    gaps = np.diff([0, *scan.seen])
+    assert ending.status == "unstable" and "max_steps" in ending.message
+    assert scan.seen[-1] == 100  # the budget's end was shown to the scan first
+    assert (gaps[:-1] >= C.SCAN_STEPS).all() and (gaps[:-1] < C.SCAN_STEPS + 3).all()
+
+    # a scan's ending found between looks wins over the ending that made it look
+    ending, _, _ = C.Controller(advance, [Counting(ends_at=50), C.StepBudget(60)], 3, 100).run(
+        C.Run(state=None, body=np.zeros(N_BODY), energy=np.zeros(10)))
+    assert (ending.status, ending.message) == ("unstable", "seen")
+
+    # the compiled loop stopping early (here on its 4th call) makes the scans look at once
+    calls = {"n": 0, "steps": 0}
+
+    def stops(n):
+        calls["n"] += 1
+        calls["steps"] += n
+        return n, C.OUTRAN if calls["n"] == 4 else 0
+
+    scan = Counting()
+    run = C.Run(state=None, body=np.zeros(N_BODY), energy=np.zeros(10))
+    ending, _, _ = C.Controller(stops, [scan, C.NonFinite(lambda: [], 0.5)], 3, 100).run(run)
+    assert ending.status == "unstable" and "crossed a whole cell" in ending.message
+    assert scan.seen == [calls["steps"]] and calls["steps"] < C.SCAN_STEPS
+
+
+def test_the_kinetic_energy_guard_ends_a_run_past_ten_times_the_energy_put_in():
+    from dsmv.cel import ledger
+
+    energy = np.zeros(ledger.N_ENERGY)
+    run = C.Run(state=None, body=np.zeros(N_BODY), energy=energy)
+    delivered = ledger.delivered(energy, 2.0)
+    assert C.EnergyRunaway(lambda: 10.0 * delivered, 2.0, 1.0, 0.5).after_chunk(run) is None
+    ending = C.EnergyRunaway(lambda: 10.0 * delivered + 1e-6, 2.0, 1.0, 0.5).after_chunk(run)
+    assert ending.status == "unstable" and "kinetic energy" in ending.message and "solver.cfl (now 0.5)" in ending.message
+
+
 @pytest.mark.parametrize("ndim", [2, 3])
 def test_the_hourglass_force_acts_around_cut_cells_only(ndim):
     """solver.hourglass_region: cut_cells keeps the force in the cells a curved body cuts (0 < open
