@@ -50,6 +50,10 @@ def stress_scene(overrides) -> list[str]:
 _PRANDTL = [*canonical.PRANDTL, "landing.displacement_m=0.065"]
 _BONDED = [*canonical.PRANDTL_BONDED, "landing.displacement_m=0.065", "mesh.cell_size_m=0.05"]
 _TBAR = [*canonical.TBAR, "landing.displacement_m=0.1"]
+#: a 3D plate pushed 0.05 B in small strain into weightless Tresca soil (tests/test_cel3d.py's push)
+_SMALL_STRAIN_3D = ["solver=cel3d", "landing=push", "soil.law=tresca", "soil.su0_pa=10000", "soil.ks_pa_per_m=0",
+                    "soil.youngs_modulus_pa=5e6", "landing.gravity_m_s2=0", "landing.velocity_m_s=0.1",
+                    "landing.displacement_m=0.05", "solver.contact_separation=false", "solver.remap=false"]
 
 
 def _scenes() -> dict[str, list[str]]:
@@ -83,6 +87,11 @@ def _scenes() -> dict[str, list[str]]:
         "landing_smooth_medium": ["solver=cel2d", "soil.law=tresca", "solver.contact_separation=false",
                                   "geometry.roughness=smooth", "mesh=medium"],
         "landing_longitudinal": ["solver=cel2d", "geometry.view=longitudinal", "mesh=coarse"],
+        "track_3d_landing": ["solver=cel3d", "mesh.cell_size_m=0.15"],
+        "track_3d_landing_tresca": ["solver=cel3d", "mesh.cell_size_m=0.15", "soil.law=tresca"],
+        "square_plate_3d_rough_B10": [*_SMALL_STRAIN_3D, "geometry=rectangular_plate",
+                                      "mesh.cell_size_m=0.1"],
+        "circular_plate_3d_rough_B10_remap": [*_SMALL_STRAIN_3D[:-1], "geometry=circular_plate", "mesh.cell_size_m=0.1"],
         "geostatic": ["experiment=verify_geostatic", "hydra.mode=RUN"],
         "advection": ["experiment=verify_advection", "hydra.mode=RUN"],
     }
