@@ -163,10 +163,10 @@ def test_the_controller_steers_chunks_for_any_state():
     assert np.all(np.diff(run.history["time_s"]) > 0)
 
 
-class Counting:
+class Counting(C.Tracker):
     """A scan that records the steps it looked at, and may end the run from a given step on."""
 
-    scan = True
+    cadence = C.SCAN
 
     def __init__(self, ends_at=None):
         self.seen, self.ends_at = [], ends_at

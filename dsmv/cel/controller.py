@@ -7,12 +7,14 @@ bearing failure, the push's end, the travel the domain was sized for, the step b
 the run with a status and a message. Nothing slow sits in the compiled loop, and each guard is a
 small object with its own test.
 
-Scans: the trackers that pass over the whole state (``scan = True``: the zig-zag diagnostic and the
-guards on non-finite values, the soil law's output, kinetic energy and soil speed) look once at
-least ``SCAN_STEPS`` steps have passed since their last look, and whenever the compiled loop stopped
-early or another tracker ends the run (they then have the last word, as they come first). A chunk is
-one history sample, which on a coarse 3D grid is a few steps; the compiled loop itself checks every
-step that the body's velocity and force are finite and that no soil outran a cell.
+Every tracker is a :class:`Tracker`: ``start`` once the first call has compiled, ``after_chunk`` after
+each chunk it is due for, ``finish`` at the end. *When* it looks is its :class:`Cadence`. Most look
+after every chunk (:data:`EVERY_CHUNK`); the scans, which pass over the whole state (the zig-zag
+diagnostic and the guards on non-finite values, the soil law's output, kinetic energy and soil
+speed), look every :data:`SCAN_STEPS` steps (:class:`EverySteps`), and whenever the compiled loop
+stopped early or another tracker ends the run (they then have the last word, as they come first). A
+chunk is one history sample, which on a coarse 3D grid is a few steps; the compiled loop itself
+checks every step that the body's velocity and force are finite and that no soil outran a cell.
 
 Interrupts: SIGINT and SIGTERM only raise a flag, which the controller reads between compiled
 calls. A chunk (one history sample) is stepped in slices of about ``POLL_S`` of wall time, so a
@@ -30,7 +32,7 @@ import threading
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Callable, Optional, Protocol
+from typing import Callable, Optional
 
 import numpy as np
 
@@ -86,8 +88,23 @@ class Run:
         return self.force_scale * self.body[B_FSUM] / max(self.body[B_FCOUNT], 1.0)
 
 
-class Tracker(Protocol):
-    def after_chunk(self, run: Run) -> Optional[Ending]: ...
+class Cadence:
+    """When a tracker looks: after every chunk (this base), or less often (:class:`EverySteps`). A run
+    that stops, early or by another tracker's ending, is shown to every tracker before it ends."""
+
+    def due(self, run: Run, last_look: int) -> bool:
+        """Whether to look now, ``last_look`` the step of the tracker's last look."""
+        return True
+
+
+@dataclass(frozen=True)
+class EverySteps(Cadence):
+    """Look once ``steps`` steps have passed since the last look, or when the compiled loop stopped early."""
+
+    steps: int
+
+    def due(self, run: Run, last_look: int) -> bool:
+        return run.code != RUNNING or run.steps - last_look >= self.steps
 
 
 #: wall time between two looks at the interrupt flag (s)
@@ -95,24 +112,47 @@ POLL_S = 0.25
 #: steps at least between two looks of the scans: on the 3D push at B/10 (28,800 cells, a history
 #: sample every 3.8 steps) looking every sample cost 9-12 % of the run, a pass over the state each
 SCAN_STEPS = 16
+EVERY_CHUNK = Cadence()
+#: the cadence of the trackers that pass over the whole state (decision 0022)
+SCAN = EverySteps(SCAN_STEPS)
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+class Tracker:
+    """An observer or guard of a run, called between compiled chunks: ``start`` once the first call has
+    compiled, ``after_chunk`` after each chunk its :attr:`cadence` makes it due for (a guard returns an
+    :class:`Ending` to end the run, else None), ``finish`` when the run has ended. ``slow_start_notice``:
+    a line to print when the first call (the compile) takes over a second."""
+
+    cadence: Cadence = EVERY_CHUNK
+    slow_start_notice: Optional[str] = None
+
+    def start(self, run: Run) -> None:
+        pass
+
+    def after_chunk(self, run: Run) -> Optional[Ending]:
+        return None
+
+    def finish(self, run: Run) -> None:
+        pass
 
 
 class Controller:
     """Runs ``advance`` in chunks of ``chunk`` steps, with the trackers between, until one ends the run."""
 
-    def __init__(self, advance: Callable[[int], tuple[int, int]], trackers: list, chunk: int, max_steps: int):
+    def __init__(self, advance: Callable[[int], tuple[int, int]], trackers: list[Tracker], chunk: int,
+                 max_steps: int):
         self.advance, self.trackers, self.chunk, self.max_steps = advance, trackers, chunk, max_steps
         self.signal: Optional[int] = None
         self.slice = 1  # steps per compiled call, grown to about POLL_S of wall time
-        self.scanned = 0  # the step of the scans' last look
+        self.last_look = [0] * len(trackers)  # the step of each tracker's last look
 
     def run(self, run: Run) -> tuple[Ending, float, float]:
         """Run to the end; returns the ending, the first call's time (compile or cache load, s) and
         the wall time of the rest (s)."""
         with self.catching_signals():
             t_start = time.perf_counter()
-            notices = [t.slow_start_notice for t in self.trackers if hasattr(t, "slow_start_notice")]
+            notices = [t.slow_start_notice for t in self.trackers if t.slow_start_notice]
             timer = threading.Timer(1.0, lambda: print(*notices, file=sys.stderr, flush=True))
             if notices:
                 timer.start()
@@ -120,8 +160,7 @@ class Controller:
             timer.cancel()
             compile_s = time.perf_counter() - t_start
             for tracker in self.trackers:
-                if hasattr(tracker, "start"):
-                    tracker.start(run)
+                tracker.start(run)
             t_run = time.perf_counter()
             while True:
                 run.body[B_FSUM] = 0.0
@@ -132,8 +171,7 @@ class Controller:
                     break
             wall_s = time.perf_counter() - t_run
         for tracker in self.trackers:
-            if hasattr(tracker, "finish"):
-                tracker.finish(run)
+            tracker.finish(run)
         return ending, compile_s, wall_s
 
     def step_chunk(self, run: Run) -> None:
@@ -150,21 +188,19 @@ class Controller:
                 self.slice = max(1, min(10 * n, int(n * POLL_S / max(elapsed, 1e-6))))
 
     def look(self, run: Run) -> Optional[Ending]:
-        """The trackers in turn, the scans when due; the first guard that ends the run says why. A run
-        that ends between the scans' looks is first shown to them."""
-        due = run.code != RUNNING or run.steps - self.scanned >= SCAN_STEPS
-        ending = self.look_with(run, [t for t in self.trackers if due or not getattr(t, "scan", False)])
-        if ending is not None and not due:
-            due = True
-            ending = self.look_with(run, [t for t in self.trackers if getattr(t, "scan", False)]) or ending
-        if due:
-            self.scanned = run.steps
+        """The trackers due by their cadence, in turn; the first guard that ends the run says why. A run
+        that ends is first shown to the trackers that were not due, whose ending then wins."""
+        due = [k for k, t in enumerate(self.trackers) if t.cadence.due(run, self.last_look[k])]
+        ending = self.look_with(run, due)
+        if ending is not None and len(due) < len(self.trackers):
+            waiting = [k for k in range(len(self.trackers)) if k not in due]
+            ending = self.look_with(run, waiting) or ending
         return ending
 
-    @staticmethod
-    def look_with(run: Run, trackers: list) -> Optional[Ending]:
-        for tracker in trackers:
-            ending = tracker.after_chunk(run)
+    def look_with(self, run: Run, which: list[int]) -> Optional[Ending]:
+        for k in which:
+            self.last_look[k] = run.steps
+            ending = self.trackers[k].after_chunk(run)
             if ending is not None:
                 return ending
         return None
@@ -200,7 +236,7 @@ class Controller:
 # ----------------------------------------------------------------------------- observers
 
 
-class History:
+class History(Tracker):
     """The time history: time, sinkage, the body's downward velocity and the soil's force, per chunk,
     from the touchdown on (downward velocity ``velocity0_m_s``)."""
 
@@ -220,10 +256,10 @@ class History:
         h["force_n"].append(run.force_n)
 
 
-class Zigzag:
+class Zigzag(Tracker):
     """Σ over its looks (a scan) of the hourglass and linear velocity modes (m²/s²), for ``hourglass_mode_ratio``."""
 
-    scan = True
+    cadence = SCAN
 
     def __init__(self, modes: Callable[[], tuple[float, float]]):
         self.modes = modes
@@ -238,7 +274,7 @@ class Zigzag:
         return math.sqrt(self.sums[0] / self.sums[1]) if self.sums[1] > 0 else 0.0
 
 
-class Fields:
+class Fields(Tracker):
     """The field recorder (dsmv.fields), fed between chunks; writes its frames at the end."""
 
     def __init__(self, recorder, snapshot: Callable[[], tuple], run_dir):
@@ -252,7 +288,7 @@ class Fields:
         self.recorder.write(self.run_dir)
 
 
-class Progress:
+class Progress(Tracker):
     """Progress of one run on stderr, in simulated time against the expected duration: a tqdm bar on
     a terminal (percentage, rate, time left), else a plain line every ``PLAIN_EVERY_S`` of wall time
     (a log or a pipe). A cold start says, after a second, that the kernels are compiling."""
@@ -299,12 +335,12 @@ class Progress:
 
 
 @dataclass
-class LawOutput:
+class LawOutput(Tracker):
     """A soil law whose factor came back negative or not finite (the kernels store NaN as that cell's
     strength): the plugin's fault, raised as a :class:`~dsmv.errors.PluginError` naming the law and
     the cell's state that produced it."""
 
-    scan = True
+    cadence = SCAN
 
     strength: Callable[[], np.ndarray]
     describe: Callable[[tuple], str]  # one cell's state in words (ξ, γ̇, the law's state variables)
@@ -323,10 +359,10 @@ class LawOutput:
 
 
 @dataclass
-class NonFinite:
+class NonFinite(Tracker):
     """A NaN or infinity anywhere in the state, or soil gone a whole cell between remaps: unstable."""
 
-    scan = True
+    cadence = SCAN
 
     arrays: Callable[[], list]
     cfl: float
@@ -342,10 +378,10 @@ class NonFinite:
 
 
 @dataclass
-class EnergyRunaway:
+class EnergyRunaway(Tracker):
     """The soil's kinetic energy past ten times the energy put in: unstable."""
 
-    scan = True
+    cadence = SCAN
 
     kinetic: Callable[[], float]
     kinetic_in: float
@@ -362,10 +398,10 @@ class EnergyRunaway:
 
 
 @dataclass
-class SpeedLimit:
+class SpeedLimit(Tracker):
     """A soil speed past 50 times the scene's own speeds: unstable."""
 
-    scan = True
+    cadence = SCAN
 
     speed: Callable[[], float]
     limit: float
@@ -382,7 +418,7 @@ class SpeedLimit:
 
 
 @dataclass
-class TopOfDomain:
+class TopOfDomain(Tracker):
     """Soil in the top row of cells: out of the domain."""
 
     top_fill: Callable[[], float]
@@ -396,7 +432,7 @@ class TopOfDomain:
 
 
 @dataclass
-class Rest:
+class Rest(Tracker):
     """A landing ends when the body first comes to rest, or (economy off) at twice that time. A body
     that neither moves nor weighs anything stays at rest."""
 
@@ -418,7 +454,7 @@ class Rest:
 
 
 @dataclass
-class BearingFailure:
+class BearingFailure(Tracker):
     """A body must slow down within ``width`` of sinkage (one width B, or the travel the domain
     was sized for when the soil may stop it later): else the soil cannot stop it."""
 
@@ -438,7 +474,7 @@ class BearingFailure:
 
 
 @dataclass
-class PushEnd:
+class PushEnd(Tracker):
     """A push ends at its displacement."""
 
     displacement: float
@@ -450,7 +486,7 @@ class PushEnd:
 
 
 @dataclass
-class TravelLimit:
+class TravelLimit(Tracker):
     """A landing past the travel the domain was sized for: out of the domain."""
 
     travel: float
@@ -463,7 +499,7 @@ class TravelLimit:
 
 
 @dataclass
-class StepBudget:
+class StepBudget(Tracker):
     """solver.max_steps spent: no result."""
 
     max_steps: int
