@@ -127,7 +127,7 @@ def compose_scene(overrides: list[str]):
 def solve(overrides: list[str], repeats: int, run_dir: Path | None = None) -> tuple[dict, str, list[float]]:
     """Run a scene up to ``repeats`` times in this process (within REPEAT_BUDGET_S); metrics of the last
     run, its status, and every run's wall time (s, compile excluded)."""
-    from dsmv.cel.solver import Cel2DSolver
+    from dsmv.cel.solver2d import Cel2DSolver
 
     walls, metrics, status = [], {}, ""
     while len(walls) < repeats and sum(walls) < REPEAT_BUDGET_S:  # long runs vary less: fewer repeats

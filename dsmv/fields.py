@@ -96,7 +96,7 @@ def hourglass_velocity(corner, v) -> np.ndarray:
     if corner.shape[-1] == 4:
         a = 0.25 * (w[..., 0] - w[..., 1] + w[..., 2] - w[..., 3])
         return np.hypot(a[0], a[1])
-    from dsmv.cel.kernels.hexahedra import HOURGLASS
+    from dsmv.cel.kernels.elements3d import HOURGLASS
 
     a = w @ HOURGLASS.T / 8.0  # (3, cells..., 4)
     return np.sqrt((a * a).sum(axis=(0, -1)))

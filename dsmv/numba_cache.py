@@ -1,6 +1,6 @@
 """Numba's on-disk cache, keyed on the source of every CEL kernel.
 
-Numba keys a cached function only on its own file: ``run_steps`` (dsmv/cel/stepper.py) would keep
+Numba keys a cached function only on its own file: ``run_steps`` (dsmv/cel/stepper2d.py) would keep
 the kernels it inlined from dsmv/cel/kernels/ after they changed. So the cache lives in a
 directory named after a hash of every ``dsmv/cel/**/*.py`` file: ``<base>/<hash>``, where the base
 is ``$NUMBA_CACHE_DIR`` when it is set, else ``$XDG_CACHE_HOME/dsmv/numba`` (``~/.cache/dsmv/numba``).

@@ -157,8 +157,9 @@ def simple_shear(law: SoilLaw, gamma_dot: float, gamma_total: float, n_steps: in
     """Drive one cell of the law's soil in simple shear at constant rate ``gamma_dot`` (1/s) to
     ``gamma_total`` through the 2D CEL stress kernel (Tresca's return, the law's compiled factor):
     the applied shear strains γ, the shear stresses τ (Pa) and the shear modulus G (Pa)."""
-    from dsmv.cel.kernels.plane import update_stress
-    from dsmv.cel.layout import NQ_BASE, SXY, SoilLawKernel
+    from dsmv.cel.kernels.elements2d import update_stress
+    from dsmv.cel.kernels.elements2d import NQ_BASE, SXY
+    from dsmv.cel.layout import SoilLawKernel
     from dsmv.cel.state import Elastic, body_free_state, step_parameters
 
     soil, h = law.soil, 1.0

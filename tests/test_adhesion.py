@@ -12,7 +12,7 @@ from __future__ import annotations
 import pytest
 
 from dsmv import canonical
-from dsmv.cel.solver import Cel2DSolver
+from dsmv.cel.solver2d import Cel2DSolver
 from dsmv.errors import ConfigError
 from dsmv.scene import build_scene
 

@@ -42,9 +42,9 @@ def test_a_geostatic_column_stays_at_rest():
     a fixed base: 200 steps leave every node at rest to 1e-12 m/s."""
     from dsmv.cel import ledger
     from dsmv.cel.contact import fixed_velocities
-    from dsmv.cel.kernels.hexahedra import SOLID, cell_volumes
-    from dsmv.cel.layout import N_BODY, Cells, Contact, Inflow, Nodes, SolidMesh, structured_corners
-    from dsmv.cel.solver3d import solid_faces
+    from dsmv.cel.kernels.elements3d import ROWS_3D, cell_volumes
+    from dsmv.cel.layout import N_BODY, Cells, Contact, Inflow, Nodes, Mesh3D, structured_corners
+    from dsmv.cel.solver3d import faces_3d
     from dsmv.cel.state import Elastic, layers_below, step_parameters
     from dsmv.cel.kernels.nodes import nodal_mass
     from dsmv.cel.stepper3d import run_steps
@@ -56,13 +56,13 @@ def test_a_geostatic_column_stays_at_rest():
     elastic = Elastic.of(SimpleNamespace(youngs_modulus_pa=2.5e6, poisson_ratio=0.49, density_kg_m3=rho))
     fill, depth = layers_below(z, 0.0)
     phi = np.broadcast_to(fill, shape).copy()
-    q = np.zeros((SOLID.base, *shape))
-    q[SOLID.of("zz")] = -rho * g * depth * phi
-    q[SOLID.of("xx")] = q[SOLID.of("yy")] = elastic.k0 * q[SOLID.of("zz")]
-    q[SOLID.z0] = depth * phi
+    q = np.zeros((ROWS_3D.base, *shape))
+    q[ROWS_3D.of("zz")] = -rho * g * depth * phi
+    q[ROWS_3D.of("xx")] = q[ROWS_3D.of("yy")] = elastic.k0 * q[ROWS_3D.of("zz")]
+    q[ROWS_3D.z0] = depth * phi
     vol = cell_volumes(x, y, z)
     n = 4 * 3 * 7
-    mesh = SolidMesh(x, y, z, vol, structured_corners(shape), n, np.zeros(shape, dtype=bool),
+    mesh = Mesh3D(x, y, z, vol, structured_corners(shape), n, np.zeros(shape, dtype=bool),
                      np.zeros(shape, dtype=np.uint8))
     cells = Cells(phi, q, np.zeros(shape), np.ones(shape), np.zeros(shape, dtype=bool), np.ones(shape),
                   np.zeros(shape, dtype=bool), np.full(shape, np.nan), np.ones(shape))
@@ -77,8 +77,8 @@ def test_a_geostatic_column_stays_at_rest():
                           stress_cutoff=0.01, push_velocity=0.0, axisymmetric=False, advection_order=2, drop=False,
                           inflow=False, remap=False, law_active=False, tresca=True)
     body = np.zeros(N_BODY)
-    faces = solid_faces(np.zeros(shape, dtype=bool))
-    inflow = Inflow(np.zeros((SOLID.base, 3, 2)), np.zeros((3, 2)))
+    faces = faces_3d(np.zeros(shape, dtype=bool))
+    inflow = Inflow(np.zeros((ROWS_3D.base, 3, 2)), np.zeros((3, 2)))
     nodal_mass(mesh, cells, rho, nodes.mass)
     steps, code = run_steps(200, mesh, cells, faces, nodes, contact, inflow, par, body, np.zeros(ledger.N_ENERGY), None)
     assert (steps, code) == (200, 0)
@@ -89,7 +89,7 @@ def test_tresca_s_return_in_principal_axes_lands_on_the_prism():
     """A stress well outside the prism, in general axes: after the return s1 − s3 = 2·su, the
     intermediate principal stress where Tresca's corner rule puts it, and the principal axes kept."""
     from dsmv.cel.kernels.common import tresca_return
-    from dsmv.cel.kernels.hexahedra import tresca_solid
+    from dsmv.cel.kernels.elements3d import tresca_3d
 
     rng = np.random.default_rng(7)
     su, shear = 10e3, 1.7e6
@@ -98,7 +98,7 @@ def test_tresca_s_return_in_principal_axes_lands_on_the_prism():
         principal = np.sort(rng.normal(scale=40e3, size=3))[::-1] - 20e3
         sigma = rotation @ np.diag(principal) @ rotation.T
         s = np.array([sigma[0, 0], sigma[1, 1], sigma[2, 2], sigma[0, 1], sigma[1, 2], sigma[0, 2]])
-        dxi, dg = tresca_solid.py_func(s, su, shear, np.empty((3, 3)), np.empty((3, 3)))
+        dxi, dg = tresca_3d.py_func(s, su, shear, np.empty((3, 3)), np.empty((3, 3)))
         returned = np.array([[s[0], s[3], s[5]], [s[3], s[1], s[4]], [s[5], s[4], s[2]]])
         values, vectors = np.linalg.eigh(returned)
         expected = tresca_return.py_func(*principal, su, shear)
@@ -233,11 +233,11 @@ def test_a_circle_s_staircase_keeps_its_area_and_a_perimeter_of_4_over_pi(cells_
     staircase has 24 % and 12 % less), and its steps' faces add up to 2R per quarter, 4/π of the
     quarter circle's arc: the π/4 the walls' adhesion is scaled by (``build_plate_contact``)."""
     from dsmv.cel.body import Disc, solid_cells
-    from dsmv.cel.grid import SolidGrid
+    from dsmv.cel.grid import Grid3D
 
     R, h = 0.5, 0.5 / cells_per_radius
     plan = np.linspace(0.0, 2 * R, 2 * cells_per_radius + 1)
-    grid = SolidGrid(plan, plan, np.linspace(-R, R, 2 * cells_per_radius + 1), h)
+    grid = Grid3D(plan, plan, np.linspace(-R, R, 2 * cells_per_radius + 1), h)
     solid = solid_cells(Disc(R), grid)
     assert not solid[:, :, :cells_per_radius].any() and (solid[:, :, cells_per_radius:] == solid[:, :, -1:]).all()
     footprint = solid[:, :, -1]
@@ -260,12 +260,12 @@ def test_the_track_s_cells_are_its_plates_grousers_and_sprocket_arcs():
     that face; one on the outer edge of an arc's step along the bisector of its two faces."""
     from dsmv.cel.body import TrackBody, TrackSideView, solid_cells
     from dsmv.cel.contact import build_plate_contact
-    from dsmv.cel.grid import SolidGrid
+    from dsmv.cel.grid import Grid3D
     from dsmv.cel.layout import corner_offsets
 
     h, B, L, R, pitch = 0.05, 0.6, 2.0, 0.5, 0.15
     side = TrackSideView(half_length=L / 2, sprocket_radius=R, grouser=h, plate_pitch=pitch)
-    grid = SolidGrid(np.arange(0.0, 0.5 + 1e-9, h), np.arange(0.0, 1.8 + 1e-9, h), np.arange(-0.3, 1.2 + 1e-9, h), h)
+    grid = Grid3D(np.arange(0.0, 0.5 + 1e-9, h), np.arange(0.0, 1.8 + 1e-9, h), np.arange(-0.3, 1.2 + 1e-9, h), h)
     track = TrackBody(B / 2, side)
     solid = solid_cells(track, grid)
     xc, yc, zc = (0.5 * (a[:-1] + a[1:]) for a in grid.axes)
@@ -340,7 +340,7 @@ def test_the_forces_beside_the_track_are_the_work_conjugate_of_the_strain(compos
     is the cell's own beside the body in its deviatoric part and the remap's in its volumetric part
     (the soil packed against a closed face is felt as pressure); without that pairing the energy
     audit of a landing is off by 5 %. Viscosities off, to 1e-12 of the power's scale."""
-    from dsmv.cel.kernels.hexahedra import (SOLID, cell_nodes, nodal_forces, remap_divergence,
+    from dsmv.cel.kernels.elements3d import (ROWS_3D, cell_nodes, nodal_forces, remap_divergence,
                                             strain_increment)
     from dsmv.cel.solver3d import Cel3DSolver
 
@@ -373,7 +373,7 @@ def test_the_forces_beside_the_track_are_the_work_conjugate_of_the_strain(compos
         density = s[:3] @ d[:3] + 2.0 * s[3:] @ d[3:]
         expected -= dx * dy * dz * cells.phi[i, j, k] * density
         scale += dx * dy * dz * cells.phi[i, j, k] * abs(density)
-    assert SOLID.of("xy") == 3 and SOLID.of("zx") == 5
+    assert ROWS_3D.of("xy") == 3 and ROWS_3D.of("zx") == 5
     assert power == pytest.approx(expected, abs=1e-12 * scale)
 
 
@@ -382,7 +382,7 @@ def test_the_forces_a_step_carries_ahead_are_the_forces_of_the_state_it_leaves(c
     velocities it used). On the track landing, through its remaps (the split nodes, closed faces and
     bulk viscosity all in play), they are bit for bit what the state gives afresh whenever a step
     ends without a remap, and a remap marks them stale."""
-    from dsmv.cel.kernels.hexahedra import nodal_forces
+    from dsmv.cel.kernels.elements3d import nodal_forces
     from dsmv.cel.layout import B_BESIDE_N, B_BULK_W, B_FORCES_AHEAD, B_HOURGLASS_W, B_REMAPS, B_VEL
     from dsmv.cel.solver3d import Cel3DSolver
 
@@ -414,11 +414,11 @@ def test_a_track_s_shape_carries_a_pose():
     reaches below its upright base ahead (y > 0) by L/2·sin 5° at the end of its run, and not behind;
     upright, the pose changes nothing."""
     from dsmv.cel.body import Pose, TrackBody, TrackSideView, inside_nodes
-    from dsmv.cel.grid import SolidGrid
+    from dsmv.cel.grid import Grid3D
 
     h, L = 0.05, 2.0
     side = TrackSideView(half_length=L / 2, sprocket_radius=0.3, grouser=0.0, plate_pitch=0.15)
-    grid = SolidGrid(np.arange(-0.5, 0.5 + 1e-9, h), np.arange(-1.6, 1.6 + 1e-9, h), np.arange(-0.3, 0.8 + 1e-9, h), h)
+    grid = Grid3D(np.arange(-0.5, 0.5 + 1e-9, h), np.arange(-1.6, 1.6 + 1e-9, h), np.arange(-0.3, 0.8 + 1e-9, h), h)
     upright = inside_nodes(TrackBody(0.3, side), grid)
     assert np.array_equal(upright, inside_nodes(TrackBody(0.3, side, Pose()), grid))
     pitched = inside_nodes(TrackBody(0.3, side, Pose.pitched(5.0)), grid)

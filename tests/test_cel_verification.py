@@ -15,7 +15,7 @@ from dsmv import canonical
 from dsmv.analytic.bearing import (NOTCHED_STRIP_LOWER_BOUND_AT_0P05B, NOTCHED_STRIP_UPPER_BOUND_AT_0P05B, PRANDTL_NC,
                                    TBAR_NC, embedded_strip_upper_bound)
 from dsmv.cel.checks import Cel2DCheckSolver
-from dsmv.cel.solver import Cel2DSolver
+from dsmv.cel.solver2d import Cel2DSolver
 from dsmv.scene import build_scene
 
 PRANDTL = PRANDTL_NC
@@ -239,9 +239,9 @@ def test_landings_end_with_the_right_status_and_no_nan(compose_cfg, overrides, s
 
 def test_a_non_finite_value_ends_unstable_with_finite_outputs(compose_cfg, monkeypatch):
     """The stepper's NaN guard: status unstable, a message that says what to change, no NaN out."""
-    from dsmv.cel import stepper
+    from dsmv.cel import stepper, stepper2d
 
-    real = stepper.run_steps
+    real = stepper2d.run_steps
     calls = {"n": 0}
 
     def poisoned(n_steps, *args):
@@ -252,7 +252,7 @@ def test_a_non_finite_value_ends_unstable_with_finite_outputs(compose_cfg, monke
             return done, stepper.NOT_FINITE
         return done, code
 
-    monkeypatch.setattr(stepper, "run_steps", poisoned)
+    monkeypatch.setattr(stepper2d, "run_steps", poisoned)
     r = solve(compose_cfg, Cel2DSolver, ["solver=cel2d", "mesh=coarse", "solver.progress=off"])
     assert r.status == "unstable" and "solver.cfl" in r.message
     assert all(np.isfinite(v) for v in r.metrics.values())
@@ -263,10 +263,10 @@ def test_nodal_masses_stay_those_of_the_cells(compose_cfg, monkeypatch):
     """The stepper computes nodal masses only after a remap, the one place φ changes: after
     every chunk of steps they must equal a fresh computation from the cells (a kernel that
     changed φ mid-step would leave them stale). The split corner nodes' shares count too."""
-    from dsmv.cel import stepper
+    from dsmv.cel import stepper, stepper2d
     from dsmv.cel.kernels.nodes import nodal_mass
 
-    real = stepper.run_steps
+    real = stepper2d.run_steps
     worst = []
 
     signature = inspect.signature(real.py_func)
@@ -281,7 +281,7 @@ def test_nodal_masses_stay_those_of_the_cells(compose_cfg, monkeypatch):
         worst.append(np.abs(nodes.mass - fresh).max() / fresh.max())
         return out
 
-    monkeypatch.setattr(stepper, "run_steps", checked)
+    monkeypatch.setattr(stepper2d, "run_steps", checked)
     r = solve(compose_cfg, Cel2DSolver, ["solver=cel2d", "mesh=coarse", "solver.progress=off"])
     assert r.status == "ok" and len(worst) > 10
     assert max(worst) == 0.0
@@ -297,14 +297,14 @@ def test_hourglass_diagnostic_separates_the_zigzag_from_smooth_motion():
     """A linear velocity field (any rigid motion, any uniform strain rate) has no hourglass
     mode; a pure checkerboard of nodal velocities is all hourglass. Values by hand: the mode
     amplitudes are a quarter of the signed sums of the four nodal velocities."""
-    from dsmv.cel.kernels.plane import hourglass_modes as modes
-    from dsmv.cel.layout import Mesh, structured_corners
+    from dsmv.cel.kernels.elements2d import hourglass_modes as modes
+    from dsmv.cel.layout import Mesh2D, structured_corners
 
     n = 6
     xs, ys = np.meshgrid(np.linspace(0.0, 1.0, n + 1), np.linspace(0.0, 1.0, n + 1), indexing="ij")
     phi = np.ones((n, n))
     h = 1.0 / n
-    mesh = Mesh(xs[:, 0], ys[0], np.full((n, n), h * h), structured_corners((n, n)), (n + 1) ** 2,
+    mesh = Mesh2D(xs[:, 0], ys[0], np.full((n, n), h * h), structured_corners((n, n)), (n + 1) ** 2,
                 np.zeros((n, n), dtype=bool))
 
     def hourglass_modes(phi, vx, vy, full):

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from dsmv import fields, registry
-from dsmv.cel.grid import Grid
+from dsmv.cel.grid import Grid2D
 from dsmv.errors import ConfigError
 from dsmv.plots import FIELD_PLOT_FILE
 from dsmv.scene import build_scene
@@ -111,7 +111,7 @@ def test_the_fields_show_the_kernels_own_strength(compose_cfg, tmp_path, monkeyp
     """A T-bar with α = 0.5: its interface layer has strength α·su (5 kPa of 10 kPa) in the stress
     update, and the field output shows that strength, not the intact one: su_pa is the kernel's own
     su cell by cell (float32 of it) and the interface cells that yield read a mobilised strength of 1."""
-    from dsmv.cel.solver import Cel2DSolver
+    from dsmv.cel.solver2d import Cel2DSolver
 
     captured = keep_state(monkeypatch, Cel2DSolver)
     scene = build_scene(compose_cfg(["experiment=verify_tbar", "hydra.mode=RUN", "geometry.roughness=0.5",
@@ -129,8 +129,8 @@ def test_the_fields_show_the_kernels_own_strength(compose_cfg, tmp_path, monkeyp
 
 @pytest.mark.parametrize("axisym", [False, True])
 def test_shear_strain_rate_of_known_flows(axisym):
-    """The field's strain rate is the stress update's (dsmv.cel.kernels.plane.shear_strain_rates)."""
-    from dsmv.cel.kernels.plane import cell_volumes, shear_strain_rates
+    """The field's strain rate is the stress update's (dsmv.cel.kernels.elements2d.shear_strain_rates)."""
+    from dsmv.cel.kernels.elements2d import cell_volumes, shear_strain_rates
     from dsmv.cel.state import Elastic, body_free_state, step_parameters
 
     x, y = np.linspace(0.1, 1.1, 6), np.linspace(-1.0, 0.0, 5)
@@ -152,7 +152,7 @@ def test_shear_strain_rate_of_known_flows(axisym):
 
 
 def test_a_run_of_any_length_keeps_n_to_2n_evenly_spaced_frames():
-    grid = Grid(x=np.linspace(0, 1, 3), y=np.linspace(-1, 0, 3), h=0.5)
+    grid = Grid2D(x=np.linspace(0, 1, 3), y=np.linspace(-1, 0, 3), h=0.5)
     phi, q = np.ones((2, 2)), np.zeros((6, 2, 2))
     su, rate, v = np.ones((2, 2)), np.zeros((2, 2)), np.zeros((2, 9))
     n, chunk = 4, 0.01
@@ -180,10 +180,10 @@ def test_field_frames_is_validated(compose_cfg, value):
 
 def test_a_run_that_goes_unstable_still_leaves_its_fields_and_contours(compose_cfg, tmp_path, monkeypatch):
     """The last frame holds the non-finite state (to look at in ParaView); the PNG draws what is finite."""
-    from dsmv.cel import stepper
+    from dsmv.cel import stepper, stepper2d
     from dsmv.runner import write_outputs
 
-    real, calls = stepper.run_steps, {"n": 0}
+    real, calls = stepper2d.run_steps, {"n": 0}
 
     def poisoned(n_steps, *args):
         done, code = real(n_steps, *args)
@@ -194,7 +194,7 @@ def test_a_run_that_goes_unstable_still_leaves_its_fields_and_contours(compose_c
             return done, stepper.NOT_FINITE
         return done, code
 
-    monkeypatch.setattr(stepper, "run_steps", poisoned)
+    monkeypatch.setattr(stepper2d, "run_steps", poisoned)
     scene = build_scene(compose_cfg(["solver=cel2d", "mesh=coarse", "solver.progress=off", "tracking=disabled",
                                      "output.fields=true", "output.field_frames=3"]))
     result = registry.load("solvers", "cel2d", "solver.name")(scene).solve(tmp_path)
@@ -255,7 +255,7 @@ def test_3d_field_measures_of_known_states():
     """The 3D cell measures against closed forms: Tresca's (σ1 − σ3)/2 and √J2 of a principal state
     turned by a rotation; the hourglass amplitude of one pure hexahedral mode and of a linear field
     (0); the shear strain rate ε̇1 − ε̇3 of simple shear v_x = a·z (a)."""
-    from dsmv.cel.kernels.hexahedra import HOURGLASS, SOLID, shear_strain_rates
+    from dsmv.cel.kernels.elements3d import HOURGLASS, ROWS_3D, shear_strain_rates
     from dsmv.cel.layout import corner_offsets, structured_corners
     from dsmv.cel.state import Elastic, step_parameters
     from scipy.spatial.transform import Rotation
@@ -263,9 +263,9 @@ def test_3d_field_measures_of_known_states():
     principal = np.array([-30.0, 4.0, 10.0])
     turn = Rotation.from_euler("xyz", [0.3, -0.7, 1.1]).as_matrix()
     sigma = turn @ np.diag(principal) @ turn.T
-    q = np.zeros((SOLID.base, 1, 1, 1))
+    q = np.zeros((ROWS_3D.base, 1, 1, 1))
     for name, (a, b) in {"xx": (0, 0), "yy": (1, 1), "zz": (2, 2), "xy": (0, 1), "yz": (1, 2), "zx": (2, 0)}.items():
-        q[SOLID.of(name)] = sigma[a, b]
+        q[ROWS_3D.of(name)] = sigma[a, b]
     su = np.full((1, 1, 1), 5.0)
     assert fields.mobilised_strength(q, su, tresca=True)[0, 0, 0] == pytest.approx(20.0 / 5.0, rel=1e-12)
     dev = principal - principal.mean()
@@ -280,17 +280,17 @@ def test_3d_field_measures_of_known_states():
     v[2, corner[0, 0, 0]] = 2.0 * corner_offsets(3)[:, 0] - 0.5 * corner_offsets(3)[:, 2]
     assert fields.hourglass_velocity(corner, v)[0, 0, 0] == pytest.approx(0.3, rel=1e-12)
 
-    from dsmv.cel.solver3d import solid_faces
-    from dsmv.cel.layout import Cells, Nodes, SolidMesh, split_cells
-    from dsmv.cel.kernels.hexahedra import cell_volumes
+    from dsmv.cel.solver3d import faces_3d
+    from dsmv.cel.layout import Cells, Nodes, Mesh3D, split_cells
+    from dsmv.cel.kernels.elements3d import cell_volumes
 
     x, y, z = np.linspace(0.0, 1.0, 4), np.linspace(0.0, 0.5, 3), np.linspace(-1.0, 0.0, 5)
     shape = (3, 2, 4)
     corner = structured_corners(shape)
-    mesh = SolidMesh(x, y, z, cell_volumes(x, y, z), corner, corner.max() + 1, split_cells(corner),
+    mesh = Mesh3D(x, y, z, cell_volumes(x, y, z), corner, corner.max() + 1, split_cells(corner),
                      np.zeros(shape, dtype=np.uint8))
     solid = np.zeros(shape, bool)
-    cells = Cells(np.ones(shape), np.zeros((SOLID.base, *shape)), np.zeros(shape), np.ones(shape), solid,
+    cells = Cells(np.ones(shape), np.zeros((ROWS_3D.base, *shape)), np.zeros(shape), np.ones(shape), solid,
                   np.ones(shape), np.zeros(shape), np.full(shape, np.nan), np.ones(shape))
     X, Y, Z = np.meshgrid(x, y, z, indexing="ij")
     nodes = Nodes(np.zeros((3, X.size)), np.zeros((3, X.size)), np.zeros(X.size), np.zeros((3, X.size)))
@@ -300,4 +300,4 @@ def test_3d_field_measures_of_known_states():
                           ks=0.0, hourglass=0.0, bulk_linear=0.0, bulk_quadratic=0.0, stress_cutoff=0.01,
                           axisymmetric=False, advection_order=2, drop=False, inflow=False, remap=True, tresca=True,
                           law_active=False)
-    assert shear_strain_rates(mesh, cells, solid_faces(solid), nodes, par, 0.0) == pytest.approx(np.full(shape, a))
+    assert shear_strain_rates(mesh, cells, faces_3d(solid), nodes, par, 0.0) == pytest.approx(np.full(shape, a))

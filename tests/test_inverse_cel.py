@@ -15,7 +15,7 @@ import functools
 import numpy as np
 import pytest
 
-from dsmv.cel.solver import Cel2DSolver
+from dsmv.cel.solver2d import Cel2DSolver
 from dsmv.scene import build_scene
 from dsmv.surrogate.dataset import TARGET_METRIC
 from dsmv.surrogate.features import LeakFreeFeatures, target

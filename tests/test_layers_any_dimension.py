@@ -17,7 +17,7 @@ from dsmv.cel import controller as C
 from dsmv.cel.body import nodes_touching, solid_cells
 from dsmv.cel.contact import fixed_velocities, touchdown_mass
 from dsmv.cel.kernels.nodes import apply_fixed, apply_ties, gather_travel, nodal_mass, tie_reactions, update_velocities
-from dsmv.cel.layout import B_TIME, B_VEL, N_BODY, Cells, Contact, Mesh, Nodes, corner_offsets, structured_corners
+from dsmv.cel.layout import B_TIME, B_VEL, N_BODY, Cells, Contact, Mesh2D, Nodes, corner_offsets, structured_corners
 
 NX, NY, NZ = 4, 1, 3  # a slab one cell thick across y
 AXES = (np.linspace(0.0, 2.0, NX + 1), np.linspace(0.0, 0.5, NY + 1), np.linspace(-1.5, 0.0, NZ + 1))
@@ -38,7 +38,7 @@ def slab():
     cells = Cells(phi, np.zeros((8, *cell_shape)), np.zeros(cell_shape), np.ones(cell_shape),
                   np.zeros(cell_shape, dtype=bool), np.ones(cell_shape), np.zeros(cell_shape, dtype=bool),
                   np.full(cell_shape, np.nan), np.ones(cell_shape))
-    mesh = Mesh(AXES[0], AXES[2], vol, structured_corners(cell_shape), N_NODES, np.zeros(cell_shape, dtype=bool))
+    mesh = Mesh2D(AXES[0], AXES[2], vol, structured_corners(cell_shape), N_NODES, np.zeros(cell_shape, dtype=bool))
     nodes = Nodes(np.zeros((3, N_NODES)), np.zeros((3, N_NODES)), np.zeros(N_NODES), np.zeros((3, N_NODES)))
     return mesh, cells, nodes
 

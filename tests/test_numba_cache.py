@@ -23,7 +23,7 @@ def _copy_cel(dest: Path) -> Path:
 def test_one_changed_byte_gives_another_hash(tmp_path):
     a, b = _copy_cel(tmp_path / "a"), _copy_cel(tmp_path / "b")
     assert source_hash(a) == source_hash(b) == source_hash(CEL_DIR)
-    kernels = b / "kernels" / "plane.py"
+    kernels = b / "kernels" / "elements2d.py"
     data = bytearray(kernels.read_bytes())
     data[-2] = ord("#") if data[-2] != ord("#") else ord(" ")
     kernels.write_bytes(bytes(data))
@@ -59,11 +59,11 @@ import sys
 {first}
 import dsmv
 import numba
-from dsmv.cel import stepper
-from dsmv.cel.kernels import plane
+from dsmv.cel import stepper2d
+from dsmv.cel.kernels import elements2d
 print(numba.config.CACHE_DIR)
-print(stepper.run_steps._cache._cache_path)
-print(plane.update_stress._cache._cache_path)
+print(stepper2d.run_steps._cache._cache_path)
+print(elements2d.update_stress._cache._cache_path)
 """
 
 
@@ -128,15 +128,15 @@ import json
 from hydra import compose, initialize_config_dir
 from dsmv.command_line import CONFIG_DIR
 from dsmv.scene import build_scene
-from dsmv.cel import stepper
-from dsmv.cel.kernels import nodes, plane, remap2d
-from dsmv.cel.solver import Cel2DSolver
+from dsmv.cel import stepper2d
+from dsmv.cel.kernels import nodes, elements2d, remap2d
+from dsmv.cel.solver2d import Cel2DSolver
 with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):
     cfg = compose("config", overrides=["solver=cel2d", "mesh=coarse", "tracking=disabled", "solver.progress=off",
                                        "soil.law=einav_randolph"])
 result = Cel2DSolver(build_scene(cfg)).solve()
-dispatchers = [f for m in (stepper, nodes, plane, remap2d) for f in vars(m).values() if hasattr(f, "stats")]
-print(json.dumps({"status": result.status, "run_steps_hits": sum(stepper.run_steps.stats.cache_hits.values()),
+dispatchers = [f for m in (stepper2d, nodes, elements2d, remap2d) for f in vars(m).values() if hasattr(f, "stats")]
+print(json.dumps({"status": result.status, "run_steps_hits": sum(stepper2d.run_steps.stats.cache_hits.values()),
                   "hits": sum(sum(f.stats.cache_hits.values()) for f in dispatchers),
                   "misses": sum(sum(f.stats.cache_misses.values()) for f in dispatchers)}))
 """

@@ -306,7 +306,7 @@ def test_random_legal_scene_never_crashes_the_energy_method(legal_bases, scene):
 @settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(scene=legal_scene())
 def test_random_legal_scene_never_crashes_the_cel_solver(legal_bases, scene):
-    from dsmv.cel.solver import Cel2DSolver
+    from dsmv.cel.solver2d import Cel2DSolver
 
     result = Cel2DSolver(legal(legal_bases, "cel2d", scene)).solve()
     check_result(result)

@@ -121,7 +121,7 @@ def test_single_element_simple_shear_follows_the_closed_form(compose_cfg, overri
 
 
 def test_einav_randolph_at_st1_eta0_lands_like_tresca(compose_cfg):
-    from dsmv.cel.solver import Cel2DSolver
+    from dsmv.cel.solver2d import Cel2DSolver
 
     common = ["solver=cel2d", "mesh=coarse", "solver.progress=off"]
     er = Cel2DSolver(build_scene(compose_cfg(common + ["soil.law=einav_randolph", "soil.sensitivity=1",
@@ -132,7 +132,7 @@ def test_einav_randolph_at_st1_eta0_lands_like_tresca(compose_cfg):
 
 def test_einav_randolph_landing_trends(compose_cfg):
     """The reference study's Figure 9 directions: sinkage grows with St, falls with ξ95 and with η."""
-    from dsmv.cel.solver import Cel2DSolver
+    from dsmv.cel.solver2d import Cel2DSolver
 
     def sinkage(*overrides):
         scene = build_scene(compose_cfg(["solver=cel2d", "mesh=coarse", "solver.progress=off",
@@ -207,7 +207,7 @@ def test_fall_cone_implied_hansbo_factor(compose_cfg):
     """GEONOR 30° cone, 0.1 kg, sample I, coarse cells. Einav–Randolph with the default rate
     parameters lands inside the 0.5–1.33 range published for 30° cones; Tresca, with no rate
     effect, penetrates deeper (K = su·d²/(m·g) is larger)."""
-    from dsmv.cel.solver import Cel2DSolver
+    from dsmv.cel.solver2d import Cel2DSolver
 
     def hansbo_k(law):
         scene = build_scene(compose_cfg(["geometry=fall_cone_30deg", "soil=sample_I", f"soil.law={law}",

@@ -81,7 +81,7 @@ def run_cli(run_dir: Path, overrides, threads: int = 1, solver: str | None = "ce
 
 def run_in_process(compose_cfg, run_dir: Path, overrides) -> Run:
     """The same job without the CLI's start-up cost: solve, write the job's files, read them back."""
-    from dsmv.cel.solver import Cel2DSolver
+    from dsmv.cel.solver2d import Cel2DSolver
     from dsmv.runner import write_outputs
     from dsmv.scene import build_scene
 
@@ -337,9 +337,9 @@ def test_diverging_outflow_cannot_create_soil():
     donor–acceptor limit alone lets both take all it holds. The sweep must give no more than the
     cell holds (before the fix: φ went to −φ, was clipped to 0, and soil appeared; 3.7e-10 of
     the mass in a 10 m/s landing on su0 = 500 Pa)."""
-    from dsmv.cel.kernels.plane import cell_volumes
+    from dsmv.cel.kernels.elements2d import cell_volumes
     from dsmv.cel.kernels.remap2d import advect_cells
-    from dsmv.cel.layout import NQ_BASE, Z0
+    from dsmv.cel.kernels.elements2d import NQ_BASE, Z0
     from dsmv.cel.state import Elastic, body_free_state, step_parameters
 
     x, y = np.arange(4.0), np.array([0.0, 1.0])

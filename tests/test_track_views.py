@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from dsmv.cel.solver import Cel2DSolver
+from dsmv.cel.solver2d import Cel2DSolver
 from dsmv.errors import ConfigError
 from dsmv.scene import build_scene
 

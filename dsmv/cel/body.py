@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dsmv.cel.grid import Grid
+from dsmv.cel.grid import Grid2D
 from dsmv.cel.layout import corner_offsets
 
 #: a point within this relative distance of a shape's boundary counts as inside (node lines on it)
@@ -100,7 +100,7 @@ class TrackSideView:
         centres = 0.5 * (up[:-1] + up[1:])
         return columns, (centres > 0.0) & (centres < self.grouser)
 
-    def extra_solid(self, grid: Grid, solid: np.ndarray) -> None:
+    def extra_solid(self, grid: Grid2D, solid: np.ndarray) -> None:
         """The grousers: a column of cells below the plates at every plate pitch."""
         if self.grouser <= 0:
             return
@@ -218,7 +218,7 @@ def solid_cells(shape, grid) -> np.ndarray:
     rasterised and mirrored, so the two halves are exact mirror images (a 3D grid's mirrored axes
     have exactly negated coordinates, and its shapes depend on |x| and |y|)."""
     if grid.x[0] < 0.0 and len(grid.axes) == 2:
-        half = Grid(grid.x[grid.nx // 2:], grid.y, grid.h)
+        half = Grid2D(grid.x[grid.nx // 2:], grid.y, grid.h)
         solid = solid_cells(shape, half)
         return np.concatenate([solid[::-1], solid])
     cell_shape = tuple(len(a) - 1 for a in grid.axes)

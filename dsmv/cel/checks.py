@@ -19,7 +19,8 @@ from typing import Literal
 import numpy as np
 from pydantic import Field
 
-from dsmv.cel.layout import B_TIME, N_BODY, NQ_BASE, SoilLawKernel
+from dsmv.cel.kernels.elements2d import NQ_BASE
+from dsmv.cel.layout import B_TIME, N_BODY, SoilLawKernel
 from dsmv.cel.state import Elastic, body_free_state, geostatic_state, step_parameters
 from dsmv import registry
 from dsmv.results import SolveResult
@@ -55,7 +56,7 @@ def _smooth(xc, yc, cx, cy, width):
 
 def advect_square(n_cells: int, courant: float, travel: float, order: int) -> dict:
     """Carry a square of soil across [0, 1]² diagonally; return errors against the translate."""
-    from dsmv.cel.kernels.plane import cell_volumes
+    from dsmv.cel.kernels.elements2d import cell_volumes
     from dsmv.cel.kernels.remap2d import advect_cells
 
     h = 1.0 / n_cells
@@ -145,14 +146,14 @@ class Cel2DCheckSolver:
         return SolveResult("ok", message, metrics, units, None)  # a convergence study has no time history
 
     def _geostatic(self) -> SolveResult:
-        from dsmv.cel.grid import build_grid
+        from dsmv.cel.grid import build_grid_2d
         from dsmv.cel.kernels import for_dimension
         from dsmv.cel.ledger import N_ENERGY
 
         scene, cfg = self.scene, self.scene.solver
         soil, mesh_cfg = scene.soil, scene.mesh
         h = mesh_cfg.cell_size_m
-        grid = build_grid(h, 0.5 * cfg.block_width_m, cfg.block_width_m, 0.5 * cfg.block_depth_m,
+        grid = build_grid_2d(h, 0.5 * cfg.block_width_m, cfg.block_width_m, 0.5 * cfg.block_depth_m,
                           cfg.block_depth_m, 3 * h, mesh_cfg.growth_ratio, mesh_cfg.max_cell_size_m)
         x, y, nx, ny = grid.x, grid.y, grid.nx, grid.ny
         rho, grav = soil.density_kg_m3, scene.landing.gravity_m_s2

@@ -88,7 +88,7 @@ class Cel2DConfig(CelConfig):
     mode: Literal["auto", "plane_strain", "axisymmetric"] = Field(description="auto: from the geometry")
 
 
-class SolidEconomies(Economies):
+class Economies3D(Economies):
     """A 3D solver's economies: the symmetry planes it models."""
 
     symmetry: Literal["quarter", "half", "full"] = Field(description=(
@@ -103,7 +103,7 @@ class Cel3DConfig(CelConfig):
     name: Literal["cel3d"]
     threads: Optional[Count] = Field(ge=1, description=(
         "threads of the per-cell kernels; null: all cores outside sweeps, 1 in a sweep's job (-)"))
-    economies: SolidEconomies
+    economies: Economies3D
 
 
 def solver_defaults(name: str) -> dict:

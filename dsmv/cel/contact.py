@@ -27,8 +27,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from dsmv.cel.body import Cone, Cylinder, FlatBody, TrackSideView, nodes_touching, soil_cells_touching, solid_cells
-from dsmv.cel.grid import Grid, Openings
-from dsmv.cel.kernels.plane import CUT_OPEN_FLOOR
+from dsmv.cel.grid import Grid2D, Openings
+from dsmv.cel.kernels.elements2d import CUT_OPEN_FLOOR
 from dsmv.cel.layout import Contact, corner_offsets, structured_corners
 from dsmv.errors import ConfigError
 
@@ -125,7 +125,7 @@ class BodyContact:
     gap: np.ndarray
 
 
-def _ties(rules: ContactRules, shape, grid: Grid, j_base: int, solid: np.ndarray):
+def _ties(rules: ContactRules, shape, grid: Grid2D, j_base: int, solid: np.ndarray):
     """The tied nodes (i, j) and, per tie: full or normal, the normal into the soil, the adhesion cap.
 
     A node of a body cell is tied fully (moves with the body) when it is a corner or inside the
@@ -175,7 +175,7 @@ def _ties(rules: ContactRules, shape, grid: Grid, j_base: int, solid: np.ndarray
     return tie_i, tie_j, full, normal, cap
 
 
-def split_corners(rules: ContactRules, shape, grid: Grid, j_base: int, solid: np.ndarray):
+def split_corners(rules: ContactRules, shape, grid: Grid2D, j_base: int, solid: np.ndarray):
     """The split nodes of a flat-faced body's corners, where its base meets a wall.
 
     Prandtl's fan is centred there: the soil under the base moves with the body, the soil beside it
@@ -268,7 +268,7 @@ def fixed_velocities(node_shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarra
     return np.concatenate(nodes).astype(np.int64), order.astype(np.int64)
 
 
-def build_contact(rules: ContactRules, shape, grid: Grid, j_base: int) -> BodyContact:
+def build_contact(rules: ContactRules, shape, grid: Grid2D, j_base: int) -> BodyContact:
     """The body's cells, openings and contact table on a grid, from the rules."""
     solid = solid_cells(shape, grid)
     openings = Openings.of_circle(grid, shape.radius, shape.radius) if rules.cut_cells else Openings.of_cells(solid)
@@ -309,7 +309,7 @@ def build_contact(rules: ContactRules, shape, grid: Grid, j_base: int) -> BodyCo
 
 def gap_cells(rules: ContactRules, solid, tie_i, tie_j, normal) -> np.ndarray:
     """The soil cells beside a face the soil may leave (nx, ny), with contact separation: they carry
-    stress only while full (:func:`dsmv.cel.kernels.plane.update_stress`). A pushed strip leaves a
+    stress only while full (:func:`dsmv.cel.kernels.elements2d.update_stress`). A pushed strip leaves a
     wedge-shaped gap beside its wall, a third of a cell wide at 0.05 B and B/20; spread across a
     partly full cell, the sliver of soil beside it would bridge it. The rule cannot tell a gap
     from a free surface or a smeared fill: a wall cell under 95 % full, at the corner early in a

@@ -55,7 +55,7 @@ class Run:
     """What trackers see between chunks: the state containers, the body and energy arrays, the
     exit code of the last chunk, the steps done and the run's constants."""
 
-    state: object          # the solver's state (containers and arrays; see Cel2DSolver)
+    state: object          # the solver's state (containers and arrays; see dsmv.cel.solver.State)
     body: np.ndarray
     energy: np.ndarray
     code: int = RUNNING

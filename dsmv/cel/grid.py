@@ -35,7 +35,7 @@ def graded_coordinates(start: float, core_end: float, far_end: float, h: float, 
 
 
 @dataclass(frozen=True)
-class Grid:
+class Grid2D:
     """Node coordinates ``x`` (nx+1) and ``y`` (ny+1) in m; cell (i, j) spans x[i]..x[i+1], y[j]..y[j+1]."""
 
     x: np.ndarray
@@ -79,7 +79,7 @@ class Grid:
         return j
 
 
-def build_grid(
+def build_grid_2d(
     h: float,
     core_half_width: float,
     half_width: float,
@@ -89,7 +89,7 @@ def build_grid(
     ratio: float,
     h_max: float,
     core_height: float | None = None,
-) -> Grid:
+) -> Grid2D:
     """A grid with uniform h on [0, core_half_width] × [−core_depth, core_height], graded outwards.
 
     Above y = 0 the cells stay uniform up to ``core_height`` (default: all the way to
@@ -100,11 +100,11 @@ def build_grid(
     below = graded_coordinates(0.0, -core_depth, -depth, h, ratio, h_max)[::-1]
     top_of_core = void_height if core_height is None else min(core_height, void_height)
     above = graded_coordinates(0.0, h * np.ceil(top_of_core / h - 1e-9), void_height, h, ratio, h_max)[1:]
-    return Grid(x=x, y=np.concatenate([below, above]), h=h)
+    return Grid2D(x=x, y=np.concatenate([below, above]), h=h)
 
 
 @dataclass(frozen=True)
-class SolidGrid:
+class Grid3D:
     """A 3D rectilinear grid: node coordinates ``x`` across the body, ``y`` along it and ``z`` up (m),
     x = y = 0 on the body's two symmetry planes, z = 0 at its base; core cell size h (m)."""
 
@@ -124,18 +124,18 @@ class SolidGrid:
 
     def row_of(self, z_value: float) -> int:
         """Index of the node layer at ``z_value`` (which must lie on one)."""
-        return Grid(self.x, self.z, self.h).row_of(z_value)
+        return Grid2D(self.x, self.z, self.h).row_of(z_value)
 
 
-def build_solid_grid(h: float, core: tuple[float, float], far: tuple[float, float], core_depth: float, depth: float,
-                     void_height: float, ratio: float, h_max: float, slab: bool = False) -> SolidGrid:
+def build_grid_3d(h: float, core: tuple[float, float], far: tuple[float, float], core_depth: float, depth: float,
+                     void_height: float, ratio: float, h_max: float, slab: bool = False) -> Grid3D:
     """A 3D grid, uniform h over [0, core[0]] × [0, core[1]] × [−core_depth, void_height], graded
-    outwards to ``far`` across and along and to ``depth`` below, as :func:`build_grid` in each
+    outwards to ``far`` across and along and to ``depth`` below, as :func:`build_grid_2d` in each
     direction. ``slab``: one cell of h along y (a plane-strain slice between two roller planes)."""
-    section = build_grid(h=h, core_half_width=core[0], half_width=far[0], core_depth=core_depth, depth=depth,
+    section = build_grid_2d(h=h, core_half_width=core[0], half_width=far[0], core_depth=core_depth, depth=depth,
                          void_height=void_height, ratio=ratio, h_max=h_max)
     y = np.array([0.0, h]) if slab else graded_coordinates(0.0, core[1], far[1], h, ratio, h_max)
-    return SolidGrid(section.x, y, section.y, h)
+    return Grid3D(section.x, y, section.y, h)
 
 
 @dataclass(frozen=True)
@@ -162,7 +162,7 @@ class Openings:
         return cls(1.0 - solid, aperture_x, aperture_y)
 
     @classmethod
-    def of_circle(cls, grid: Grid, radius: float, centre_y: float, samples: int = 24) -> "Openings":
+    def of_circle(cls, grid: Grid2D, radius: float, centre_y: float, samples: int = 24) -> "Openings":
         """A circle (centre (0, ``centre_y``), m) cutting the cells: its cut cells stay partly open.
 
         Face apertures are exact (the chord each face line has inside the circle); cell

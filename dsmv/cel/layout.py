@@ -52,13 +52,22 @@ class CellRows:
         """Rows before the soil law's state variables."""
         return len(self.stress) + 2
 
+    @property
+    def vertical(self) -> str:
+        """The normal stress along the up axis (the last one)."""
+        return "yy" if self.dim == 2 else "zz"
 
-PLANE = CellRows(2)
-SXX, SYY, SXY, SZZ, XI, Z0 = (PLANE.of("xx"), PLANE.of("yy"), PLANE.of("xy"), PLANE.of("zz"), PLANE.xi, PLANE.z0)
-NQ_BASE = PLANE.base
+    @property
+    def horizontal(self) -> tuple[str, ...]:
+        """The other normal stresses (in 2D the out-of-plane or hoop one is horizontal too)."""
+        return ("xx", "zz") if self.dim == 2 else ("xx", "yy")
 
 
-class Mesh(NamedTuple):
+ROWS_2D = CellRows(2)
+ROWS_3D = CellRows(3)
+
+
+class Mesh2D(NamedTuple):
     """The grid's geometry: node coordinates per axis (m), cell volumes (m³ per unit thickness, or
     per radian), the node of each cell corner ``corner`` (cells × 2^d, local corners in the order
     of :func:`corner_offsets`), how many nodes are structured (the rest are split nodes), and the
@@ -74,8 +83,8 @@ class Mesh(NamedTuple):
     split: np.ndarray
 
 
-class SolidMesh(NamedTuple):
-    """A 3D grid's geometry, as :class:`Mesh` with the third axis: node coordinates x (across the
+class Mesh3D(NamedTuple):
+    """A 3D grid's geometry, as :class:`Mesh2D` with the third axis: node coordinates x (across the
     body), y (along it) and z (up) in m, cell volumes (m³), the corner table (cells × 8), the
     structured node count, the cells that use a split node, and each cell's faces against the body
     (``closed``, uint8: bit 2a its lower face along axis a, bit 2a + 1 its upper one)."""
@@ -108,7 +117,7 @@ class Cells(NamedTuple):
     hourglass_factor: np.ndarray
 
 
-class Faces(NamedTuple):
+class Faces2D(NamedTuple):
     """Per face normal to each axis: its open fraction (the body closes faces) and the soil volume
     through it in the last remap sweep ([face, line], m³)."""
 
@@ -118,7 +127,7 @@ class Faces(NamedTuple):
     flux_y: np.ndarray
 
 
-class SolidFaces(NamedTuple):
+class Faces3D(NamedTuple):
     """A 3D grid's faces normal to each axis, indexed [face along the axis, the other two axes' cells
     in order]: their open fraction (the body closes faces) and the soil volume through them in the
     last remap sweep (m³)."""

@@ -1,4 +1,4 @@
-"""``solver=cel2d``: the explicit Coupled Eulerian–Lagrangian solver, on layers 2D and 3D share.
+"""The explicit Coupled Eulerian–Lagrangian solver, as every dimension runs it: :class:`CelSolver`.
 
 Soil lives on a rectilinear Eulerian grid with a volume fraction per cell; the body is rigid.
 The grid translates with the body (what Abaqus/Explicit calls Eulerian mesh motion), so the
@@ -10,11 +10,10 @@ soil streams upwards, so soil enters through the base, intact and geostatic at t
 has there; the base stays at a fixed distance below the body (set by
 ``solver.domain_depth_widths``), and the mass audit counts what entered.
 
-:class:`CelSolver` is what every dimension shares: domain sizing, the contact rules, the
-controller and its trackers, the energy ledger and the result. :class:`Cel2DSolver` builds the
-2D grid and state and runs the 2D kernels. Modes: plane strain (a strip, or a track's
-cross-section, per metre of contact length; the load per track is spread over L) and
-axisymmetric (a circular plate of diameter B). A symmetry plane runs through the body's axis.
+:class:`CelSolver` knows no dimension: domain sizing, the contact rules, the initial state, the
+controller and its trackers, the energy ledger and the result. :class:`~dsmv.cel.solver2d.Cel2DSolver`
+and :class:`~dsmv.cel.solver3d.Cel3DSolver` give the grid, the body's contact, the mesh and faces,
+and their dimension's kernels (:func:`~dsmv.cel.kernels.for_dimension`).
 """
 
 from __future__ import annotations
@@ -31,13 +30,10 @@ from dsmv import registry
 from dsmv.analytic.energy import energy_estimate, sinkage_from_energy
 from dsmv.cel import controller as C
 from dsmv.cel import ledger
-from dsmv.cel.config import Cel2DConfig, CelConfig, Economies  # noqa: F401  (the solvers' config models)
-from dsmv.cel.contact import ContactRules, build_contact, touchdown_mass
+from dsmv.cel.config import CelConfig
+from dsmv.cel.contact import ContactRules, touchdown_mass
 from dsmv.cel.kernels import DimensionKernels, for_dimension
-from dsmv.cel.layout import (
-    B_INFLOW, B_TIME, B_VEL, N_BODY, NQ_BASE, CellRows, Cells, Faces, Inflow, Mesh, Nodes, Params,
-    SoilLawKernel, split_cells,
-)
+from dsmv.cel.layout import B_INFLOW, B_TIME, B_VEL, N_BODY, CellRows, Cells, Inflow, Nodes, Params, SoilLawKernel
 from dsmv.cel.state import Elastic, geostatic_state, hourglass_factor, step_parameters
 from dsmv.errors import ConfigError
 from dsmv.results import SolveResult
@@ -88,9 +84,9 @@ class State:
     """A run's state: the grid, the containers the compiled loop takes, and what set-up measured."""
 
     grid: object
-    mesh: Mesh
+    mesh: object           # Mesh2D or Mesh3D
     cells: Cells
-    faces: Faces
+    faces: object          # Faces2D or Faces3D
     nodes: Nodes
     contact: object
     inflow: Inflow
@@ -103,7 +99,7 @@ class State:
     elastic0: float        # elastic energy at the start (J, model)
     touchdown_loss: float  # kinetic energy lost at touchdown (J, model)
     kinetic_in: float      # the body's kinetic energy at touchdown (J, model)
-    stepper: object = None  # the compiled loop's machine code for these containers (Cel2DSolver.advance)
+    stepper: object = None  # the compiled loop's machine code for these containers (CelSolver.advance)
 
 
 @dataclass(frozen=True)
@@ -404,7 +400,7 @@ class CelSolver:
     def result(self, state: State, run: C.Run, ending: C.Ending, zigzag: float, rest_time_s, compile_s,
                wall_s) -> SolveResult:
         """The run's metrics, units and history, and the checks an 'ok' run must pass."""
-        scene, cfg, soil, landing = self.scene, self.scene.solver, self.scene.soil, self.scene.landing
+        cfg, soil, landing = self.scene.solver, self.scene.soil, self.scene.landing
         drop = landing.kind == "drop"
         body, par = state.body, state.par
         status, message = ending.status, ending.message
@@ -584,112 +580,38 @@ class CelSolver:
         """What must stay finite: the vertical velocities and the cell state."""
         return [state.nodes.v[-1], state.cells.q]
 
-
-class Cel2DSolver(CelSolver):
-    """Solver plugin ``cel2d``."""
-
-    name = "cel2d"
-    dim = 2
-    config_model = Cel2DConfig
-    bodies = ("strip", "track", "tbar", "cone", "circular_plate")
-
-    @staticmethod
-    def is_axisymmetric(scene: Scene) -> bool:
-        mode = scene.solver.mode
-        return mode == "axisymmetric" or (mode == "auto" and scene.geometry.kind in ("cone", "circular_plate"))
-
-    @classmethod
-    def check_capabilities(cls, scene: Scene) -> ContactRules:
-        rules = super().check_capabilities(scene)
-        cfg, body = scene.solver, scene.geometry
-        if not cfg.economies.symmetry and (body.kind in ("cone", "circular_plate") or cfg.mode == "axisymmetric"
-                                           or body.roughness != "rough" or scene.output.fields or rules.separation):
-            raise ConfigError("solver.economies.symmetry", False, "the whole section runs plane strain bodies with "
-                              "rough contact, no contact separation and no field output; it exists to measure what "
-                              "the half model saves")
-        if body.kind in ("cone", "circular_plate") and cfg.mode == "plane_strain":
-            raise ConfigError("solver.mode", cfg.mode, f"a {body.kind.replace('_', ' ')} is axisymmetric: 'auto' or "
-                                                       "'axisymmetric'")
-        return rules
-
-    def __init__(self, scene: Scene, checked: bool = False):
-        super().__init__(scene, checked)
-        self.mode = "axisymmetric" if self.axisym else "plane_strain"
-
-    def build(self):
-        """The grid: uniform core around the body, graded outwards (:func:`dsmv.cel.grid.build_grid`)."""
-        from dsmv.cel.grid import Grid, build_grid
-
-        scene, cfg = self.scene, self.scene.solver
-        travel = self.expected_travel_m()
-        B = self.characteristic_width_m(travel)
-        half = 0.5 * B
-        h, n_half = self.core_cell_size(half)
-        core_half_width = h * math.ceil((half + cfg.core_margin_widths * B) / h)
-        self.mudline = self.mudline_m(h)
-        grid = build_grid(
-            h=h,
-            core_half_width=core_half_width,
-            half_width=max(cfg.domain_half_width_widths * B, core_half_width + h),
-            core_depth=cfg.core_margin_widths * B,
-            depth=max(cfg.domain_depth_widths * B, cfg.core_margin_widths * B + h),
-            void_height=self.mudline + 1.3 * travel + 0.25 * B + 3 * h,
-            ratio=scene.mesh.growth_ratio,
-            h_max=scene.mesh.max_cell_size_m,
-            # a deep body (a T-bar) needs the uniform core only around itself
-            core_height=B + cfg.core_margin_widths * B if self.circular else None,
-        )
-        if not cfg.economies.symmetry:  # the whole section: the half grid and its mirror image
-            grid = Grid(np.concatenate([-grid.x[:0:-1], grid.x]), grid.y, grid.h)
-        self.grid, self.h, self.n_half, self.travel = grid, h, n_half, travel
-        return grid
-
-    def body_contact(self, grid):
-        """The body's cells, openings and contact table on ``grid`` (:func:`dsmv.cel.contact.build_contact`)."""
-        return build_contact(self.rules, self.rules.shape(self.scene.geometry, grid.h), grid, grid.row_of(0.0))
-
-    def whole_body_cells(self, cells: float) -> float:
-        """The cells the whole section would take on this grid (the half model mirrored; an
-        axisymmetric model is its own whole)."""
-        return 2 * cells if self.scene.solver.economies.symmetry and not self.axisym else cells
-
-    def model_scale(self) -> float:
-        """The model carries a share of the body: the half-section per metre of the out-of-plane length
-        (L for the cross-section, B for the longitudinal view); axisymmetric per radian."""
-        if self.axisym:
-            return 2.0 * math.pi
-        body = self.scene.geometry
-        return (2.0 if self.scene.solver.economies.symmetry else 1.0) * (
-            body.width_m if self.longitudinal else body.contact_length_m)
+    # ------------------------------------------------------------------ state
 
     def initial_state(self) -> State:
-        """Grid, body and contact, the geostatic soil, the step's parameters, and the touchdown."""
+        """Grid, body and contact, the geostatic soil, the step's parameters, and the touchdown; a
+        subclass gives the grid (:meth:`build`), the body's contact (:meth:`body_contact`), the mesh and
+        faces (:meth:`mesh_and_faces`) and whether the soil may part from the body
+        (:meth:`contact_separation`)."""
         from dsmv.cel.kernels.nodes import nodal_mass
 
         scene, cfg = self.scene, self.scene.solver
         soil, landing = scene.soil, scene.landing
         grid = self.build()
-        nx, ny = grid.nx, grid.ny
+        shape = tuple(len(a) - 1 for a in grid.axes)
         rho, grav = soil.density_kg_m3, landing.gravity_m_s2
         elastic = Elastic.of(soil)
         body_contact = self.body_contact(grid)
-        openings = body_contact.openings
-        phi, q = geostatic_state(grid, rho, grav, elastic.k0, self.mudline, openings.open_frac)
+        open_frac = body_contact.openings.open_frac
+        phi, q = geostatic_state(grid, rho, grav, elastic.k0, self.mudline, open_frac)
         # the soil law's state variables ride with the material, as ξ and z0 do
-        initial_state = self.law.initial_state()
-        q = np.concatenate([q, np.broadcast_to(initial_state[:, None, None], (len(initial_state), nx, ny))])
-        mesh = Mesh(grid.x, grid.y, self.kernels.cell_volumes(grid.x, grid.y, self.axisym), body_contact.corner,
-                    (nx + 1) * (ny + 1), split_cells(body_contact.corner))
-        shared = np.full((nx, ny), np.nan)
+        law_state = self.law.initial_state()
+        n_base = q.shape[0]
+        q = np.concatenate([q, np.broadcast_to(law_state.reshape(-1, *(1,) * self.dim), (len(law_state), *shape))])
+        mesh, faces = self.mesh_and_faces(grid, body_contact)
+        shared = np.full(shape, np.nan)  # a merged sliver pair's shared divergence, NaN elsewhere
         merge = body_contact.contact.merge
-        shared[merge[:, 0], merge[:, 1]] = 0.0
-        shared[merge[:, 2], merge[:, 3]] = 0.0
-        cells = Cells(phi, q, np.zeros((nx, ny)), body_contact.strength_factor, body_contact.solid,
-                      openings.open_frac, body_contact.gap, shared,
-                      hourglass_factor(openings.open_frac, cfg.hourglass_cells(scene.geometry.kind)))
-        faces = Faces(openings.aperture_x, openings.aperture_y, np.zeros((nx + 1, ny)), np.zeros((ny + 1, nx)))
+        shared[tuple(merge[:, :self.dim].T)] = 0.0
+        shared[tuple(merge[:, self.dim:].T)] = 0.0
+        cells = Cells(phi, q, np.zeros(shape), body_contact.strength_factor, body_contact.solid, open_frac,
+                      body_contact.gap, shared, hourglass_factor(open_frac, cfg.hourglass_cells(scene.geometry.kind)))
         n_nodes = body_contact.n_nodes
-        nodes = Nodes(np.zeros((2, n_nodes)), np.zeros((2, n_nodes)), np.zeros(n_nodes), np.zeros((2, n_nodes)))
+        nodes = Nodes(*(np.zeros((self.dim, n_nodes)) for _ in range(2)), np.zeros(n_nodes),
+                      np.zeros((self.dim, n_nodes)))
         scale, start = self.model_scale(), self.start()
         drop = landing.kind == "drop"
         par = step_parameters(
@@ -700,18 +622,22 @@ class Cel2DSolver(CelSolver):
             push_velocity=landing.velocity_m_s, remap_courant=cfg.remap_courant,
             axisymmetric=self.axisym, advection_order=cfg.advection_order, drop=drop, inflow=True, remap=cfg.remap,
             law_active=self.law.active or not cfg.economies.skip_inactive_law, skip_void=cfg.economies.skip_void,
-            separation=self.rules.separation,
+            separation=self.contact_separation(),
             tresca=cfg.yield_surface == "tresca" or (cfg.yield_surface == "auto" and self.axisym),
         )
         nodal_mass(mesh, cells, rho, nodes.mass)
-        ghost = np.zeros((q.shape[0], nx))
-        ghost[NQ_BASE:] = initial_state[:, None]  # soil entering at the base brings the initial state
-        inflow = Inflow(ghost, np.full(nx, self.mudline - (grid.y[0] - 0.5 * (grid.y[1] - grid.y[0]))))
-        body = np.zeros(N_BODY)
-        state = State(grid, mesh, cells, faces, nodes, body_contact.contact, inflow, par, body, np.zeros(ledger.N_ENERGY),
-                      self.law_kernel(par, len(initial_state)), scale,
+        up = grid.axes[-1]
+        ghost = np.zeros((q.shape[0], *shape[:-1]))
+        ghost[n_base:] = law_state.reshape(-1, *(1,) * (self.dim - 1))  # soil entering at the base brings it
+        inflow = Inflow(ghost, np.full(shape[:-1], self.mudline - (up[0] - 0.5 * (up[1] - up[0]))))
+        state = State(grid, mesh, cells, faces, nodes, body_contact.contact, inflow, par, np.zeros(N_BODY),
+                      np.zeros(ledger.N_ENERGY), self.law_kernel(par, len(law_state)), scale,
                       float(rho * (phi * mesh.vol).sum()),
                       self.kernels.elastic_energy(phi, q, mesh.vol, par.shear, par.bulk),
                       0.0, 0.5 * par.body_mass * start.velocity_m_s**2 if drop else 0.0)
         self.touchdown(state)
         return state
+
+    def contact_separation(self) -> bool:
+        """Whether the body's faces let go of soil that pulls away (the contact rules' word)."""
+        return self.rules.separation

@@ -1,9 +1,9 @@
 """``solver=cel3d``: the explicit CEL solver on hexahedra, on the layers 2D and 3D share.
 
-What differs from :class:`~dsmv.cel.solver.Cel2DSolver` is the grid (three axes: x across the
+What differs from :class:`~dsmv.cel.solver2d.Cel2DSolver` is the grid (three axes: x across the
 body, y along it, z up), the bodies (a rectangular or circular plate, a strip as a slab one cell
 thick between two plane-strain planes), their contact (:func:`~dsmv.cel.contact.build_plate_contact`)
-and the element kernels (:mod:`dsmv.cel.kernels.hexahedra`); sizing, the controller and its
+and the element kernels (:mod:`dsmv.cel.kernels.elements3d`); sizing, the controller and its
 guards, the energy ledger and the result are :class:`~dsmv.cel.solver.CelSolver`'s. A quarter of
 a plate is modelled, with two vertical symmetry planes through its axes, unless
 ``solver.economies.symmetry`` asks for half of it or the whole.
@@ -19,15 +19,12 @@ import math
 
 import numpy as np
 
-from dsmv.cel import ledger
 from dsmv.cel.body import Box, Disc, TrackBody, TrackSideView
 from dsmv.cel.config import Cel3DConfig
 from dsmv.cel.contact import ContactRules, build_plate_contact
-from dsmv.cel.grid import SolidGrid, build_solid_grid
-from dsmv.cel.kernels.hexahedra import NQ_BASE, SOLID
-from dsmv.cel.layout import N_BODY, Cells, Inflow, Nodes, SolidFaces, SolidMesh, split_cells
+from dsmv.cel.grid import Grid3D, build_grid_3d
+from dsmv.cel.layout import Faces3D, Mesh3D, split_cells
 from dsmv.cel.solver import CelSolver, State, in_sweep
-from dsmv.cel.state import Elastic, hourglass_factor, layers_below, step_parameters
 from dsmv.errors import ConfigError
 from dsmv.scene import Scene
 
@@ -46,7 +43,7 @@ BYTES_PER_CELL_3D = 8 * (8 + 5 + 1 + 6) + 4 * 8 + 3 + int(1.1 * 8 * 10)
 PARALLEL_MIN_CELLS = 4_000
 
 
-def solid_faces(solid: np.ndarray) -> SolidFaces:
+def faces_3d(solid: np.ndarray) -> Faces3D:
     """The faces of a 3D grid whose body is whole cells: closed beside a body cell, open elsewhere,
     each axis' faces indexed [face along it, the other two axes' cells]."""
     apertures = []
@@ -55,12 +52,12 @@ def solid_faces(solid: np.ndarray) -> SolidFaces:
         n = solid.shape[axis] + 1
         closed = np.take(padded, range(n), axis=axis) | np.take(padded, range(1, n + 1), axis=axis)
         apertures.append(np.ascontiguousarray(np.moveaxis(1.0 - closed, axis, 0)))
-    return SolidFaces(*apertures, *(np.zeros_like(a) for a in apertures))
+    return Faces3D(*apertures, *(np.zeros_like(a) for a in apertures))
 
 
-def closed_faces(faces: SolidFaces, solid: np.ndarray) -> np.ndarray:
-    """Each soil cell's faces against a body cell (:func:`solid_faces`' closed ones), as the bits of
-    :attr:`~dsmv.cel.layout.SolidMesh.closed` (the grid's own edges are open: their boundary
+def closed_faces(faces: Faces3D, solid: np.ndarray) -> np.ndarray:
+    """Each soil cell's faces against a body cell (:func:`faces_3d`' closed ones), as the bits of
+    :attr:`~dsmv.cel.layout.Mesh3D.closed` (the grid's own edges are open: their boundary
     conditions hold the soil there)."""
     closed = np.zeros(solid.shape, dtype=np.uint8)
     for axis, aperture in enumerate(faces[:3]):
@@ -84,7 +81,7 @@ class Cel3DSolver(CelSolver):
 
     @classmethod
     def check_capabilities(cls, scene: Scene) -> ContactRules:
-        body, cfg = scene.geometry, scene.solver
+        body = scene.geometry
         if body.kind not in cls.bodies:
             raise ConfigError("geometry.kind", body.kind, f"{cls.name} runs {', '.join(cls.bodies)} bodies")
         return ContactRules.of(scene, False)
@@ -130,14 +127,14 @@ class Cel3DSolver(CelSolver):
         core = (h * math.ceil((0.5 * B + margin) / h), h * math.ceil((half_length + margin) / h))
         far = (max(cfg.domain_half_width_widths * B, core[0] + h),
                max(half_length + (cfg.domain_half_width_widths - 0.5) * B, core[1] + h))
-        grid = build_solid_grid(h=h, core=core, far=far, core_depth=margin,
+        grid = build_grid_3d(h=h, core=core, far=far, core_depth=margin,
                                 depth=max(cfg.domain_depth_widths * B, margin + h),
                                 void_height=self.mudline + 1.3 * travel + 0.25 * B + 3 * h,
                                 ratio=scene.mesh.growth_ratio,
                                 h_max=scene.mesh.max_cell_size_m, slab=self.slab)
         symmetry = cfg.economies.symmetry
         mirrored = (symmetry == "full", symmetry != "quarter" and not self.slab)  # the axes modelled both sides
-        grid = SolidGrid(*(np.concatenate([-a[:0:-1], a]) if both else a for a, both in zip((grid.x, grid.y), mirrored)),
+        grid = Grid3D(*(np.concatenate([-a[:0:-1], a]) if both else a for a, both in zip((grid.x, grid.y), mirrored)),
                          grid.z, grid.h)
         self.grid, self.h, self.n_half, self.travel = grid, h, n_half, travel
         return grid
@@ -167,66 +164,30 @@ class Cel3DSolver(CelSolver):
 
     # ------------------------------------------------------------------ state
 
-    def initial_state(self) -> State:
-        """Grid, body and contact, the geostatic soil, the step's parameters, and the touchdown."""
-        from dsmv.cel.kernels.hexahedra import cell_volumes
-        from dsmv.cel.kernels.nodes import nodal_mass
-
-        scene, cfg = self.scene, self.scene.solver
-        soil, landing = scene.soil, scene.landing
-        grid = self.build()
-        shape3 = grid.shape
-        rho, grav = soil.density_kg_m3, landing.gravity_m_s2
-        elastic = Elastic.of(soil)
+    def body_contact(self, grid):
+        """The body's cells, openings and contact table on ``grid`` (:func:`dsmv.cel.contact.build_plate_contact`),
+        and the footprint its base presses (m², model)."""
         k_base = grid.row_of(0.0)
         shape = self.shape()
-        body_contact = build_plate_contact(shape, grid, k_base, scene.geometry.adhesion_factor,
+        body_contact = build_plate_contact(shape, grid, k_base, self.scene.geometry.adhesion_factor,
                                            wall_area=math.pi / 4 if isinstance(shape, Disc) else 1.0,
                                            staircase=isinstance(shape, (Disc, TrackBody)))
         footprint = body_contact.solid[:, :, k_base]
         self.footprint_m2 = float((np.diff(grid.x)[:, None] * np.diff(grid.y)[None, :])[footprint].sum())
-        fill, depth = layers_below(grid.z, self.mudline)
-        open_frac = body_contact.openings.open_frac
-        phi = fill[None, None, :] * open_frac
-        initial_law_state = self.law.initial_state()
-        q = np.zeros((NQ_BASE + len(initial_law_state), *shape3))
-        stress_z = -rho * grav * depth[None, None, :] * phi
-        q[SOLID.of("zz")] = stress_z
-        q[SOLID.of("xx")] = q[SOLID.of("yy")] = elastic.k0 * stress_z
-        q[SOLID.z0] = depth[None, None, :] * phi
-        q[NQ_BASE:] = initial_law_state[:, None, None, None]
-        vol = cell_volumes(grid.x, grid.y, grid.z)
-        faces = solid_faces(body_contact.solid)
-        mesh = SolidMesh(grid.x, grid.y, grid.z, vol, body_contact.corner, int(np.prod([len(a) for a in grid.axes])),
-                         split_cells(body_contact.corner), closed_faces(faces, body_contact.solid))
-        ghost = np.zeros((q.shape[0], *shape3[:2]))
-        ghost[NQ_BASE:] = initial_law_state[:, None, None]  # soil entering at the base brings the initial state
-        inflow = Inflow(ghost, np.full(shape3[:2], self.mudline - (grid.z[0] - 0.5 * (grid.z[1] - grid.z[0]))))
-        cells = Cells(phi, q, np.zeros(shape3), body_contact.strength_factor, body_contact.solid, open_frac,
-                      body_contact.gap, np.full(shape3, np.nan),
-                      hourglass_factor(open_frac, cfg.hourglass_cells(scene.geometry.kind)))
-        n_nodes = body_contact.n_nodes
-        nodes = Nodes(np.zeros((3, n_nodes)), np.zeros((3, n_nodes)), np.zeros(n_nodes), np.zeros((3, n_nodes)))
-        scale, start = self.model_scale(), self.start()
-        drop = landing.kind == "drop"
-        separation = cfg.contact_separation is True or (cfg.contact_separation == "auto" and drop)
-        par = step_parameters(
-            dt=cfg.cfl * self.h / elastic.wave_speed_m_s, density=rho, elastic=elastic, h=self.h, gravity=grav,
-            su0=soil.su0_pa, ks=soil.ks_pa_per_m, hourglass=cfg.hourglass, bulk_linear=cfg.bulk_viscosity_linear,
-            bulk_quadratic=cfg.bulk_viscosity_quadratic, stress_cutoff=cfg.stress_cutoff,
-            body_mass=start.inertia_kg / scale, body_weight=start.weight_n / scale,
-            push_velocity=landing.velocity_m_s, remap_courant=cfg.remap_courant, axisymmetric=False,
-            advection_order=cfg.advection_order, drop=drop, inflow=True, remap=cfg.remap,
-            law_active=self.law.active or not cfg.economies.skip_inactive_law, skip_void=cfg.economies.skip_void,
-            separation=separation, tresca=cfg.yield_surface == "tresca",
-        )
-        nodal_mass(mesh, cells, rho, nodes.mass)
-        state = State(grid, mesh, cells, faces, nodes, body_contact.contact, inflow, par, np.zeros(N_BODY),
-                      np.zeros(ledger.N_ENERGY), self.law_kernel(par, len(initial_law_state)), scale,
-                      float(rho * (phi * vol).sum()), self.kernels.elastic_energy(phi, q, vol, par.shear, par.bulk),
-                      0.0, 0.5 * par.body_mass * start.velocity_m_s**2 if drop else 0.0)
-        self.touchdown(state)
-        return state
+        return body_contact
+
+    def mesh_and_faces(self, grid, body_contact):
+        """The 3D mesh (cell volumes, the faces each cell has against the body) and faces of ``grid``."""
+        faces = faces_3d(body_contact.solid)
+        mesh = Mesh3D(grid.x, grid.y, grid.z, self.kernels.cell_volumes(grid.x, grid.y, grid.z), body_contact.corner,
+                      int(np.prod([len(a) for a in grid.axes])), split_cells(body_contact.corner),
+                      closed_faces(faces, body_contact.solid))
+        return mesh, faces
+
+    def contact_separation(self) -> bool:
+        """The faces let go of soil that pulls away when asked, or in a landing (``auto``)."""
+        asked = self.scene.solver.contact_separation
+        return asked is True or (asked == "auto" and self.scene.landing.kind == "drop")
 
     def thread_count(self, cells: int) -> int:
         """Threads for the per-cell kernels: ``solver.threads``, else all Numba's outside a sweep and one

@@ -10,8 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dsmv.cel.grid import Grid
-from dsmv.cel.layout import NQ_BASE, SXX, SYY, SZZ, Z0, Params
+from dsmv.cel.layout import CellRows, Params
 
 
 @dataclass(frozen=True)
@@ -40,24 +39,29 @@ def layers_below(up: np.ndarray, mudline: float) -> tuple[np.ndarray, np.ndarray
     return fill, depth
 
 
-def geostatic_state(grid: Grid, density: float, gravity: float, k0: float, mudline: float, open_frac=None):
-    """Soil below the mudline (y = ``mudline``) and outside the body, at rest under its weight.
+def geostatic_state(grid, density: float, gravity: float, k0: float, mudline: float, open_frac=None):
+    """Soil below the mudline (``mudline`` m up the last axis) and outside the body, at rest under its
+    weight, on a grid of any number of axes (the last one up).
 
     A cell the mudline cuts holds just the soil below it; a cell the body cuts, just the soil
-    in its ``open_frac`` (nx, ny; default all open).
+    in its ``open_frac`` (the cells' shape; default all open).
 
-    Returns φ (nx, ny) and the transported state q (NQ_BASE, nx, ny): σyy = −ρ'·g·depth,
-    σxx = σzz = K0·σyy, z0 = depth (m), ξ = 0.
+    Returns φ and the transported state q (the :class:`~dsmv.cel.layout.CellRows` base rows, then the
+    cells' shape): the vertical stress −ρ'·g·depth, the horizontal ones K0 times it, z0 = depth (m), ξ = 0.
     """
-    fill, depth = layers_below(grid.y, mudline)
-    phi = np.tile(fill, (grid.nx, 1))
+    axes = grid.axes
+    shape = tuple(len(a) - 1 for a in axes)
+    rows = CellRows(len(axes))
+    fill, depth = layers_below(axes[-1], mudline)
+    phi = np.broadcast_to(fill, shape).copy()
     if open_frac is not None:
         phi = phi * open_frac
-    q = np.zeros((NQ_BASE, grid.nx, grid.ny))
-    q[SYY] = -density * gravity * depth[None, :] * phi
-    q[SXX] = k0 * q[SYY]
-    q[SZZ] = k0 * q[SYY]
-    q[Z0] = depth[None, :] * phi
+    q = np.zeros((rows.base, *shape))
+    vertical = rows.of(rows.vertical)
+    q[vertical] = -density * gravity * depth * phi
+    for component in rows.horizontal:
+        q[rows.of(component)] = k0 * q[vertical]
+    q[rows.z0] = depth * phi
     return phi, q
 
 
@@ -119,7 +123,7 @@ def body_free_state(x, y, phi, q, vol):
     closed base (no inflow)."""
     from dsmv.cel.contact import fixed_velocities
     from dsmv.cel.grid import Openings
-    from dsmv.cel.layout import Cells, Contact, Faces, Inflow, Mesh, Nodes, structured_corners
+    from dsmv.cel.layout import Cells, Contact, Faces2D, Inflow, Mesh2D, Nodes, structured_corners
 
     nx, ny = phi.shape
     n_nodes = (nx + 1) * (ny + 1)
@@ -127,11 +131,11 @@ def body_free_state(x, y, phi, q, vol):
     fixed_node, fixed_axis = fixed_velocities((nx + 1, ny + 1))
     open_cells = Openings.of_cells(np.zeros((nx, ny), dtype=bool))
     return (
-        Mesh(np.asarray(x, float), np.asarray(y, float), vol, structured_corners((nx, ny)), n_nodes,
+        Mesh2D(np.asarray(x, float), np.asarray(y, float), vol, structured_corners((nx, ny)), n_nodes,
              np.zeros((nx, ny), dtype=np.bool_)),
         Cells(phi, q, np.zeros((nx, ny)), np.ones((nx, ny)), np.zeros((nx, ny), dtype=np.bool_), np.ones((nx, ny)),
               np.zeros((nx, ny), dtype=np.bool_), np.full((nx, ny), np.nan), np.ones((nx, ny))),
-        Faces(open_cells.aperture_x, open_cells.aperture_y, np.zeros((nx + 1, ny)), np.zeros((ny + 1, nx))),
+        Faces2D(open_cells.aperture_x, open_cells.aperture_y, np.zeros((nx + 1, ny)), np.zeros((ny + 1, nx))),
         Nodes(np.zeros((2, n_nodes)), np.zeros((2, n_nodes)), np.zeros(n_nodes), np.zeros((2, n_nodes))),
         Contact(none, none.astype(np.bool_), np.zeros((0, 2)), np.zeros(0), np.zeros(1, dtype=np.int64),
                 np.zeros((0, 2), dtype=np.int64), none.astype(np.bool_), none, none, fixed_node, fixed_axis,

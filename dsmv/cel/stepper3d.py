@@ -1,38 +1,36 @@
 """The compiled 3D time loop: N explicit CEL steps per call, Python steers between calls.
 
-The step of :mod:`dsmv.cel.stepper` on hexahedra: nodal forces (:mod:`dsmv.cel.kernels.hexahedra`),
-the body's motion and the tied nodes (the shared stages of :mod:`dsmv.cel.kernels.nodes`), the
-explicit velocity update (in parallel over blocks of nodes), the boundary conditions, the stress
-update, which computes the next step's nodal forces in the same pass over the cells (they need the
-new stress and the velocities it used; reading each cell once instead of twice); then, once some node has travelled ``par.remap_travel``, the Eulerian phase in three
-directional sweeps whose order alternates (x, y, z, then z, y, x) (:mod:`dsmv.cel.kernels.remap3d`),
-with soil entering at the base as the grid moves down with the body. The node stages after the
-velocity update (boundary conditions, ties and the faces' capped adhesive pull) are 2D's,
-:func:`dsmv.cel.stepper.hold_nodes`.
+The step of :mod:`dsmv.cel.stepper` on hexahedra: nodal forces (:mod:`dsmv.cel.kernels.elements3d`),
+the body's motion and the tied nodes (the shared stages), the explicit velocity update (in parallel
+over blocks of nodes), the boundary conditions, the stress update, which computes the next step's
+nodal forces in the same pass over the cells (they need the new stress and the velocities it used;
+reading each cell once instead of twice); then, once some node has travelled ``par.remap_travel``,
+the Eulerian phase in three directional sweeps whose order alternates (x, y, z, then z, y, x)
+(:mod:`dsmv.cel.kernels.remap3d`), with soil entering at the base as the grid moves down with the body.
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 from numba import njit
 
 from dsmv.cel.kernels.common import INLINE, JIT
-from dsmv.cel.kernels.hexahedra import SOLID, nodal_forces, update_stress_and_forces
+from dsmv.cel.kernels.elements3d import SXX, SYY, SZZ, Z0, nodal_forces, update_stress_and_forces
 from dsmv.cel.kernels.nodes import (gather_travel_in_blocks, hand_travel_to_parents, ties_that_hold,
                                     update_velocities_in_blocks)
 from dsmv.cel.kernels.remap3d import remap_sweeps
-from dsmv.cel.layout import (B_BESIDE_N, B_BULK_W, B_FORCES_AHEAD, B_FRICTION, B_HOURGLASS_W, B_INFLOW, B_MAXDISP,
-                              B_OFFSET, B_REMAP_OFFSET, B_REMAPS, B_STEP, B_TIME, B_VEL)
-from dsmv.cel.ledger import E_BULK, E_HOURGLASS, E_PLASTIC, E_REMAP_ELASTIC, E_REMAP_KINETIC
-from dsmv.cel.stepper import AT_REST, NOT_FINITE, OUTRAN, RUNNING, hold_nodes, move_body, settle_nodes
+from dsmv.cel.layout import (B_BESIDE_N, B_BULK_W, B_FORCES_AHEAD, B_FRICTION, B_HOURGLASS_W, B_INFLOW, B_OFFSET,
+                              B_REMAP_OFFSET, B_REMAPS, B_VEL)
+from dsmv.cel.ledger import E_BULK, E_HOURGLASS, E_PLASTIC
+from dsmv.cel.stepper import (
+    AT_REST, RUNNING, advance_clock, came_to_rest, hold_nodes, move_body, remap_due, settle_nodes, step_failed,
+)
 
 
 @njit(**INLINE)
 def lagrange_step(mesh, cells, nodes, contact, par, body, energy, law):
     """One step; returns the soil's force on the body (N) and the body's old velocity. The node forces
-    come from the last step's stress update (:func:`~dsmv.cel.kernels.hexahedra.update_stress_and_forces`),
+    come from the last step's stress update (:func:`~dsmv.cel.kernels.elements3d.update_stress_and_forces`),
     or are computed here when there are none ahead (the first step of a run, after a remap)."""
     if body[B_FORCES_AHEAD] == 0.0:
         work = np.zeros(3)
@@ -52,15 +50,8 @@ def lagrange_step(mesh, cells, nodes, contact, par, body, energy, law):
     energy[E_PLASTIC] += work[0]
     body[B_HOURGLASS_W], body[B_BULK_W], body[B_BESIDE_N] = work[1], work[2], work[3]
     body[B_FORCES_AHEAD] = 1.0
-    body[B_OFFSET] += body[B_VEL] * par.dt
-    body[B_TIME] += par.dt
-    body[B_STEP] += 1.0
-    if -body[B_OFFSET] > body[B_MAXDISP]:
-        body[B_MAXDISP] = -body[B_OFFSET]
+    advance_clock(par, body)
     return resistance, v_old
-
-
-SZZ, SXX, SYY, Z0 = SOLID.of("zz"), SOLID.of("xx"), SOLID.of("yy"), SOLID.z0
 
 
 @njit(**INLINE)
@@ -85,26 +76,23 @@ def remap(mesh, cells, faces, nodes, contact, inflow, par, body, energy, swept):
     audit = np.zeros(2)
     reverse = int(body[B_REMAPS]) % 2 == 1  # the sweeps alternate their order: x, y, z then z, y, x
     body[B_INFLOW] += remap_sweeps(mesh, cells, faces, nodes, par, inflow.ghost, reverse, audit)
-    energy[E_REMAP_ELASTIC] += audit[0]
-    energy[E_REMAP_KINETIC] += audit[1]
-    settle_nodes(mesh, cells, nodes, contact, par, body, energy, swept)
+    settle_nodes(mesh, cells, nodes, contact, par, body, energy, swept, audit)
     body[B_FORCES_AHEAD] = 0.0  # the soil and its momentum have moved: the forces ahead no longer hold
 
 
 @njit(**JIT)
 def run_steps(n_steps, mesh, cells, faces, nodes, contact, inflow, par, body, energy, law):
-    """Advance up to ``n_steps`` steps; return (steps done, exit code) as :func:`dsmv.cel.stepper.run_steps`
+    """Advance up to ``n_steps`` steps; return (steps done, exit code) as :func:`dsmv.cel.stepper2d.run_steps`
     (the nodal masses come with the state)."""
     swept = np.zeros((len(contact.split_node), 2))
     for step in range(n_steps):
         resistance, v_old = lagrange_step(mesh, cells, nodes, contact, par, body, energy, law)
         travel = gather_travel_in_blocks(nodes, body[B_VEL], par.dt) if par.remap else 0.0
-        if not (math.isfinite(body[B_VEL]) and math.isfinite(resistance)):
-            return step + 1, NOT_FINITE
-        if travel > par.cell_size:
-            return step + 1, OUTRAN
-        if par.remap and travel >= par.remap_travel:  # before the rest check: the remap's tied nodes slow the body
+        code = step_failed(par, body, resistance, travel)
+        if code != RUNNING:
+            return step + 1, code
+        if remap_due(par, travel):
             remap(mesh, cells, faces, nodes, contact, inflow, par, body, energy, swept)
-        if par.drop and body[B_VEL] >= 0.0 and v_old < 0.0:
+        if came_to_rest(par, body, v_old):
             return step + 1, AT_REST
     return n_steps, RUNNING

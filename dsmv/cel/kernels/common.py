@@ -1,7 +1,7 @@
 """Scalar physics every dimension shares: the returns, the soil-law call, energies, limiters.
 
 Small functions of scalars, inlined by Numba into the per-dimension element kernels
-(:mod:`dsmv.cel.kernels.plane`), the remap sweeps and the contact stages. ``JIT`` holds the
+(:mod:`dsmv.cel.kernels.elements2d`), the remap sweeps and the contact stages. ``JIT`` holds the
 one set of Numba flags every kernel compiles with.
 """
 
@@ -19,7 +19,7 @@ JIT = dict(cache=True, error_model="numpy", fastmath=FAST)
 #: helpers only, and read their arrays once, before the loop (a container passed per cell cost 5×).
 INLINE = dict(JIT, inline="always")
 #: the 3D per-cell kernels' drivers: parallel over slabs of cells, in an order that does not depend on
-#: the number of threads (:mod:`dsmv.cel.kernels.hexahedra`)
+#: the number of threads (:mod:`dsmv.cel.kernels.elements3d`)
 PARALLEL = dict(JIT, parallel=True)
 #: values per block of the parallel loops over flat arrays (node stages, reductions): a fixed size, so
 #: that their partial results combine in the same order on any number of threads

@@ -10,7 +10,7 @@ import numpy as np
 from numba import njit
 
 from dsmv.cel.kernels.common import JIT, donor_acceptor, elastic_energy_density, van_leer
-from dsmv.cel.layout import SXX, SXY, SYY, SZZ
+from dsmv.cel.kernels.elements2d import SXX, SXY, SYY, SZZ
 
 
 @njit(**JIT)

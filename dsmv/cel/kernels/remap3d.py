@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit, prange
 
 from dsmv.cel.kernels.common import INLINE, JIT, PARALLEL, donor_acceptor, van_leer
-from dsmv.cel.kernels.hexahedra import elastic_energy_density_solid
+from dsmv.cel.kernels.elements3d import elastic_energy_density_solid
 
 
 @njit(**INLINE)

@@ -21,7 +21,10 @@ import numpy as np
 from numba import njit
 
 from dsmv.cel.kernels.common import INLINE, JIT, elastic_energy_density, law_factor, law_state, radial_return, tresca_return
-from dsmv.cel.layout import NQ_BASE, SXX, SXY, SYY, SZZ, XI, Z0
+from dsmv.cel.layout import ROWS_2D
+
+SXX, SYY, SXY, SZZ = (ROWS_2D.of(c) for c in ("xx", "yy", "xy", "zz"))
+XI, Z0, NQ_BASE = ROWS_2D.xi, ROWS_2D.z0, ROWS_2D.base
 
 # A sliver of a cut cell is weighed as if this much of it were open: the open faces' stiffness
 # grows as aperture/open, unbounded for a sliver, and with it the explicit step's limit.
@@ -273,7 +276,7 @@ def cell_strain(mesh, cells, faces, nodes, i, j, dt, v_body, axisym):
 
 
 @njit(**INLINE)
-def tresca_plane(sxx, syy, sxy, szz, su, shear_mod):
+def tresca_2d(sxx, syy, sxy, szz, su, shear_mod):
     """Return of a plane stress state (in-plane σ and the out-of-plane σzz) to Tresca's hexagon.
     Returns the new σxx, σyy, σxy, σzz, the plastic shear strain increment and the multiplier sum."""
     centre = 0.5 * (sxx + syy)
@@ -339,7 +342,7 @@ def jaumann_trial(sxx, syy, sxy, szz, dxx, dyy, dxy, dzz, w, lam, shear_mod):
 
 
 @njit(**JIT)
-def j2_plane(sxx, syy, sxy, szz, su, shear_mod):
+def j2_2d(sxx, syy, sxy, szz, su, shear_mod):
     """J2's radial return of a plane state; returns the new σxx, σyy, σxy, σzz and |Δe^p|."""
     p = (sxx + syy + szz) / 3.0
     ex, ey, ez = sxx - p, syy - p, szz - p
@@ -422,12 +425,12 @@ def update_stress(mesh, cells, faces, nodes, par, v_body, law, out):
             su_cell[i, j] = su
             volume = dx * dy * r * f
             if par.tresca:
-                sxx, syy, sxy, szz, dxi, dg = tresca_plane(sxx, syy, sxy, szz, su, shear_mod)
+                sxx, syy, sxy, szz, dxi, dg = tresca_2d(sxx, syy, sxy, szz, su, shear_mod)
                 if dg > 0.0:
                     q[XI, i, j] += dxi
                     plastic += 2.0 * su * dg * volume
             else:
-                sxx, syy, sxy, szz, dlam = j2_plane(sxx, syy, sxy, szz, su, shear_mod)
+                sxx, syy, sxy, szz, dlam = j2_2d(sxx, syy, sxy, szz, su, shear_mod)
                 if dlam > 0.0:
                     q[XI, i, j] += math.sqrt(2.0) * dlam
                     plastic += math.sqrt(2.0) * su * dlam * volume

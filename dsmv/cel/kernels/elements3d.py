@@ -3,7 +3,7 @@
 Cell arrays have shape (nx, ny, nz); node arrays are flat (:mod:`dsmv.cel.layout`) and a cell finds
 its eight nodes in the corner table, local corners in the order of
 :func:`~dsmv.cel.layout.corner_offsets`: 0 (−,−,−), 1 (+,−,−), 2 (+,+,−), 3 (−,+,−), then 4–7 the
-same one layer up. The transported cell state ``q`` has the rows of :data:`SOLID`: σxx, σyy, σzz,
+same one layer up. The transported cell state ``q`` has the rows of :data:`ROWS_3D`: σxx, σyy, σzz,
 σxy, σyz, σzx (the soil's own, tension positive, Pa; the cell carries φ·σ), ξ, z0, then any soil-law
 state. z is up.
 
@@ -26,11 +26,10 @@ from numba import njit, prange
 from dsmv.cel.kernels.common import (INLINE, JIT, PARALLEL, law_factor, law_state, ordered_sums, radial_return,
                                      spread_order, tresca_return)
 from dsmv.cel.kernels.nodes import zero_in_blocks
-from dsmv.cel.layout import CellRows
+from dsmv.cel.layout import ROWS_3D
 
-SOLID = CellRows(3)
-SXX, SYY, SZZ, SXY, SYZ, SZX = (SOLID.of(c) for c in ("xx", "yy", "zz", "xy", "yz", "zx"))
-XI, Z0, NQ_BASE = SOLID.xi, SOLID.z0, SOLID.base
+SXX, SYY, SZZ, SXY, SYZ, SZX = (ROWS_3D.of(c) for c in ("xx", "yy", "zz", "xy", "yz", "zx"))
+XI, Z0, NQ_BASE = ROWS_3D.xi, ROWS_3D.z0, ROWS_3D.base
 
 #: each local corner's side (−1 or +1) along x, y and z (rows), in the corner table's order
 SIDE = np.array([[-1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0, -1.0],
@@ -125,7 +124,7 @@ def remap_velocity(v, a, n, n_grid, parent):
 def remap_divergence(v, nodes8, closed, n_grid, parent, dx, dy, dz, v_body):
     """The volumetric strain rate (1/s) the remap makes of a cell: the net flux of its faces' mean
     velocities, the nodes' as the remap takes them (:func:`remap_velocity`), each closed face (bits of
-    ``closed``, :attr:`~dsmv.cel.layout.SolidMesh.closed`) moving with the body (vertical velocity
+    ``closed``, :attr:`~dsmv.cel.layout.Mesh3D.closed`) moving with the body (vertical velocity
     ``v_body``, m/s) whatever its nodes do, for the remap lets no soil through it."""
     div = 0.0
     for a in range(3):
@@ -296,7 +295,7 @@ def jacobi_eigen(a, vec):
 
 
 @njit(**INLINE)
-def tresca_solid(s, su, shear_mod, a, vec):
+def tresca_3d(s, su, shear_mod, a, vec):
     """Return of the stress s (six components, in place) to Tresca's prism s1 − s3 ≤ 2·su in its
     principal axes (:func:`~dsmv.cel.kernels.common.tresca_return`, corners included). Returns the
     plastic shear strain increment and the multiplier sum (0 when elastic)."""
@@ -326,7 +325,7 @@ def tresca_solid(s, su, shear_mod, a, vec):
 
 
 @njit(**INLINE)
-def shear_rate_solid(d, a, vec):
+def shear_rate_3d(d, a, vec):
     """(Δε1 − Δε3) of the strain increment d (six components, shear as tensor components)."""
     a[0, 0], a[1, 1], a[2, 2] = d[0], d[1], d[2]
     a[0, 1] = a[1, 0] = d[3]
@@ -367,7 +366,7 @@ def cell_stress(q, su_cell, cell, d, spin, strength, volume, par, law, s, a, vec
     xi_before = q[XI, i, j, k]
     gamma_dot = 0.0
     if law is not None and par.law_active:
-        gamma_dot = shear_rate_solid(d, a, vec) / dt
+        gamma_dot = shear_rate_3d(d, a, vec) / dt
         s0 = q[NQ_BASE, i, j, k] if n_state > 0 else 0.0
         s1 = q[NQ_BASE + 1, i, j, k] if n_state > 1 else 0.0
         su *= law_factor(law, xi_before, gamma_dot, s0, s1)
@@ -378,7 +377,7 @@ def cell_stress(q, su_cell, cell, d, spin, strength, volume, par, law, s, a, vec
     plastic = 0.0
     if 0.5 * dev_sq > su * su:  # J2 > su²: outside the von Mises cylinder, which contains Tresca's prism
         if par.tresca:
-            dxi, dg = tresca_solid(s, su, shear_mod, a, vec)
+            dxi, dg = tresca_3d(s, su, shear_mod, a, vec)
             if dg > 0.0:
                 q[XI, i, j, k] += dxi
                 plastic = 2.0 * su * dg * volume
@@ -461,7 +460,7 @@ def slab_update(i, mesh, cells, v, v_body, parent, fn, par, law, stress):
                 if remapped:
                     # the volumetric part the remap makes, the deviatoric the cell's own: the pressure then
                     # feels the soil the remap packs against the body (2D's cut cells do the same,
-                    # :func:`dsmv.cel.kernels.plane.volumetric_override`); without a remap nothing packs
+                    # :func:`dsmv.cel.kernels.elements2d.volumetric_override`); without a remap nothing packs
                     shift = (par.dt * div - d[0] - d[1] - d[2]) / 3.0
                     for m in range(3):
                         d[m] += shift
@@ -484,7 +483,7 @@ def update_stress_and_forces(mesh, cells, nodes, par, v_body, parent, law, work)
     ξ accumulates Δε1^p − Δε3^p; ``cells.su`` receives each cell's strength (Pa). Beside the body
     (vertical velocity ``v_body``, m/s) and in cells with a split node (``parent``: each copy's
     parent) the volumetric strain is the remap's (:func:`remap_divergence`). As
-    :func:`dsmv.cel.kernels.plane.update_stress`, in three dimensions. Tresca's return needs the
+    :func:`dsmv.cel.kernels.elements2d.update_stress`, in three dimensions. Tresca's return needs the
     principal axes only where √J2 > su (s1 − s3 ≤ 2·√J2 always).
 
     Then, cell by cell while its nodes' velocities are at hand, the nodal forces of the next step
@@ -541,7 +540,7 @@ def shear_strain_rates(mesh, cells, faces, nodes, par, v_body):
                     continue
                 cell_nodes(corner, split, i, j, k, ny1, nz1, nodes8)
                 strain_increment(nodes.v, nodes8, x[i + 1] - x[i], y[j + 1] - y[j], z[k + 1] - z[k], 1.0, coeff, d)
-                rate[i, j, k] = shear_rate_solid(d, a, vec)
+                rate[i, j, k] = shear_rate_3d(d, a, vec)
     return rate
 
 

@@ -1,0 +1,108 @@
+"""``solver=cel2d``: the explicit Coupled Eulerian–Lagrangian solver in two dimensions.
+
+What is 2D: the grid (x across the section from the symmetry axis, y up), the bodies it draws
+(strip, track cross-section or side view, T-bar, cone, circular plate), their contact
+(:func:`~dsmv.cel.contact.build_contact`), the mesh and faces, and the element and remap kernels
+(:mod:`dsmv.cel.kernels.elements2d`, :mod:`dsmv.cel.kernels.remap2d`). Modes: plane strain (a strip, or
+a track's cross-section, per metre of contact length; the load per track is spread over L) and
+axisymmetric (a circular plate of diameter B, a cone). A symmetry plane runs through the body's
+axis. Everything else is :class:`~dsmv.cel.solver.CelSolver`'s.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from dsmv.cel.config import Cel2DConfig
+from dsmv.cel.contact import ContactRules, build_contact
+from dsmv.cel.grid import Grid2D, build_grid_2d
+from dsmv.cel.layout import Faces2D, Mesh2D, split_cells
+from dsmv.cel.solver import CelSolver
+from dsmv.errors import ConfigError
+from dsmv.scene import Scene
+
+
+class Cel2DSolver(CelSolver):
+    """Solver plugin ``cel2d``."""
+
+    name = "cel2d"
+    dim = 2
+    config_model = Cel2DConfig
+    bodies = ("strip", "track", "tbar", "cone", "circular_plate")
+
+    @staticmethod
+    def is_axisymmetric(scene: Scene) -> bool:
+        mode = scene.solver.mode
+        return mode == "axisymmetric" or (mode == "auto" and scene.geometry.kind in ("cone", "circular_plate"))
+
+    @classmethod
+    def check_capabilities(cls, scene: Scene) -> ContactRules:
+        rules = super().check_capabilities(scene)
+        cfg, body = scene.solver, scene.geometry
+        if not cfg.economies.symmetry and (body.kind in ("cone", "circular_plate") or cfg.mode == "axisymmetric"
+                                           or body.roughness != "rough" or scene.output.fields or rules.separation):
+            raise ConfigError("solver.economies.symmetry", False, "the whole section runs plane strain bodies with "
+                              "rough contact, no contact separation and no field output; it exists to measure what "
+                              "the half model saves")
+        if body.kind in ("cone", "circular_plate") and cfg.mode == "plane_strain":
+            raise ConfigError("solver.mode", cfg.mode, f"a {body.kind.replace('_', ' ')} is axisymmetric: 'auto' or "
+                                                       "'axisymmetric'")
+        return rules
+
+    def __init__(self, scene: Scene, checked: bool = False):
+        super().__init__(scene, checked)
+        self.mode = "axisymmetric" if self.axisym else "plane_strain"
+
+    def build(self):
+        """The grid: uniform core around the body, graded outwards (:func:`dsmv.cel.grid.build_grid_2d`)."""
+        scene, cfg = self.scene, self.scene.solver
+        travel = self.expected_travel_m()
+        B = self.characteristic_width_m(travel)
+        half = 0.5 * B
+        h, n_half = self.core_cell_size(half)
+        core_half_width = h * math.ceil((half + cfg.core_margin_widths * B) / h)
+        self.mudline = self.mudline_m(h)
+        grid = build_grid_2d(
+            h=h,
+            core_half_width=core_half_width,
+            half_width=max(cfg.domain_half_width_widths * B, core_half_width + h),
+            core_depth=cfg.core_margin_widths * B,
+            depth=max(cfg.domain_depth_widths * B, cfg.core_margin_widths * B + h),
+            void_height=self.mudline + 1.3 * travel + 0.25 * B + 3 * h,
+            ratio=scene.mesh.growth_ratio,
+            h_max=scene.mesh.max_cell_size_m,
+            # a deep body (a T-bar) needs the uniform core only around itself
+            core_height=B + cfg.core_margin_widths * B if self.circular else None,
+        )
+        if not cfg.economies.symmetry:  # the whole section: the half grid and its mirror image
+            grid = Grid2D(np.concatenate([-grid.x[:0:-1], grid.x]), grid.y, grid.h)
+        self.grid, self.h, self.n_half, self.travel = grid, h, n_half, travel
+        return grid
+
+    def body_contact(self, grid):
+        """The body's cells, openings and contact table on ``grid`` (:func:`dsmv.cel.contact.build_contact`)."""
+        return build_contact(self.rules, self.rules.shape(self.scene.geometry, grid.h), grid, grid.row_of(0.0))
+
+    def whole_body_cells(self, cells: float) -> float:
+        """The cells the whole section would take on this grid (the half model mirrored; an
+        axisymmetric model is its own whole)."""
+        return 2 * cells if self.scene.solver.economies.symmetry and not self.axisym else cells
+
+    def model_scale(self) -> float:
+        """The model carries a share of the body: the half-section per metre of the out-of-plane length
+        (L for the cross-section, B for the longitudinal view); axisymmetric per radian."""
+        if self.axisym:
+            return 2.0 * math.pi
+        body = self.scene.geometry
+        return (2.0 if self.scene.solver.economies.symmetry else 1.0) * (
+            body.width_m if self.longitudinal else body.contact_length_m)
+
+    def mesh_and_faces(self, grid, body_contact):
+        """The 2D mesh (cell volumes per unit thickness or per radian) and faces of ``grid``."""
+        nx, ny = grid.nx, grid.ny
+        openings = body_contact.openings
+        mesh = Mesh2D(grid.x, grid.y, self.kernels.cell_volumes(grid.x, grid.y, self.axisym), body_contact.corner,
+                      (nx + 1) * (ny + 1), split_cells(body_contact.corner))
+        return mesh, Faces2D(openings.aperture_x, openings.aperture_y, np.zeros((nx + 1, ny)), np.zeros((ny + 1, nx)))
