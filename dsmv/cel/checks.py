@@ -154,8 +154,8 @@ class Cel2DCheckSolver:
         soil, mesh_cfg = scene.soil, scene.mesh
         h = mesh_cfg.cell_size_m
         grid = build_grid_2d(h, 0.5 * cfg.block_width_m, cfg.block_width_m, 0.5 * cfg.block_depth_m,
-                          cfg.block_depth_m, 3 * h, mesh_cfg.growth_ratio, mesh_cfg.max_cell_size_m)
-        x, y, nx, ny = grid.x, grid.y, grid.nx, grid.ny
+                             cfg.block_depth_m, 3 * h, mesh_cfg.growth_ratio, mesh_cfg.max_cell_size_m)
+        x, y = grid.x, grid.y
         rho, grav = soil.density_kg_m3, scene.landing.gravity_m_s2
         elastic = Elastic.of(soil)
         dt = cfg.cfl * h / elastic.wave_speed_m_s

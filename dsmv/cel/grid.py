@@ -128,7 +128,7 @@ class Grid3D:
 
 
 def build_grid_3d(h: float, core: tuple[float, float], far: tuple[float, float], core_depth: float, depth: float,
-                     void_height: float, ratio: float, h_max: float, slab: bool = False) -> Grid3D:
+                  void_height: float, ratio: float, h_max: float, slab: bool = False) -> Grid3D:
     """A 3D grid, uniform h over [0, core[0]] × [0, core[1]] × [−core_depth, void_height], graded
     outwards to ``far`` across and along and to ``depth`` below, as :func:`build_grid_2d` in each
     direction. ``slab``: one cell of h along y (a plane-strain slice between two roller planes)."""

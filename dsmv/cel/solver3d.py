@@ -128,10 +128,10 @@ class Cel3DSolver(CelSolver):
         far = (max(cfg.domain_half_width_widths * B, core[0] + h),
                max(half_length + (cfg.domain_half_width_widths - 0.5) * B, core[1] + h))
         grid = build_grid_3d(h=h, core=core, far=far, core_depth=margin,
-                                depth=max(cfg.domain_depth_widths * B, margin + h),
-                                void_height=self.mudline + 1.3 * travel + 0.25 * B + 3 * h,
-                                ratio=scene.mesh.growth_ratio,
-                                h_max=scene.mesh.max_cell_size_m, slab=self.slab)
+                             depth=max(cfg.domain_depth_widths * B, margin + h),
+                             void_height=self.mudline + 1.3 * travel + 0.25 * B + 3 * h,
+                             ratio=scene.mesh.growth_ratio,
+                             h_max=scene.mesh.max_cell_size_m, slab=self.slab)
         symmetry = cfg.economies.symmetry
         mirrored = (symmetry == "full", symmetry != "quarter" and not self.slab)  # the axes modelled both sides
         grid = Grid3D(*(np.concatenate([-a[:0:-1], a]) if both else a for a, both in zip((grid.x, grid.y), mirrored)),

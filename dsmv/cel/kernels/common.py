@@ -61,11 +61,25 @@ def tresca_return(s1, s2, s3, su, shear_mod):
 
 
 @njit(**JIT)
-def elastic_energy_density(sxx, syy, sxy, szz, shear_mod, bulk_mod):
-    """Linear elastic energy per unit volume, s:s/(4G) + p²/(2K) (J/m³)."""
+def elastic_energy_density(sxx, syy, szz, sxy, syz, szx, shear_mod, bulk_mod):
+    """Linear elastic energy per unit volume, s:s/(4G) + p²/(2K) (J/m³), of a stress given by its six
+    components (Pa; 2D passes syz = szx = 0: its out-of-plane or hoop stress is szz)."""
     p = (sxx + syy + szz) / 3.0
     ex, ey, ez = sxx - p, syy - p, szz - p
-    return (ex * ex + ey * ey + ez * ez + 2.0 * sxy * sxy) / (4.0 * shear_mod) + p * p / (2.0 * bulk_mod)
+    shear = sxy * sxy + syz * syz + szx * szx
+    return (ex * ex + ey * ey + ez * ez + 2.0 * shear) / (4.0 * shear_mod) + p * p / (2.0 * bulk_mod)
+
+
+@njit(**INLINE)
+def bulk_viscosity(div, h, par):
+    """The bulk viscosity's pressure (Pa), a pressure of the soil itself, in compression only
+    (volumetric strain rate ``div`` < 0, 1/s): ρ·(b2²·h²·div² − b1·c·h·div) over the cell's smallest
+    edge h (m), with the linear and quadratic coefficients ``par.bulk_linear``, ``par.bulk_quadratic``
+    and the P-wave speed c; 0 in expansion."""
+    if div >= 0.0:
+        return 0.0
+    return par.density * (par.bulk_quadratic * par.bulk_quadratic * h * h * div * div
+                          - par.bulk_linear * par.wave_speed * h * div)
 
 
 @njit(**JIT)

@@ -20,7 +20,8 @@ import math
 import numpy as np
 from numba import njit
 
-from dsmv.cel.kernels.common import INLINE, JIT, elastic_energy_density, law_factor, law_state, radial_return, tresca_return
+from dsmv.cel.kernels.common import (INLINE, JIT, bulk_viscosity, elastic_energy_density, law_factor, law_state,
+                                     radial_return, tresca_return)
 from dsmv.cel.layout import ROWS_2D
 
 SXX, SYY, SXY, SZZ = (ROWS_2D.of(c) for c in ("xx", "yy", "xy", "zz"))
@@ -107,6 +108,74 @@ def add_cut_forces(f, corner, i, j, dx, dy, faces, open_eff, fill, sxx, syy):
     return fill / open_eff * 0.5 * (sxx + syy) * dx * (ay[j + 1, i] - ay[j, i])
 
 
+@njit(**INLINE)
+def cell_nodes(corner, split, i, j, ny1):
+    """Cell (i, j)'s four nodes as unsigned indices (Numba checks a signed index for wraparound at every
+    access): from the corner table where the cell uses a split node, else the structured numbering
+    (i·(ny+1) + j, the table's own for every other cell)."""
+    if split[i, j]:
+        return (np.uint64(corner[i, j, 0]), np.uint64(corner[i, j, 1]), np.uint64(corner[i, j, 2]),
+                np.uint64(corner[i, j, 3]))
+    n0 = np.uint64(i) * ny1 + np.uint64(j)
+    return n0, n0 + ny1, n0 + ny1 + ONE, n0 + ONE
+
+
+@njit(**INLINE)
+def add_stress_forces(fn, n0, n1, n2, n3, ax, ay, sxx, syy, sxy):
+    """A cell's stress into its nodes' forces by the one-point rule, −V·φ·σ·∇N_a, with
+    ``ax`` = V·φ/(2·dx) and ``ay`` = V·φ/(2·dy)."""
+    fn[0, n0] += ax * sxx + ay * sxy
+    fn[1, n0] += ax * sxy + ay * syy
+    fn[0, n1] += -ax * sxx + ay * sxy
+    fn[1, n1] += -ax * sxy + ay * syy
+    fn[0, n2] += -ax * sxx - ay * sxy
+    fn[1, n2] += -ax * sxy - ay * syy
+    fn[0, n3] += ax * sxx - ay * sxy
+    fn[1, n3] += ax * sxy - ay * syy
+
+
+@njit(**INLINE)
+def add_hoop_forces(fn, n0, n1, n2, n3, hoop):
+    """The hoop stress's share of an axisymmetric cell's radial forces, −A·φ·σθθ·N_a (``hoop``, N_a = 1/4)."""
+    fn[0, n0] -= hoop
+    fn[0, n1] -= hoop
+    fn[0, n2] -= hoop
+    fn[0, n3] -= hoop
+
+
+@njit(**INLINE)
+def add_hourglass_forces(fn, n0, n1, n2, n3, vel, c):
+    """The viscous hourglass force c·Γ·(Γ·v) on the Q4 mode Γ = (1, −1, 1, −1) (Flanagan & Belytschko
+    1981); returns its power (W)."""
+    vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3 = vel
+    gx = vx0 - vx1 + vx2 - vx3
+    gy = vy0 - vy1 + vy2 - vy3
+    hx = c * gx
+    hy = c * gy
+    fn[0, n0] -= hx
+    fn[1, n0] -= hy
+    fn[0, n1] += hx
+    fn[1, n1] += hy
+    fn[0, n2] -= hx
+    fn[1, n2] -= hy
+    fn[0, n3] += hx
+    fn[1, n3] += hy
+    return hx * gx + hy * gy
+
+
+@njit(**INLINE)
+def cell_divergence(i, j, dx, dy, r, axisym, vel, v_body, faces, open_ij):
+    """A cell's volumetric strain rate (1/s): the one-point rule's, with the hoop rate in axisymmetry;
+    in a cell the body cuts, the remap's (:func:`cut_divergence`)."""
+    vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3 = vel
+    div = (vx1 + vx2 - vx0 - vx3) / (2.0 * dx) + (vy2 + vy3 - vy0 - vy1) / (2.0 * dy)
+    if axisym:
+        div += 0.25 * (vx0 + vx1 + vx2 + vx3) / r
+    if open_ij < 1.0:
+        div = cut_divergence(i, j, dx, dy, vel, v_body, faces, open_ij)
+    return div
+
+
 @njit(**JIT)
 def nodal_forces(mesh, cells, faces, nodes, par, v_body, work):
     """Internal nodal forces (N per unit thickness or per radian) from the cell stresses.
@@ -143,66 +212,25 @@ def nodal_forces(mesh, cells, faces, nodes, par, v_body, work):
             dy = y[j + 1] - y[j]
             area = dx * dy
             vol = area * r
-            # unsigned node indices: Numba checks a signed index for wraparound at every access
-            if split[i, j]:  # a cell with a split node: the corner table says which
-                n0, n1, n2, n3 = (np.uint64(corner[i, j, 0]), np.uint64(corner[i, j, 1]), np.uint64(corner[i, j, 2]),
-                                  np.uint64(corner[i, j, 3]))
-            else:  # the structured numbering, the table's own for every other cell
-                n0 = np.uint64(i) * ny1 + np.uint64(j)
-                n1, n2, n3 = n0 + ny1, n0 + ny1 + ONE, n0 + ONE
+            n0, n1, n2, n3 = cell_nodes(corner, split, i, j, ny1)
             vel = (v[0, n0], v[0, n1], v[0, n2], v[0, n3], v[1, n0], v[1, n1], v[1, n2], v[1, n3])
-            vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3 = vel
-            div = (vx1 + vx2 - vx0 - vx3) / (2.0 * dx) + (vy2 + vy3 - vy0 - vy1) / (2.0 * dy)
-            if axisym:
-                div += 0.25 * (vx0 + vx1 + vx2 + vx3) / r
             open_ij = open_frac[i, j]
-            if open_ij < 1.0:
-                div = cut_divergence(i, j, dx, dy, vel, v_body, faces, open_ij)
-            # bulk viscosity: a pressure of the soil itself (Pa), in compression only; like σ it
-            # acts on the cell's soil fraction f
-            qb = 0.0
+            div = cell_divergence(i, j, dx, dy, r, axisym, vel, v_body, faces, open_ij)
+            # bulk viscosity: like σ it acts on the cell's soil fraction f
+            qb = bulk_viscosity(div, min(dx, dy), par)
             if div < 0.0:
-                h = min(dx, dy)
-                qb = rho * (par.bulk_quadratic * par.bulk_quadratic * h * h * div * div
-                            - par.bulk_linear * c_wave * h * div)
                 bv_power += f * qb * (-div) * vol
             sxx = q[SXX, i, j] - qb
             syy = q[SYY, i, j] - qb
-            sxy = q[SXY, i, j]
-            ax = 0.5 * vol * f / dx
-            ay = 0.5 * vol * f / dy
-            fn[0, n0] += ax * sxx + ay * sxy
-            fn[1, n0] += ax * sxy + ay * syy
-            fn[0, n1] += -ax * sxx + ay * sxy
-            fn[1, n1] += -ax * sxy + ay * syy
-            fn[0, n2] += -ax * sxx - ay * sxy
-            fn[1, n2] += -ax * sxy - ay * syy
-            fn[0, n3] += ax * sxx - ay * sxy
-            fn[1, n3] += ax * sxy - ay * syy
+            add_stress_forces(fn, n0, n1, n2, n3, 0.5 * vol * f / dx, 0.5 * vol * f / dy, sxx, syy, q[SXY, i, j])
             if open_ij < 1.0:
                 open_eff = open_ij if not math.isnan(shared[i, j]) else max(open_ij, CUT_OPEN_FLOOR)
                 arc_fy += add_cut_forces(fn, corner, i, j, dx, dy, faces, open_eff, f, sxx, syy)
-            if axisym:  # hoop stress: −A·φ·σθθ·N_a, N_a = 1/4 at the centre
-                hoop = 0.25 * area * f * (q[SZZ, i, j] - qb)
-                fn[0, n0] -= hoop
-                fn[0, n1] -= hoop
-                fn[0, n2] -= hoop
-                fn[0, n3] -= hoop
+            if axisym:
+                add_hoop_forces(fn, n0, n1, n2, n3, 0.25 * area * f * (q[SZZ, i, j] - qb))
             if par.hourglass > 0.0 and hourglass_factor[i, j] > 0.0:
-                gx = vx0 - vx1 + vx2 - vx3
-                gy = vy0 - vy1 + vy2 - vy3
                 c = 0.25 * par.hourglass * hourglass_factor[i, j] * rho * f * c_wave * math.sqrt(area) * (vol / area)
-                hx = c * gx
-                hy = c * gy
-                fn[0, n0] -= hx
-                fn[1, n0] -= hy
-                fn[0, n1] += hx
-                fn[1, n1] += hy
-                fn[0, n2] -= hx
-                fn[1, n2] -= hy
-                fn[0, n3] += hx
-                fn[1, n3] += hy
-                hg_power += hx * gx + hy * gy
+                hg_power += add_hourglass_forces(fn, n0, n1, n2, n3, vel, c)
     work[0] += hg_power
     work[1] += bv_power
     work[2] += arc_fy
@@ -350,6 +378,48 @@ def j2_2d(sxx, syy, sxy, szz, su, shear_mod):
     return p + ex * scale, p + ey * scale, sxy * scale, p + ez * scale, dlam
 
 
+@njit(**INLINE)
+def cell_stress(q, su_cell, i, j, strain, strength, volume, par, law, lam):
+    """The stress update of cell (i, j) (:func:`update_stress`) from its strain and spin increments
+    ``strain`` (Δεxx, Δεyy, Δεxy, Δεzz, w), its strength before the soil law (Pa) and its soil volume
+    (m³): the new stress, ξ and the law's state into ``q``, the strength into ``su_cell``; returns
+    the plastic work (J)."""
+    dxx, dyy, dxy, dzz, w = strain
+    shear_mod, dt = par.shear, par.dt
+    n_state = q.shape[0] - NQ_BASE
+    sxx, syy, sxy, szz = jaumann_trial(q[SXX, i, j], q[SYY, i, j], q[SXY, i, j], q[SZZ, i, j], dxx, dyy, dxy,
+                                       dzz, w, lam, shear_mod)
+    su = strength
+    if su < 0.0:
+        su = 0.0
+    xi_before = q[XI, i, j]
+    gamma_dot = 0.0
+    if law is not None and par.law_active:
+        gamma_dot = shear_rate(dxx, dyy, dxy, dzz, dt)
+        s0 = q[NQ_BASE, i, j] if n_state > 0 else 0.0
+        s1 = q[NQ_BASE + 1, i, j] if n_state > 1 else 0.0
+        su *= law_factor(law, xi_before, gamma_dot, s0, s1)
+    su_cell[i, j] = su
+    plastic = 0.0
+    if par.tresca:
+        sxx, syy, sxy, szz, dxi, dg = tresca_2d(sxx, syy, sxy, szz, su, shear_mod)
+        if dg > 0.0:
+            q[XI, i, j] += dxi
+            plastic = 2.0 * su * dg * volume
+    else:
+        sxx, syy, sxy, szz, dlam = j2_2d(sxx, syy, sxy, szz, su, shear_mod)
+        if dlam > 0.0:
+            q[XI, i, j] += math.sqrt(2.0) * dlam
+            plastic = math.sqrt(2.0) * su * dlam * volume
+    q[SXX, i, j] = sxx
+    q[SYY, i, j] = syy
+    q[SZZ, i, j] = szz
+    q[SXY, i, j] = sxy
+    if law is not None and n_state > 0:
+        evolve_law_state(q, i, j, law, xi_before, gamma_dot, dt)
+    return plastic
+
+
 @njit(**JIT)
 def update_stress(mesh, cells, faces, nodes, par, v_body, law, out):
     """Stress update for undrained soil of strength su: Jaumann rotation, elastic trial, return.
@@ -375,7 +445,6 @@ def update_stress(mesh, cells, faces, nodes, par, v_body, law, out):
     open_frac, gap, shared = cells.open_frac, cells.gap, cells.shared_divergence
     nx, ny = phi.shape
     ny1 = np.uint64(ny + 1)
-    n_state = q.shape[0] - NQ_BASE
     shear_mod, dt, axisym = par.shear, par.dt, par.axisymmetric
     lam = par.bulk - 2.0 * shear_mod / 3.0
     plastic = 0.0
@@ -391,55 +460,21 @@ def update_stress(mesh, cells, faces, nodes, par, v_body, law, out):
                 # a wisp of soil in a nearly empty cell carries no stress: its strain rate,
                 # taken from void nodes, means nothing; nor does the sliver beside a gap
                 if sliver:  # the elastic energy it held (J)
-                    out[1] += f * dx * dy * r * elastic_energy_density(q[SXX, i, j], q[SYY, i, j], q[SXY, i, j],
-                                                                       q[SZZ, i, j], shear_mod, par.bulk)
+                    out[1] += f * dx * dy * r * elastic_energy_density(q[SXX, i, j], q[SYY, i, j], q[SZZ, i, j],
+                                                                       q[SXY, i, j], 0.0, 0.0, shear_mod, par.bulk)
                 q[SXX, i, j] = 0.0
                 q[SYY, i, j] = 0.0
                 q[SXY, i, j] = 0.0
                 q[SZZ, i, j] = 0.0
                 su_cell[i, j] = 0.0
                 continue
-            # unsigned node indices: Numba checks a signed index for wraparound at every access
-            if split[i, j]:  # a cell with a split node: the corner table says which
-                n0, n1, n2, n3 = (np.uint64(corner[i, j, 0]), np.uint64(corner[i, j, 1]), np.uint64(corner[i, j, 2]),
-                                  np.uint64(corner[i, j, 3]))
-            else:  # the structured numbering, the table's own for every other cell
-                n0 = np.uint64(i) * ny1 + np.uint64(j)
-                n1, n2, n3 = n0 + ny1, n0 + ny1 + ONE, n0 + ONE
+            n0, n1, n2, n3 = cell_nodes(corner, split, i, j, ny1)
             vel = (v[0, n0], v[0, n1], v[0, n2], v[0, n3], v[1, n0], v[1, n1], v[1, n2], v[1, n3])
             dxx, dyy, dxy, dzz, w = strain_increment(dt, dx, dy, r, axisym, vel)
             if not math.isnan(shared[i, j]) or open_ij < 1.0:
                 dxx, dyy = volumetric_override(i, j, dt, dx, dy, dxx, dyy, vel, v_body, faces, shared[i, j], open_ij)
-            sxx, syy, sxy, szz = jaumann_trial(q[SXX, i, j], q[SYY, i, j], q[SXY, i, j], q[SZZ, i, j], dxx, dyy, dxy,
-                                               dzz, w, lam, shear_mod)
-            su = (par.su0 + par.ks * q[Z0, i, j]) * factor[i, j]
-            if su < 0.0:
-                su = 0.0
-            xi_before = q[XI, i, j]
-            gamma_dot = 0.0
-            if law is not None and par.law_active:
-                gamma_dot = shear_rate(dxx, dyy, dxy, dzz, dt)
-                s0 = q[NQ_BASE, i, j] if n_state > 0 else 0.0
-                s1 = q[NQ_BASE + 1, i, j] if n_state > 1 else 0.0
-                su *= law_factor(law, xi_before, gamma_dot, s0, s1)
-            su_cell[i, j] = su
-            volume = dx * dy * r * f
-            if par.tresca:
-                sxx, syy, sxy, szz, dxi, dg = tresca_2d(sxx, syy, sxy, szz, su, shear_mod)
-                if dg > 0.0:
-                    q[XI, i, j] += dxi
-                    plastic += 2.0 * su * dg * volume
-            else:
-                sxx, syy, sxy, szz, dlam = j2_2d(sxx, syy, sxy, szz, su, shear_mod)
-                if dlam > 0.0:
-                    q[XI, i, j] += math.sqrt(2.0) * dlam
-                    plastic += math.sqrt(2.0) * su * dlam * volume
-            q[SXX, i, j] = sxx
-            q[SYY, i, j] = syy
-            q[SZZ, i, j] = szz
-            q[SXY, i, j] = sxy
-            if law is not None and n_state > 0:
-                evolve_law_state(q, i, j, law, xi_before, gamma_dot, dt)
+            strength = (par.su0 + par.ks * q[Z0, i, j]) * factor[i, j]
+            plastic += cell_stress(q, su_cell, i, j, (dxx, dyy, dxy, dzz, w), strength, dx * dy * r * f, par, law, lam)
     out[0] += plastic
 
 
@@ -452,7 +487,7 @@ def elastic_energy(phi, q, vol, shear_mod, bulk_mod):
         for j in range(ny):
             if phi[i, j] > 0.0:
                 total += vol[i, j] * phi[i, j] * elastic_energy_density(
-                    q[SXX, i, j], q[SYY, i, j], q[SXY, i, j], q[SZZ, i, j], shear_mod, bulk_mod)
+                    q[SXX, i, j], q[SYY, i, j], q[SZZ, i, j], q[SXY, i, j], 0.0, 0.0, shear_mod, bulk_mod)
     return total
 
 

@@ -23,8 +23,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from dsmv.cel.kernels.common import (INLINE, JIT, PARALLEL, law_factor, law_state, ordered_sums, radial_return,
-                                     spread_order, tresca_return)
+from dsmv.cel.kernels.common import (INLINE, JIT, PARALLEL, bulk_viscosity, elastic_energy_density, law_factor,
+                                     law_state, ordered_sums, radial_return, spread_order, tresca_return)
 from dsmv.cel.kernels.nodes import zero_in_blocks
 from dsmv.cel.layout import ROWS_3D
 
@@ -200,11 +200,9 @@ def cell_forces(fn, nodes8, coeff, stress, cell, div, beside, remapped, n_grid, 
     rho, c_wave = par.density, par.wave_speed
     vol = dx * dy * dz
     ix, iy, iz = 0.25 / dx, 0.25 / dy, 0.25 / dz
-    qb = 0.0
+    qb = bulk_viscosity(div, min(dx, dy, dz), par)
     bv_power = 0.0
-    if div < 0.0:  # bulk viscosity, a pressure of the soil itself (Pa), in compression only
-        h = min(dx, dy, dz)
-        qb = rho * (par.bulk_quadratic * par.bulk_quadratic * h * h * div * div - par.bulk_linear * c_wave * h * div)
+    if div < 0.0:
         bv_power = f * qb * (-div) * vol
     sxx -= qb
     syy -= qb
@@ -545,13 +543,10 @@ def shear_strain_rates(mesh, cells, faces, nodes, par, v_body):
 
 
 @njit(**INLINE)
-def elastic_energy_density_solid(q, i, j, k, shear_mod, bulk_mod):
-    """Linear elastic energy per unit volume of cell (i, j, k)'s stress, s:s/(4G) + p²/(2K) (J/m³)."""
-    sxx, syy, szz = q[SXX, i, j, k], q[SYY, i, j, k], q[SZZ, i, j, k]
-    p = (sxx + syy + szz) / 3.0
-    dev = ((sxx - p) ** 2 + (syy - p) ** 2 + (szz - p) ** 2
-           + 2.0 * (q[SXY, i, j, k] ** 2 + q[SYZ, i, j, k] ** 2 + q[SZX, i, j, k] ** 2))
-    return dev / (4.0 * shear_mod) + p * p / (2.0 * bulk_mod)
+def cell_elastic_energy_density(q, i, j, k, shear_mod, bulk_mod):
+    """Linear elastic energy per unit volume of cell (i, j, k)'s stress (J/m³)."""
+    return elastic_energy_density(q[SXX, i, j, k], q[SYY, i, j, k], q[SZZ, i, j, k], q[SXY, i, j, k], q[SYZ, i, j, k],
+                                  q[SZX, i, j, k], shear_mod, bulk_mod)
 
 
 @njit(**JIT)
@@ -564,7 +559,7 @@ def elastic_energy(phi, q, vol, shear_mod, bulk_mod):
             for k in range(nz):
                 f = phi[i, j, k]
                 if f > 0.0:
-                    total += vol[i, j, k] * f * elastic_energy_density_solid(q, i, j, k, shear_mod, bulk_mod)
+                    total += vol[i, j, k] * f * cell_elastic_energy_density(q, i, j, k, shear_mod, bulk_mod)
     return total
 
 

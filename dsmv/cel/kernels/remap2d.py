@@ -150,7 +150,7 @@ def apply_line_fluxes(axis, line, flux, qflux, phi, q, vol, shear_mod, bulk_mod,
             continue
         if old_soil > 0.0:
             audit[0] -= old_soil * elastic_energy_density(
-                q[SXX, ci, cj], q[SYY, ci, cj], q[SXY, ci, cj], q[SZZ, ci, cj], shear_mod, bulk_mod)
+                q[SXX, ci, cj], q[SYY, ci, cj], q[SZZ, ci, cj], q[SXY, ci, cj], 0.0, 0.0, shear_mod, bulk_mod)
         if new_soil <= 1e-14 * v:
             phi[ci, cj] = 0.0
             for k in range(nq):
@@ -160,7 +160,7 @@ def apply_line_fluxes(axis, line, flux, qflux, phi, q, vol, shear_mod, bulk_mod,
             q[k, ci, cj] = (old_soil * q[k, ci, cj] + qflux[k, c] - qflux[k, c + 1]) / new_soil
         phi[ci, cj] = new_soil / v
         audit[0] += new_soil * elastic_energy_density(
-            q[SXX, ci, cj], q[SYY, ci, cj], q[SXY, ci, cj], q[SZZ, ci, cj], shear_mod, bulk_mod)
+            q[SXX, ci, cj], q[SYY, ci, cj], q[SZZ, ci, cj], q[SXY, ci, cj], 0.0, 0.0, shear_mod, bulk_mod)
 
 
 @njit(**JIT)

@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit, prange
 
 from dsmv.cel.kernels.common import INLINE, JIT, PARALLEL, donor_acceptor, van_leer
-from dsmv.cel.kernels.elements3d import elastic_energy_density_solid
+from dsmv.cel.kernels.elements3d import cell_elastic_energy_density
 
 
 @njit(**INLINE)
@@ -146,7 +146,7 @@ def apply_line(axis, la, lb, phi, q, vol, line_flux, qflux, flux, par):
         old_soil = phi[ci, cj, ck] * v
         new_soil = old_soil + line_flux[c] - line_flux[c + 1]
         if old_soil > 0.0:
-            elastic_change -= old_soil * elastic_energy_density_solid(q, ci, cj, ck, shear_mod, bulk_mod)
+            elastic_change -= old_soil * cell_elastic_energy_density(q, ci, cj, ck, shear_mod, bulk_mod)
         if new_soil <= 1e-14 * v:
             phi[ci, cj, ck] = 0.0
             for m in range(nq):
@@ -155,7 +155,7 @@ def apply_line(axis, la, lb, phi, q, vol, line_flux, qflux, flux, par):
         for m in range(nq):
             q[m, ci, cj, ck] = (old_soil * q[m, ci, cj, ck] + qflux[m, c] - qflux[m, c + 1]) / new_soil
         phi[ci, cj, ck] = new_soil / v
-        elastic_change += new_soil * elastic_energy_density_solid(q, ci, cj, ck, shear_mod, bulk_mod)
+        elastic_change += new_soil * cell_elastic_energy_density(q, ci, cj, ck, shear_mod, bulk_mod)
     flux[n_cells, la, lb] = line_flux[n_cells]
     return elastic_change
 
