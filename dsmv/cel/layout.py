@@ -62,6 +62,11 @@ class CellRows:
         """The other normal stresses (in 2D the out-of-plane or hoop one is horizontal too)."""
         return ("xx", "zz") if self.dim == 2 else ("xx", "yy")
 
+    @property
+    def geostatic(self) -> tuple[int, int, int, int]:
+        """The rows a geostatic state sets: the vertical stress, the two horizontal ones, z0."""
+        return (self.of(self.vertical), *(self.of(c) for c in self.horizontal), self.z0)
+
 
 ROWS_2D = CellRows(2)
 ROWS_3D = CellRows(3)

@@ -57,11 +57,11 @@ def geostatic_state(grid, density: float, gravity: float, k0: float, mudline: fl
     if open_frac is not None:
         phi = phi * open_frac
     q = np.zeros((rows.base, *shape))
-    vertical = rows.of(rows.vertical)
+    vertical, horizontal, other, z0 = rows.geostatic
     q[vertical] = -density * gravity * depth * phi
-    for component in rows.horizontal:
-        q[rows.of(component)] = k0 * q[vertical]
-    q[rows.z0] = depth * phi
+    q[horizontal] = k0 * q[vertical]
+    q[other] = k0 * q[vertical]
+    q[z0] = depth * phi
     return phi, q
 
 

@@ -24,7 +24,7 @@ from numba import njit
 
 from dsmv.cel.kernels.common import INLINE
 from dsmv.cel.kernels.nodes import (
-    adhesion, apply_fixed, apply_ties, nodal_mass, rejoin_ties, split_mass_kinetic_change, split_masses, tie_reactions,
+    adhesion, apply_fixed, apply_ties, hand_travel_to_parents, nodal_mass, rejoin_ties, split_mass_kinetic_change, split_masses, tie_reactions,
 )
 from dsmv.cel.layout import B_FCOUNT, B_FRICTION, B_FSUM, B_MAXDISP, B_OFFSET, B_REMAP_OFFSET, B_REMAPS, B_STEP, B_TIME, B_VEL
 from dsmv.cel.ledger import E_BODY_GRAV, E_FRICTION, E_PUSH, E_REMAP_ELASTIC, E_REMAP_KINETIC, E_SOIL_GRAV
@@ -106,6 +106,24 @@ def remap_due(par, travel):
 def came_to_rest(par, body, v_old):
     """A dropped body that was moving down and no longer does."""
     return par.drop and body[B_VEL] >= 0.0 and v_old < 0.0
+
+
+@njit(**INLINE)
+def prepare_remap(inflow, contact, nodes, par, body, rows):
+    """Before the sweeps: the soil entering at the base, intact and geostatic at its depth halfway
+    through the travel (``rows``: the ghost state's vertical stress, its two horizontal ones and z0),
+    and the split nodes' travel handed to their parents."""
+    if par.inflow:
+        depth0 = inflow.depth0.ravel()
+        ghost = inflow.ghost.reshape((inflow.ghost.shape[0], depth0.size))
+        vertical, horizontal, other, z0 = rows
+        for c in range(depth0.size):
+            depth = depth0[c] - 0.5 * (body[B_REMAP_OFFSET] + body[B_OFFSET])
+            ghost[vertical, c] = -par.density * par.gravity * depth
+            ghost[horizontal, c] = par.k0 * ghost[vertical, c]
+            ghost[other, c] = ghost[horizontal, c]
+            ghost[z0, c] = depth
+    hand_travel_to_parents(contact, nodes)
 
 
 @njit(**INLINE)

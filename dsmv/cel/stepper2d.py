@@ -12,13 +12,14 @@ import numpy as np
 from numba import njit
 
 from dsmv.cel.kernels.common import INLINE, JIT
-from dsmv.cel.kernels.elements2d import SXX, SYY, SZZ, Z0, merged_divergence, nodal_forces, update_stress
-from dsmv.cel.kernels.nodes import gather_travel, hand_travel_to_parents, ties_that_hold, update_velocities
+from dsmv.cel.kernels.elements2d import merged_divergence, nodal_forces, update_stress
+from dsmv.cel.kernels.nodes import gather_travel, ties_that_hold, update_velocities
 from dsmv.cel.kernels.remap2d import remap_sweeps, share_merged_fill
-from dsmv.cel.layout import B_FRICTION, B_INFLOW, B_OFFSET, B_REMAP_OFFSET, B_REMAPS, B_VEL
+from dsmv.cel.layout import B_FRICTION, B_INFLOW, B_REMAPS, B_VEL, ROWS_2D
 from dsmv.cel.ledger import E_BULK, E_GAP_RELEASE, E_HOURGLASS, E_PLASTIC
 from dsmv.cel.stepper import (
-    AT_REST, RUNNING, advance_clock, came_to_rest, hold_nodes, move_body, remap_due, settle_nodes, step_failed,
+    AT_REST, RUNNING, advance_clock, came_to_rest, hold_nodes, move_body, prepare_remap, remap_due, settle_nodes,
+    step_failed,
 )
 
 
@@ -50,24 +51,13 @@ def lagrange_step(mesh, cells, faces, nodes, contact, par, body, energy, law):
     return resistance, v_old
 
 
-@njit(**INLINE)
-def refresh_inflow(inflow, par, body):
-    """Soil entering at the base: intact and geostatic at its depth halfway through the travel."""
-    ghost = inflow.ghost
-    for i in range(ghost.shape[1]):
-        depth = inflow.depth0[i] - 0.5 * (body[B_REMAP_OFFSET] + body[B_OFFSET])
-        ghost[SYY, i] = -par.density * par.gravity * depth
-        ghost[SXX, i] = par.k0 * ghost[SYY, i]
-        ghost[SZZ, i] = ghost[SXX, i]
-        ghost[Z0, i] = depth
+INFLOW_ROWS = ROWS_2D.geostatic  # the ghost state's rows the inflow sets
 
 
 @njit(**INLINE)
 def remap(mesh, cells, faces, nodes, contact, inflow, par, body, energy, swept):
     """The Eulerian phase: carry soil and momentum through the grid by the gathered travel."""
-    if par.inflow:
-        refresh_inflow(inflow, par, body)
-    hand_travel_to_parents(contact, nodes)
+    prepare_remap(inflow, contact, nodes, par, body, INFLOW_ROWS)
     audit = np.zeros(2)
     first = int(body[B_REMAPS]) % 2  # the sweeps alternate their order
     body[B_INFLOW] += remap_sweeps(mesh, cells, faces, nodes, par, inflow, first, audit)

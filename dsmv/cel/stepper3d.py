@@ -15,15 +15,15 @@ import numpy as np
 from numba import njit
 
 from dsmv.cel.kernels.common import INLINE, JIT
-from dsmv.cel.kernels.elements3d import SXX, SYY, SZZ, Z0, nodal_forces, update_stress_and_forces
-from dsmv.cel.kernels.nodes import (gather_travel_in_blocks, hand_travel_to_parents, ties_that_hold,
-                                    update_velocities_in_blocks)
+from dsmv.cel.kernels.elements3d import nodal_forces, update_stress_and_forces
+from dsmv.cel.kernels.nodes import gather_travel_in_blocks, ties_that_hold, update_velocities_in_blocks
 from dsmv.cel.kernels.remap3d import remap_sweeps
-from dsmv.cel.layout import (B_BESIDE_N, B_BULK_W, B_FORCES_AHEAD, B_FRICTION, B_HOURGLASS_W, B_INFLOW, B_OFFSET,
-                              B_REMAP_OFFSET, B_REMAPS, B_VEL)
+from dsmv.cel.layout import (B_BESIDE_N, B_BULK_W, B_FORCES_AHEAD, B_FRICTION, B_HOURGLASS_W, B_INFLOW, B_REMAPS, B_VEL,
+                              ROWS_3D)
 from dsmv.cel.ledger import E_BULK, E_HOURGLASS, E_PLASTIC
 from dsmv.cel.stepper import (
-    AT_REST, RUNNING, advance_clock, came_to_rest, hold_nodes, move_body, remap_due, settle_nodes, step_failed,
+    AT_REST, RUNNING, advance_clock, came_to_rest, hold_nodes, move_body, prepare_remap, remap_due, settle_nodes,
+    step_failed,
 )
 
 
@@ -54,25 +54,13 @@ def lagrange_step(mesh, cells, nodes, contact, par, body, energy, law):
     return resistance, v_old
 
 
-@njit(**INLINE)
-def refresh_inflow(inflow, par, body):
-    """Soil entering at the base: intact and geostatic at its depth halfway through the travel."""
-    ghost = inflow.ghost
-    for i in range(ghost.shape[1]):
-        for j in range(ghost.shape[2]):
-            depth = inflow.depth0[i, j] - 0.5 * (body[B_REMAP_OFFSET] + body[B_OFFSET])
-            ghost[SZZ, i, j] = -par.density * par.gravity * depth
-            ghost[SXX, i, j] = par.k0 * ghost[SZZ, i, j]
-            ghost[SYY, i, j] = ghost[SXX, i, j]
-            ghost[Z0, i, j] = depth
+INFLOW_ROWS = ROWS_3D.geostatic  # the ghost state's rows the inflow sets
 
 
 @njit(**INLINE)
 def remap(mesh, cells, faces, nodes, contact, inflow, par, body, energy, swept):
     """The Eulerian phase: carry soil and momentum through the grid by the gathered travel."""
-    if par.inflow:
-        refresh_inflow(inflow, par, body)
-    hand_travel_to_parents(contact, nodes)
+    prepare_remap(inflow, contact, nodes, par, body, INFLOW_ROWS)
     audit = np.zeros(2)
     reverse = int(body[B_REMAPS]) % 2 == 1  # the sweeps alternate their order: x, y, z then z, y, x
     body[B_INFLOW] += remap_sweeps(mesh, cells, faces, nodes, par, inflow.ghost, reverse, audit)

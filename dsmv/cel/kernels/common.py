@@ -107,6 +107,30 @@ def donor_acceptor(phi_d, phi_a, volume_flux, donor_volume, acceptor_first):
 
 
 @njit(**INLINE)
+def soil_through_face(fill_d, fill_a, dvol, donor_open_volume, normal_along, normal_across):
+    """The soil volume (m³) a face volume flux ``dvol`` carries from donor to acceptor, from the fills of
+    their open parts. Full to full there is no interface: the flux times the donor's fill. Else the
+    Hirt–Nichols rule (:func:`donor_acceptor`), taking the acceptor's fill first, which keeps the
+    interface sharp, where the interface's normal lies along the flow: the fill's difference across
+    the donor along the flow, ``normal_along``, at least the largest across it, ``normal_across``
+    (both magnitudes, 0 where both cells are full)."""
+    if fill_d >= 1.0 and fill_a >= 1.0:
+        return abs(dvol) * fill_d
+    acceptor_first = normal_along >= normal_across and fill_d < 1.0
+    return donor_acceptor(fill_d, fill_a, dvol, donor_open_volume, acceptor_first)
+
+
+@njit(**INLINE)
+def upwind_value(value, lo, hi, order, un, courant):
+    """A transported quantity's value at a face: the donor's ``value``, plus with ``order`` 2 van Leer's
+    limited slope from its neighbours upstream and downstream (``lo``, ``hi``) times what the flux
+    leaves of the donor (1 − its Courant number), towards the face the flow ``un`` crosses."""
+    if order == 2:
+        value += (0.5 if un > 0.0 else -0.5) * van_leer(value - lo, hi - value) * (1.0 - courant)
+    return value
+
+
+@njit(**INLINE)
 def law_factor(law, xi, gamma_dot, s0, s1):
     """The soil law's strength factor su/su_intact (-) at ξ, γ̇ (1/s) and state s0, s1
     (``law``: a :class:`~dsmv.cel.layout.SoilLawKernel`). A factor that is negative or not finite

@@ -379,44 +379,24 @@ def j2_2d(sxx, syy, sxy, szz, su, shear_mod):
 
 
 @njit(**INLINE)
-def cell_stress(q, su_cell, i, j, strain, strength, volume, par, law, lam):
-    """The stress update of cell (i, j) (:func:`update_stress`) from its strain and spin increments
-    ``strain`` (Δεxx, Δεyy, Δεxy, Δεzz, w), its strength before the soil law (Pa) and its soil volume
-    (m³): the new stress, ξ and the law's state into ``q``, the strength into ``su_cell``; returns
-    the plastic work (J)."""
-    dxx, dyy, dxy, dzz, w = strain
-    shear_mod, dt = par.shear, par.dt
-    n_state = q.shape[0] - NQ_BASE
-    sxx, syy, sxy, szz = jaumann_trial(q[SXX, i, j], q[SYY, i, j], q[SXY, i, j], q[SZZ, i, j], dxx, dyy, dxy,
-                                       dzz, w, lam, shear_mod)
-    su = strength
-    if su < 0.0:
-        su = 0.0
-    xi_before = q[XI, i, j]
-    gamma_dot = 0.0
-    if law is not None and par.law_active:
-        gamma_dot = shear_rate(dxx, dyy, dxy, dzz, dt)
-        s0 = q[NQ_BASE, i, j] if n_state > 0 else 0.0
-        s1 = q[NQ_BASE + 1, i, j] if n_state > 1 else 0.0
-        su *= law_factor(law, xi_before, gamma_dot, s0, s1)
-    su_cell[i, j] = su
-    plastic = 0.0
-    if par.tresca:
+def plastic_return(q, i, j, sxx, syy, sxy, szz, su, shear_mod, volume, tresca, plastic):
+    """Cell (i, j)'s trial stress returned to the yield surface (Tresca's hexagon with ``tresca``, else
+    J2's cylinder) and stored in ``q`` with its plastic shear strain ξ; returns ``plastic`` plus the
+    step's plastic work in the cell's soil ``volume`` (J)."""
+    if tresca:
         sxx, syy, sxy, szz, dxi, dg = tresca_2d(sxx, syy, sxy, szz, su, shear_mod)
         if dg > 0.0:
             q[XI, i, j] += dxi
-            plastic = 2.0 * su * dg * volume
+            plastic += 2.0 * su * dg * volume
     else:
         sxx, syy, sxy, szz, dlam = j2_2d(sxx, syy, sxy, szz, su, shear_mod)
         if dlam > 0.0:
             q[XI, i, j] += math.sqrt(2.0) * dlam
-            plastic = math.sqrt(2.0) * su * dlam * volume
+            plastic += math.sqrt(2.0) * su * dlam * volume
     q[SXX, i, j] = sxx
     q[SYY, i, j] = syy
     q[SZZ, i, j] = szz
     q[SXY, i, j] = sxy
-    if law is not None and n_state > 0:
-        evolve_law_state(q, i, j, law, xi_before, gamma_dot, dt)
     return plastic
 
 
@@ -445,6 +425,7 @@ def update_stress(mesh, cells, faces, nodes, par, v_body, law, out):
     open_frac, gap, shared = cells.open_frac, cells.gap, cells.shared_divergence
     nx, ny = phi.shape
     ny1 = np.uint64(ny + 1)
+    n_state = q.shape[0] - NQ_BASE
     shear_mod, dt, axisym = par.shear, par.dt, par.axisymmetric
     lam = par.bulk - 2.0 * shear_mod / 3.0
     plastic = 0.0
@@ -468,13 +449,28 @@ def update_stress(mesh, cells, faces, nodes, par, v_body, law, out):
                 q[SZZ, i, j] = 0.0
                 su_cell[i, j] = 0.0
                 continue
+            # unsigned node indices: Numba checks a signed index for wraparound at every access
             n0, n1, n2, n3 = cell_nodes(corner, split, i, j, ny1)
             vel = (v[0, n0], v[0, n1], v[0, n2], v[0, n3], v[1, n0], v[1, n1], v[1, n2], v[1, n3])
             dxx, dyy, dxy, dzz, w = strain_increment(dt, dx, dy, r, axisym, vel)
             if not math.isnan(shared[i, j]) or open_ij < 1.0:
                 dxx, dyy = volumetric_override(i, j, dt, dx, dy, dxx, dyy, vel, v_body, faces, shared[i, j], open_ij)
-            strength = (par.su0 + par.ks * q[Z0, i, j]) * factor[i, j]
-            plastic += cell_stress(q, su_cell, i, j, (dxx, dyy, dxy, dzz, w), strength, dx * dy * r * f, par, law, lam)
+            sxx, syy, sxy, szz = jaumann_trial(q[SXX, i, j], q[SYY, i, j], q[SXY, i, j], q[SZZ, i, j], dxx, dyy, dxy,
+                                               dzz, w, lam, shear_mod)
+            su = (par.su0 + par.ks * q[Z0, i, j]) * factor[i, j]
+            if su < 0.0:
+                su = 0.0
+            xi_before = q[XI, i, j]
+            gamma_dot = 0.0
+            if law is not None and par.law_active:
+                gamma_dot = shear_rate(dxx, dyy, dxy, dzz, dt)
+                s0 = q[NQ_BASE, i, j] if n_state > 0 else 0.0
+                s1 = q[NQ_BASE + 1, i, j] if n_state > 1 else 0.0
+                su *= law_factor(law, xi_before, gamma_dot, s0, s1)
+            su_cell[i, j] = su
+            plastic = plastic_return(q, i, j, sxx, syy, sxy, szz, su, shear_mod, dx * dy * r * f, par.tresca, plastic)
+            if law is not None and n_state > 0:
+                evolve_law_state(q, i, j, law, xi_before, gamma_dot, dt)
     out[0] += plastic
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from dsmv.cel.kernels.common import JIT, donor_acceptor, elastic_energy_density, van_leer
+from dsmv.cel.kernels.common import JIT, elastic_energy_density, soil_through_face, upwind_value, van_leer
 from dsmv.cel.kernels.elements2d import SXX, SXY, SYY, SZZ
 
 
@@ -80,33 +80,25 @@ def advect_cells(axis, mesh, cells, faces, ux, uy, dt, par, inflow, audit):
             aj = j if axis == 0 else acceptor
             open_d, open_a = open_frac[di, dj], open_frac[ai, aj]
             fill_d, fill_a = phi_d / open_d, phi[ai, aj] / open_a
-            if fill_d >= 1.0 and fill_a >= 1.0:
-                moved = abs(dvol) * fill_d  # full to full: no interface here
-            else:
-                # interface normal along the flow: the downwind value keeps the interface sharp
-                g_along_x = phi[min(di + 1, nx - 1), dj] - phi[max(di - 1, 0), dj]
-                g_along_y = phi[di, min(dj + 1, ny - 1)] - phi[di, max(dj - 1, 0)]
-                g_n = g_along_x if axis == 0 else g_along_y
-                g_t = g_along_y if axis == 0 else g_along_x
-                acceptor_first = abs(g_n) >= abs(g_t) and fill_d < 1.0
-                moved = donor_acceptor(fill_d, fill_a, dvol, open_d * vol[di, dj], acceptor_first)
+            along, across = 0.0, 0.0
+            if fill_d < 1.0 or fill_a < 1.0:  # the interface's normal, from the fills around the donor
+                g_x = abs(phi[min(di + 1, nx - 1), dj] - phi[max(di - 1, 0), dj])
+                g_y = abs(phi[di, min(dj + 1, ny - 1)] - phi[di, max(dj - 1, 0)])
+                along, across = (g_x, g_y) if axis == 0 else (g_y, g_x)
+            moved = soil_through_face(fill_d, fill_a, dvol, open_d * vol[di, dj], along, across)
             signed = moved if un > 0.0 else -moved
             flux[face, line] = signed
             courant = moved / (phi_d * vol[di, dj])
+            if axis == 0:
+                li, lj, hi_, hj = max(di - 1, 0), dj, min(di + 1, nx - 1), dj
+            else:
+                li, lj, hi_, hj = di, max(dj - 1, 0), di, min(dj + 1, ny - 1)
+            lo_full, hi_full = phi[li, lj] > phi_min, phi[hi_, hj] > phi_min
             for k in range(nq):
                 value = q[k, di, dj]
-                if order == 2:
-                    if axis == 0:
-                        il, ih = max(di - 1, 0), min(di + 1, nx - 1)
-                        lo = q[k, il, dj] if phi[il, dj] > phi_min else value
-                        hi = q[k, ih, dj] if phi[ih, dj] > phi_min else value
-                    else:
-                        jl, jh = max(dj - 1, 0), min(dj + 1, ny - 1)
-                        lo = q[k, di, jl] if phi[di, jl] > phi_min else value
-                        hi = q[k, di, jh] if phi[di, jh] > phi_min else value
-                    slope = van_leer(value - lo, hi - value)
-                    value += (0.5 if un > 0.0 else -0.5) * slope * (1.0 - courant)
-                qflux[k, face] = signed * value
+                lo = q[k, li, lj] if lo_full else value
+                hi = q[k, hi_, hj] if hi_full else value
+                qflux[k, face] = signed * upwind_value(value, lo, hi, order, un, courant)
         limit_diverging_outflow(axis, line, flux, qflux, phi, vol)
         apply_line_fluxes(axis, line, flux, qflux, phi, q, vol, shear_mod, bulk_mod, audit)
     return boundary

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from dsmv.cel.kernels.common import INLINE, JIT, PARALLEL, donor_acceptor, van_leer
+from dsmv.cel.kernels.common import INLINE, JIT, PARALLEL, soil_through_face, upwind_value, van_leer
 from dsmv.cel.kernels.elements3d import cell_elastic_energy_density
 
 
@@ -84,15 +84,13 @@ def line_fluxes(axis, la, lb, mesh, cells, phi0, u, aperture, ghost, par, line_f
         ai, aj, ak = cell_of(axis, acceptor, la, lb)
         open_d, open_a = open_frac[di, dj, dk], open_frac[ai, aj, ak]
         fill_d, fill_a = phi_d / open_d, phi[ai, aj, ak] / open_a
-        if fill_d >= 1.0 and fill_a >= 1.0:
-            moved = abs(dvol) * fill_d  # full to full: no interface here
-        else:
-            # interface normal along the flow: the downwind value keeps the interface sharp
-            gx = phi0[min(di + 1, nx - 1), dj, dk] - phi0[max(di - 1, 0), dj, dk]
-            gy = phi0[di, min(dj + 1, ny - 1), dk] - phi0[di, max(dj - 1, 0), dk]
-            gz = phi0[di, dj, min(dk + 1, nz - 1)] - phi0[di, dj, max(dk - 1, 0)]
-            acceptor_first = abs((gx, gy, gz)[axis]) >= max(abs(gx), abs(gy), abs(gz)) and fill_d < 1.0
-            moved = donor_acceptor(fill_d, fill_a, dvol, open_d * vol[di, dj, dk], acceptor_first)
+        along, across = 0.0, 0.0
+        if fill_d < 1.0 or fill_a < 1.0:  # the interface's normal, from the fills around the donor
+            gx = abs(phi0[min(di + 1, nx - 1), dj, dk] - phi0[max(di - 1, 0), dj, dk])
+            gy = abs(phi0[di, min(dj + 1, ny - 1), dk] - phi0[di, max(dj - 1, 0), dk])
+            gz = abs(phi0[di, dj, min(dk + 1, nz - 1)] - phi0[di, dj, max(dk - 1, 0)])
+            along, across = (gx, max(gy, gz)) if axis == 0 else ((gy, max(gx, gz)) if axis == 1 else (gz, max(gx, gy)))
+        moved = soil_through_face(fill_d, fill_a, dvol, open_d * vol[di, dj, dk], along, across)
         signed = moved if un > 0.0 else -moved
         line_flux[face] = signed
         courant = moved / (phi_d * vol[di, dj, dk])
@@ -102,11 +100,9 @@ def line_fluxes(axis, la, lb, mesh, cells, phi0, u, aperture, ghost, par, line_f
         lo_full, hi_full = phi[li, lj, lk] > phi_min, phi[hi_, hj, hk] > phi_min
         for m in range(nq):
             value = q[m, di, dj, dk]
-            if order == 2:
-                lo = q[m, li, lj, lk] if lo_full else value
-                hi = q[m, hi_, hj, hk] if hi_full else value
-                value += (0.5 if un > 0.0 else -0.5) * van_leer(value - lo, hi - value) * (1.0 - courant)
-            qflux[m, face] = signed * value
+            lo = q[m, li, lj, lk] if lo_full else value
+            hi = q[m, hi_, hj, hk] if hi_full else value
+            qflux[m, face] = signed * upwind_value(value, lo, hi, order, un, courant)
     return entered
 
 
