@@ -113,7 +113,8 @@ def soil_through_face(fill_d, fill_a, dvol, donor_open_volume, normal_along, nor
     Hirt–Nichols rule (:func:`donor_acceptor`), taking the acceptor's fill first, which keeps the
     interface sharp, where the interface's normal lies along the flow: the fill's difference across
     the donor along the flow, ``normal_along``, at least the largest across it, ``normal_across``
-    (both magnitudes, 0 where both cells are full)."""
+    (both magnitudes, 0 where both cells are full), which both dimensions' sweeps read from the fills
+    before the sweep, so that no line sees another's update (decision 0023)."""
     if fill_d >= 1.0 and fill_a >= 1.0:
         return abs(dvol) * fill_d
     acceptor_first = normal_along >= normal_across and fill_d < 1.0

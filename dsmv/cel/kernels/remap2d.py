@@ -44,6 +44,7 @@ def advect_cells(axis, mesh, cells, faces, ux, uy, dt, par, inflow, audit):
     n_faces = nx + 1 if axis == 0 else ny + 1
     n_cells = n_faces - 1
     qflux = np.zeros((nq, n_faces))
+    phi0 = phi.copy()  # the interface's normal from the fills before the sweep, as in 3D (decision 0023)
     for line in range(n_lines):
         for face in range(n_faces):
             flux[face, line] = 0.0
@@ -82,8 +83,8 @@ def advect_cells(axis, mesh, cells, faces, ux, uy, dt, par, inflow, audit):
             fill_d, fill_a = phi_d / open_d, phi[ai, aj] / open_a
             along, across = 0.0, 0.0
             if fill_d < 1.0 or fill_a < 1.0:  # the interface's normal, from the fills around the donor
-                g_x = abs(phi[min(di + 1, nx - 1), dj] - phi[max(di - 1, 0), dj])
-                g_y = abs(phi[di, min(dj + 1, ny - 1)] - phi[di, max(dj - 1, 0)])
+                g_x = abs(phi0[min(di + 1, nx - 1), dj] - phi0[max(di - 1, 0), dj])
+                g_y = abs(phi0[di, min(dj + 1, ny - 1)] - phi0[di, max(dj - 1, 0)])
                 along, across = (g_x, g_y) if axis == 0 else (g_y, g_x)
             moved = soil_through_face(fill_d, fill_a, dvol, open_d * vol[di, dj], along, across)
             signed = moved if un > 0.0 else -moved
