@@ -20,7 +20,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from dsmv import registry
-from dsmv.cel.solver import Cel2DConfig
+from dsmv.cel.config import Cel2DConfig
 from dsmv.errors import ConfigError
 from dsmv.scene import LandingConfig, MeshConfig, RateConfig, SoilConfig, TrackGeometry, build_scene
 from conftest import group_options

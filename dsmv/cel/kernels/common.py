@@ -71,15 +71,12 @@ def elastic_energy_density(sxx, syy, szz, sxy, syz, szx, shear_mod, bulk_mod):
 
 
 @njit(**INLINE)
-def bulk_viscosity(div, h, par):
-    """The bulk viscosity's pressure (Pa), a pressure of the soil itself, in compression only
-    (volumetric strain rate ``div`` < 0, 1/s): ρ·(b2²·h²·div² − b1·c·h·div) over the cell's smallest
-    edge h (m), with the linear and quadratic coefficients ``par.bulk_linear``, ``par.bulk_quadratic``
-    and the P-wave speed c; 0 in expansion."""
-    if div >= 0.0:
-        return 0.0
-    return par.density * (par.bulk_quadratic * par.bulk_quadratic * h * h * div * div
-                          - par.bulk_linear * par.wave_speed * h * div)
+def bulk_viscosity(div, h, rho, c_wave, linear, quadratic):
+    """The bulk viscosity's pressure (Pa), a pressure of the soil itself, which acts in compression
+    only (the callers ask for it where the volumetric strain rate ``div`` < 0, 1/s):
+    ρ·(b2²·h²·div² − b1·c·h·div) over the cell's smallest edge h (m), with the soil's density ρ,
+    its P-wave speed c and the coefficients b1 (``linear``) and b2 (``quadratic``)."""
+    return rho * (quadratic * quadratic * h * h * div * div - linear * c_wave * h * div)
 
 
 @njit(**JIT)

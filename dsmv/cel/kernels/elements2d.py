@@ -217,8 +217,9 @@ def nodal_forces(mesh, cells, faces, nodes, par, v_body, work):
             open_ij = open_frac[i, j]
             div = cell_divergence(i, j, dx, dy, r, axisym, vel, v_body, faces, open_ij)
             # bulk viscosity: like σ it acts on the cell's soil fraction f
-            qb = bulk_viscosity(div, min(dx, dy), par)
+            qb = 0.0
             if div < 0.0:
+                qb = bulk_viscosity(div, min(dx, dy), rho, c_wave, par.bulk_linear, par.bulk_quadratic)
                 bv_power += f * qb * (-div) * vol
             sxx = q[SXX, i, j] - qb
             syy = q[SYY, i, j] - qb

@@ -200,9 +200,10 @@ def cell_forces(fn, nodes8, coeff, stress, cell, div, beside, remapped, n_grid, 
     rho, c_wave = par.density, par.wave_speed
     vol = dx * dy * dz
     ix, iy, iz = 0.25 / dx, 0.25 / dy, 0.25 / dz
-    qb = bulk_viscosity(div, min(dx, dy, dz), par)
+    qb = 0.0
     bv_power = 0.0
-    if div < 0.0:
+    if div < 0.0:  # bulk viscosity, in compression only
+        qb = bulk_viscosity(div, min(dx, dy, dz), rho, c_wave, par.bulk_linear, par.bulk_quadratic)
         bv_power = f * qb * (-div) * vol
     sxx -= qb
     syy -= qb
