@@ -33,7 +33,7 @@ RATE_DECADES = (-9.0, 3.0)
 
 def compose_scene(*overrides: str):
     """The validated scene of the default config with ``overrides`` (Hydra syntax, as on the command line)."""
-    from dsmv.bench import compose_scene as compose
+    from dsmv.verify.bench import compose_scene as compose
 
     return compose([*overrides, "tracking=disabled"])
 
@@ -44,7 +44,7 @@ def compose_config(config_name: str, *overrides: str):
     from hydra import compose, initialize_config_dir
     from hydra.core.global_hydra import GlobalHydra
 
-    from dsmv.command_line import CONFIG_DIR
+    from dsmv.app.command_line import CONFIG_DIR
     from dsmv.registry import register_plugin_configs
 
     register_plugin_configs()

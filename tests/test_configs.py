@@ -3,7 +3,7 @@
 import pytest
 
 from dsmv.errors import ConfigError
-from dsmv.scene import Scene, build_scene, build_tracking
+from dsmv.config.scene import Scene, build_scene, build_tracking
 from tests.conftest import group_options
 
 SCENE_GROUPS = ["soil", "geometry", "landing", "mesh", "solver", "tracking"]

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from dsmv.cel.solver import Cel2DSolver
-from dsmv.scene import build_scene
+from dsmv.config.scene import build_scene
 from dsmv.surrogate.dataset import TARGET_METRIC
 from dsmv.surrogate.features import LeakFreeFeatures, target
 from dsmv.surrogate.intervals import ConformalRegressor, calibration_record

@@ -16,7 +16,7 @@ from hydra import compose, initialize_config_dir
 from hydra.core.global_hydra import GlobalHydra
 from omegaconf import OmegaConf
 
-from dsmv.command_line import CONFIG_DIR
+from dsmv.app.command_line import CONFIG_DIR
 from dsmv.errors import ConfigError
 from dsmv.surrogate.dataset import PARAMETERS, TARGET_METRIC
 from dsmv.surrogate.features import LeakFreeFeatures, target
@@ -146,7 +146,7 @@ def test_scene_outside_the_training_range_warns(store, capsys):
 def test_inverse_tasks_agree_with_a_brute_force_scan_of_the_model(store, tmp_path, task, parameter, column):
     from dsmv.surrogate.model import scene_table
     from dsmv.surrogate.predict import load_predictor, run_predict
-    from dsmv.scene import build_scene
+    from dsmv.config.scene import build_scene
 
     cfg = config(store, f"task={task}", "sinkage_limit_m=0.3", "verify=false")
     out = run_predict(cfg, tmp_path)
@@ -314,7 +314,7 @@ def test_exceedance_is_the_share_of_sampled_scenes_over_the_limit(store, tmp_pat
     """P(z > limit) is the fraction of the seeded samples whose prediction exceeds the limit, with the
     binomial standard error; the interval's bounds bracket it; a limit above every sample gives 0,
     one below every sample 1."""
-    from dsmv.scene import build_scene
+    from dsmv.config.scene import build_scene
     from dsmv.surrogate.model import scene_table
     from dsmv.surrogate.predict import load_predictor, run_predict
     from dsmv.surrogate.reliability import sample_scenes, uncertainty_from

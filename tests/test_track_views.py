@@ -9,7 +9,7 @@ import pytest
 
 from dsmv.cel.solver import Cel2DSolver
 from dsmv.errors import ConfigError
-from dsmv.scene import build_scene
+from dsmv.config.scene import build_scene
 
 
 def _solver(compose_cfg, *overrides):

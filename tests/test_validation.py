@@ -3,7 +3,7 @@
 import pytest
 
 from dsmv.errors import ConfigError
-from dsmv.scene import build_scene
+from dsmv.config.scene import build_scene
 
 BAD_VALUES = [
     ("landing.mass_kg=-1", "landing.mass_kg", "greater than 0"),

@@ -29,7 +29,7 @@ from dsmv.cel.layout import N_BODY, Cells, Inflow, Nodes, SolidFaces, SolidMesh,
 from dsmv.cel.solver import CelSolver, State, in_sweep
 from dsmv.cel.state import Elastic, hourglass_factor, layers_below, step_parameters
 from dsmv.errors import ConfigError
-from dsmv.scene import Scene
+from dsmv.config.scene import Scene
 
 #: the throughput the 3D cost estimate assumes (cell updates per second, one thread), a guard
 #: against hours, not a prediction: the quarter square plate at B/10, small strain, measured

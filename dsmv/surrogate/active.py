@@ -122,8 +122,8 @@ def next_batch(cfg: Any) -> list[list[str]]:
     """``hydra.sweeper.cases_from`` of ``experiment=dataset_active``: the next batch's overrides."""
     from omegaconf import OmegaConf
 
-    from dsmv.run_writer import store_missing
-    from dsmv.scene import build_scene, build_tracking
+    from dsmv.tracking.run_writer import store_missing
+    from dsmv.config.scene import build_scene, build_tracking
     from dsmv.surrogate.design import CONTACT_LENGTH_KEY, TABLE3_LEVELS
 
     active = ActiveConfig.from_cfg(cfg)

@@ -106,7 +106,7 @@ def search_study_runs(tracking_uri: str, study: str) -> list:
     surrogate trainings, are not jobs)."""
     from mlflow.tracking import MlflowClient
 
-    from dsmv.run_writer import resolve_uri
+    from dsmv.tracking.run_writer import resolve_uri
 
     client = MlflowClient(tracking_uri=resolve_uri(tracking_uri))
     experiment_ids = [e.experiment_id for e in client.search_experiments()]

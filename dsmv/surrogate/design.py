@@ -212,7 +212,7 @@ def table3_cases(cfg: Any) -> list[list[str]]:
     """
     from omegaconf import OmegaConf
 
-    from dsmv.scene import build_scene
+    from dsmv.config.scene import build_scene
 
     dataset = DatasetConfig.from_cfg(cfg)
     plain = OmegaConf.create({k: cfg[k] for k in cfg if k != "hydra"})
@@ -238,14 +238,14 @@ def _sweep_dir(cfg) -> Path | None:
 
 def _log_to_parent(cfg, sweep_dir: Path, design: Design) -> None:
     """The design's counts as metrics of the sweep's parent run, and the design CSV as an artifact."""
-    from dsmv import tracking
-    from dsmv.scene import build_tracking
+    from dsmv.tracking import runs
+    from dsmv.config.scene import build_tracking
 
-    run_id = tracking.parent_run_id(sweep_dir)
+    run_id = runs.parent_run_id(sweep_dir)
     settings = build_tracking(cfg)
     if run_id is None or not settings.enabled:
         return
-    client = tracking._client(settings)
+    client = runs._client(settings)
     client.log_metric(run_id, "dataset_n_drawn", design.n_drawn)
     client.log_metric(run_id, "dataset_n_dropped", sum(design.dropped.values()))
     client.log_metric(run_id, "dataset_n_kept", len(design.scenes))

@@ -22,7 +22,7 @@ from dsmv.surrogate.features import FeatureSet, feature_set
 
 
 def scene_table(scenes) -> pd.DataFrame:
-    """Validated :class:`~dsmv.scene.Scene` objects → a dataset-style table (one row each, SI)."""
+    """Validated :class:`~dsmv.config.scene.Scene` objects → a dataset-style table (one row each, SI)."""
     rows = []
     for scene in scenes:
         landing, body, soil = scene.landing, scene.geometry, scene.soil
@@ -65,7 +65,7 @@ def load_registered(name: str, tracking_uri: str, version: str = "latest") -> Tr
     import mlflow
     from mlflow.models import get_model_info
 
-    from dsmv.run_writer import resolve_uri
+    from dsmv.tracking.run_writer import resolve_uri
 
     from dsmv.surrogate.serving import load_estimator
 

@@ -47,7 +47,7 @@ from omegaconf import DictConfig, OmegaConf
 from pydantic import Field
 
 from dsmv.errors import ConfigError, DsmvError
-from dsmv.scene import Count, Number, Schema, _validate, build_scene, build_tracking
+from dsmv.config.scene import Count, Number, Schema, _validate, build_scene, build_tracking
 from dsmv.surrogate.dataset import COLUMNS, PARAMETERS
 from dsmv.surrogate.intervals import CALIBRATION_FILE, SCORES, BinnedScale, ScoreScale, residual_quantile
 from dsmv.surrogate.inverse import GOALS, TASK_PARAMETERS, InverseResult, solve_inverse
@@ -193,7 +193,7 @@ def load_predictor(name: str, tracking_uri: str, version: str = "latest") -> Pre
     from mlflow.tracking import MlflowClient
 
     from dsmv.surrogate.model import load_registered
-    from dsmv.run_writer import resolve_uri, store_missing
+    from dsmv.tracking.run_writer import resolve_uri, store_missing
 
     if store_missing(tracking_uri):
         raise PredictError(f"no MLflow store at {tracking_uri}: train a surrogate first (dsmv-train), "
@@ -589,7 +589,7 @@ def main() -> None:
     """``dsmv-predict`` (console script: ``dsmv-predict = "dsmv.surrogate.predict:main"``)."""
     import hydra
 
-    from dsmv.command_line import CONFIG_DIR, check_group_choices
+    from dsmv.app.command_line import CONFIG_DIR, check_group_choices
 
     check_group_choices(sys.argv[1:], PROG)
     hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="predict")(predict)()

@@ -27,7 +27,7 @@ from pydantic import Field
 
 from dsmv import registry
 from dsmv.errors import ConfigError
-from dsmv.scene import Count, Number, Schema, _resolve, _validate, build_tracking
+from dsmv.config.scene import Count, Number, Schema, _resolve, _validate, build_tracking
 from dsmv.surrogate import evaluate
 from dsmv.surrogate.base import Surrogate, SurrogateConfig
 from dsmv.surrogate.dataset import PARAMETERS, TARGET_METRIC, Dataset, DatasetError, load_dataset
@@ -259,11 +259,11 @@ def log_to_mlflow(result: Training, cfg: DictConfig, files: list[Path]) -> dict[
     """One MLflow run: params, metrics, dataset hash, files, and the model (registered)."""
     import mlflow
 
-    from dsmv import tracking
+    from dsmv.tracking import runs
     from dsmv.surrogate.serving import scene_frame
 
     settings = build_tracking(cfg)
-    client = tracking._client(settings)
+    client = runs._client(settings)
     experiment_id = tracking._experiment_id(client, tracking.experiment_name(result.settings.experiment),
                                             settings.artifact_location)
     mlflow.set_tracking_uri(client.tracking_uri)
@@ -272,7 +272,7 @@ def log_to_mlflow(result: Training, cfg: DictConfig, files: list[Path]) -> dict[
             "dsmv.status": "ok"}
     run_name = f"{result.config.name} {result.features.name} on {result.dataset.study}"
     with mlflow.start_run(experiment_id=experiment_id, run_name=run_name, tags=tags) as run:
-        params = tracking.flatten({"train": result.settings.model_dump(), "surrogate": result.config.model_dump(),
+        params = runs.flatten({"train": result.settings.model_dump(), "surrogate": result.config.model_dump(),
                                    "best": result.best_params})
         params["dataset_hash"] = result.dataset.content_hash
         mlflow.log_params({k: v[:6000] for k, v in params.items()})
@@ -332,7 +332,7 @@ def main(cfg: DictConfig) -> None:
     from hydra.core.hydra_config import HydraConfig
 
     from dsmv.errors import DsmvError
-    from dsmv.runner import fail_user_error
+    from dsmv.app.runner import fail_user_error
 
     run_dir = Path(HydraConfig.get().runtime.output_dir)
     try:

@@ -21,17 +21,17 @@ def _hydra_main(task, config_name: str):
     """``task`` as a Hydra main over dsmv's config tree."""
     import hydra
 
-    from dsmv.command_line import CONFIG_DIR
+    from dsmv.app.command_line import CONFIG_DIR
 
     return hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name=config_name)(task)
 
 
 def _simulate_job(cfg: DictConfig) -> float:
-    """One job; returns its objective (dsmv.objective), the number an optimising sweeper minimises."""
+    """One job; returns its objective (dsmv.config.objective), the number an optimising sweeper minimises."""
     from omegaconf import OmegaConf
 
-    from dsmv.objective import objective_config, objective_value
-    from dsmv.runner import run_job
+    from dsmv.config.objective import objective_config, objective_value
+    from dsmv.app.runner import run_job
 
     result = run_job(cfg)
     config = OmegaConf.to_container(cfg, resolve=True)
@@ -47,16 +47,16 @@ def simulate() -> None:
     """``dsmv``: run one scene, or a sweep with ``-m``."""
     import os
 
-    # MLflow's messages go to the job's log (dsmv.joblog), not to a console handler of MLflow's own
+    # MLflow's messages go to the job's log (dsmv.app.joblog), not to a console handler of MLflow's own
     os.environ.setdefault("MLFLOW_CONFIGURE_LOGGING", "false")
     args = sys.argv[1:]
     if not set(args) & INFO_FLAGS and "tracking=disabled" not in args:
-        from dsmv.run_writer import writer
+        from dsmv.tracking.run_writer import writer
 
         # first of all: MLflow's import (2-3 s) runs on the other core while the command line is
         # checked, Hydra composes and the job solves; a command line refused below closes it unused
         writer()
-    from dsmv.command_line import check_command_line
+    from dsmv.app.command_line import check_command_line
 
     registry.register_plugin_configs()
     try:
@@ -81,7 +81,7 @@ def _train_job(cfg: DictConfig) -> None:
 def train() -> None:
     """``dsmv-train``: train and evaluate a surrogate on a study's tracked runs."""
     registry.register_plugin_configs()
-    from dsmv.command_line import check_command_line
+    from dsmv.app.command_line import check_command_line
 
     check_command_line(sys.argv[1:], "dsmv-train", "train")
     _hydra_main(_train_job, "train")()
@@ -99,7 +99,7 @@ def list_plugins(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     if args.new:
         from dsmv.errors import ConfigError
-        from dsmv.template import KINDS, write_package
+        from dsmv.app.template import KINDS, write_package
 
         if len(args.new) != 3 or args.new[0] != "new" or args.new[1] not in KINDS:
             parser.error(f"expected: dsmv-plugins new {{{'|'.join(KINDS)}}} NAME")

@@ -18,7 +18,7 @@ Writes ``bench.md`` (the tables), ``bench.csv`` (every run) and ``bench.png`` un
 ``--out`` (default ``runs/bench``). ``--quick`` runs a short version (coarser levels, one
 repeat) in under three minutes; ``--3d`` the 3D solver's throughput, threads, cold start and
 memory per cell instead (``bench_3d.md``); ``--sweeps`` what tracking and the launchers cost a job
-(:mod:`dsmv.bench_sweeps`).
+(:mod:`dsmv.verify.bench_sweeps`).
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dsmv import canonical
+from dsmv.verify import canonical
 from dsmv.analytic.bearing import PRANDTL_NC
 
 #: the Prandtl case: the canonical verification scene (conf/experiment/verify_prandtl.yaml: a rough
@@ -111,8 +111,8 @@ def compose_scene(overrides: list[str]):
     from hydra import compose, initialize_config_dir
     from hydra.core.global_hydra import GlobalHydra
 
-    from dsmv.command_line import CONFIG_DIR
-    from dsmv.scene import build_scene
+    from dsmv.app.command_line import CONFIG_DIR
+    from dsmv.config.scene import build_scene
 
     from dsmv.registry import register_plugin_configs
 
@@ -156,7 +156,7 @@ def solver_fingerprint(overrides: list[str]) -> str:
     import hashlib
 
     digest = hashlib.sha256()
-    for source in sorted((Path(__file__).parent / "cel").glob("*.py")):
+    for source in sorted((Path(__file__).resolve().parents[1] / "cel").glob("*.py")):
         digest.update(source.read_bytes())
     digest.update(compose_scene(overrides).config_hash.encode())
     return digest.hexdigest()[:16]
@@ -221,7 +221,7 @@ def in_subprocess(overrides: list[str], env: dict) -> dict:
 
 def economies(plan: Plan) -> list[dict]:
     """Each economy off and on in the same run: speed-up (off/on wall time) and result change."""
-    from dsmv.scene import OutputConfig
+    from dsmv.config.scene import OutputConfig
 
     cell = [f"mesh.cell_size_m={plan.knob_cell_m}"]
     cases = [
@@ -452,7 +452,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--quick", action="store_true", help="a short version (under three minutes)")
     parser.add_argument("--out", default="runs/bench", help="output folder (default runs/bench)")
     parser.add_argument("--regression", metavar="FILE", help="instead: every metric of the regression scenes "
-                        "(dsmv.regression) into FILE (JSON; scenes already there are kept)")
+                        "(dsmv.verify.regression) into FILE (JSON; scenes already there are kept)")
     parser.add_argument("--against", metavar="REF", help="with --regression: compare with a file written before")
     parser.add_argument("--scenes", nargs="*", help="with --regression: only these scenes")
     parser.add_argument("--3d", dest="solid", action="store_true", help="instead: the 3D solver's throughput, "
@@ -461,12 +461,12 @@ def main(argv: list[str] | None = None) -> None:
                         "cost a job (bench_sweeps.md under --out)")
     args = parser.parse_args(argv)
     if args.sweeps:
-        from dsmv import bench_sweeps
+        from dsmv.verify import bench_sweeps
 
         bench_sweeps.main(Path(args.out), args.quick)
         return
     if args.regression:
-        from dsmv import regression
+        from dsmv.verify import regression
 
         os.environ.setdefault("NUMBA_NUM_THREADS", "1")
         results = regression.write(Path(args.regression), args.scenes)

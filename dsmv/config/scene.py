@@ -270,7 +270,7 @@ class MeshConfig(Schema):
 
 
 class OutputConfig(Schema):
-    """What a run writes besides result.json and the history CSV (see :mod:`dsmv.fields`)."""
+    """What a run writes besides result.json and the history CSV (see :mod:`dsmv.post.fields`)."""
 
     plots: bool = Field(True, description="history.png; with fields, the contour PNG too")
     fields: bool = Field(False, description="CEL: fields.pvd and fields/*.vtu for ParaView")
@@ -391,14 +391,14 @@ def build_scene(cfg: DictConfig | dict) -> Scene:
 
     output = _validate(OutputConfig, container.get("output", {}), "output")
     study = str(container.get("study", "default"))
-    from dsmv.plots import SWEEP_PLOTS
+    from dsmv.post.plots import SWEEP_PLOTS
 
     if not isinstance(container.get("resume", False), bool):
         raise ConfigError("resume", container["resume"], "must be true or false")
     if container.get("sweep_plot") not in (None, *SWEEP_PLOTS):
         raise ConfigError("sweep_plot", container["sweep_plot"], f"must be null or one of {', '.join(SWEEP_PLOTS)}")
 
-    from dsmv.objective import objective_config
+    from dsmv.config.objective import objective_config
 
     objective_config(container)  # not part of the scene either: a wrong objective fails before the run
     build_tracking(cfg)  # not part of the scene, but a wrong store fails here too

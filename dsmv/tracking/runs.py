@@ -10,7 +10,7 @@ whatever its physics status; FAILED means the code raised.
 A multirun gets one parent run, opened by :class:`MlflowSweepCallback` before the jobs
 start; each job's run, in whatever process a launcher puts it, is tagged with its
 ``mlflow.parentRunId`` from the sweep dir (nested runs only work within one process).
-The runs are written by a writer process beside the solve (:mod:`dsmv.run_writer`), through
+The runs are written by a writer process beside the solve (:mod:`dsmv.tracking.run_writer`), through
 ``MlflowClient`` with explicit run ids: no global "active run" state.
 """
 
@@ -29,9 +29,9 @@ from hydra.experimental.callback import Callback
 from omegaconf import DictConfig, OmegaConf
 
 from dsmv.results import HISTORY_COLUMNS, SolveResult
-from dsmv.run_writer import experiment_id as _experiment_id
-from dsmv.run_writer import for_job, open_client, resolve_uri, serve_sweep
-from dsmv.scene import TrackingConfig, build_tracking
+from dsmv.tracking.run_writer import experiment_id as _experiment_id
+from dsmv.tracking.run_writer import for_job, open_client, resolve_uri, serve_sweep
+from dsmv.config.scene import TrackingConfig, build_tracking
 
 PARENT_RUN_FILE = "mlflow_parent_run.json"
 #: how many jobs a sweep has, in its sweep dir (written before they start), for the jobs' progress
@@ -80,7 +80,7 @@ def _git_sha(package_dir: Path | None = None) -> str | None:
     None when dsmv's package directory is not tracked by a git checkout: installed from a wheel,
     including into a virtualenv that happens to sit inside some repository's work tree.
     """
-    package_dir = Path(package_dir or Path(__file__).resolve().parent)
+    package_dir = Path(package_dir or Path(__file__).resolve().parents[1])
     env = {k: v for k, v in os.environ.items() if k not in ("GIT_DIR", "GIT_WORK_TREE")}
     git = ["git", "-C", str(package_dir)]
     try:
@@ -97,7 +97,7 @@ def _git_sha(package_dir: Path | None = None) -> str | None:
 
 
 class JobTracker:
-    """The MLflow run of one job, written by this process's writer (:mod:`dsmv.run_writer`): MLflow's
+    """The MLflow run of one job, written by this process's writer (:mod:`dsmv.tracking.run_writer`): MLflow's
     import and store set-up overlap the solve. ``run_id`` waits for the run to exist; an error of the
     store is raised there or in :meth:`finish`."""
 
@@ -263,10 +263,10 @@ _parent_runs: dict = {}
 
 class MlflowSweepCallback(Callback):
     """Hydra callback owning a multirun's parent MLflow run, its summary, its log (SWEEP_LOG_FILE) and
-    its signal handling (dsmv.interrupts)."""
+    its signal handling (dsmv.app.interrupts)."""
 
     def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
-        from dsmv.interrupts import SweepSignals
+        from dsmv.app.interrupts import SweepSignals
 
         sweep_dir = Path(str(config.hydra.sweep.dir))
         sweep_dir.mkdir(parents=True, exist_ok=True)
@@ -301,7 +301,7 @@ class MlflowSweepCallback(Callback):
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
         """Summarise the sweep, close its parent run, print the tally and exit with the code of its
         worst job (:func:`sweep_exit_code`)."""
-        from dsmv.interrupts import interrupted
+        from dsmv.app.interrupts import interrupted
 
         sweep_dir = Path(str(config.hydra.sweep.dir))
         if getattr(self, "signals", None) is not None:
@@ -333,10 +333,10 @@ class MlflowSweepCallback(Callback):
 
 
 def _sweep_log(sweep_dir: Path | None, config: DictConfig | None = None) -> None:
-    """Log the sweep's main process into SWEEP_LOG_FILE (dsmv.joblog.SweepLogHandler), Python warnings
+    """Log the sweep's main process into SWEEP_LOG_FILE (dsmv.app.joblog.SweepLogHandler), Python warnings
     included; with ``config``, first give the process Hydra's logging back (jobs the basic launcher ran
     here reconfigured it for theirs)."""
-    from dsmv.joblog import log_sweep_to, replay_early_output
+    from dsmv.app.joblog import log_sweep_to, replay_early_output
 
     if config is not None:
         from hydra.core.utils import configure_log
@@ -345,13 +345,13 @@ def _sweep_log(sweep_dir: Path | None, config: DictConfig | None = None) -> None
     log_sweep_to(Path(sweep_dir) / SWEEP_LOG_FILE if sweep_dir is not None else None)
     logging.captureWarnings(sweep_dir is not None)
     if sweep_dir is not None:
-        replay_early_output()  # what the command line's checks met (dsmv.command_line.check_command_line)
+        replay_early_output()  # what the command line's checks met (dsmv.app.command_line.check_command_line)
 
 
 def abort_sweep(reason: str) -> Path | None:
     """The sweep in this process was aborted (a second signal): close its parent MLflow run and its jobs'
     runs still RUNNING as KILLED, mark it interrupted, summarise what finished. Returns its dir, or None."""
-    from dsmv.interrupts import mark
+    from dsmv.app.interrupts import mark
 
     sweep_dir, config = _active_sweep.get("sweep_dir"), _active_sweep.get("config")
     _active_sweep.clear()
@@ -396,7 +396,7 @@ def sweep_plot(config: DictConfig, sweep_dir: Path) -> Path | None:
     name = config.get("sweep_plot")
     if not name:
         return None
-    from dsmv.plots import SWEEP_PLOTS
+    from dsmv.post.plots import SWEEP_PLOTS
 
     return SWEEP_PLOTS[name](sweep_dir, sweep_dir / f"{name}.png")
 
@@ -405,7 +405,7 @@ def summarize_sweep(sweep_dir: Path) -> list[dict]:
     """Collect every job's result.json below a sweep dir into ``sweep_summary.csv``."""
     import csv
 
-    from dsmv.studies import sweep_jobs
+    from dsmv.post.studies import sweep_jobs
 
     rows = []
     for job in sweep_jobs(sweep_dir):

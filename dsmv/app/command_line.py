@@ -12,7 +12,7 @@ from pathlib import Path
 from hydra.core.plugins import Plugins
 from omegaconf import DictConfig, OmegaConf
 
-import dsmv.scene  # noqa: F401  (registers the OmegaConf resolvers used by conf/)
+import dsmv.config.scene  # noqa: F401  (registers the OmegaConf resolvers used by conf/)
 from dsmv import registry
 from hydra_plugins.dsmv_launcher import submitit_launchers
 from hydra_plugins.dsmv_sweeper.case_sweeper import CaseSweeper
@@ -31,7 +31,7 @@ def find_config_dir() -> Path:
     pyproject.toml maps the checkout's top-level ``conf/`` into the wheel as the package data
     ``dsmv/conf``; an editable install or a plain checkout reads ``conf/`` beside the package.
     """
-    package = Path(__file__).resolve().parent
+    package = Path(__file__).resolve().parents[1]
     for candidate in (package / "conf", package.parent / "conf"):
         if (candidate / "config.yaml").is_file():
             return candidate
@@ -71,7 +71,7 @@ def check_group_choices(argv: list[str], program: str, config_dir: str = CONFIG_
     and sweep functions (``range(…)``) are left to Hydra.
     """
     from dsmv.errors import ConfigError
-    from dsmv.runner import fail_user_error
+    from dsmv.app.runner import fail_user_error
 
     roots = config_roots(argv, config_dir)
     for arg in argv:
@@ -99,13 +99,13 @@ def check_command_line(argv: list[str], program: str, config_name: str = "config
 
     On top of :func:`check_group_choices`: an override Hydra cannot parse; an unknown key, with or
     without ``+`` (the closest valid key is suggested); a sweep (``a,b``) without ``-m``; for ``dsmv``
-    (``scene=True``) a single run's whole scene, validated as the job would (dsmv.scene.build_scene,
+    (``scene=True``) a single run's whole scene, validated as the job would (dsmv.config.scene.build_scene,
     the solver's cost guard included); and ``paths.runs_dir`` and the run or sweep dir Hydra is about
     to create, which must be creatable. Flags that only show something (``--help``, ``--cfg``,
     ``--info`` ...) and other config dirs or names are left to Hydra. Warnings and log records raised
-    meanwhile are kept for the job's log (:func:`dsmv.joblog.keep_early_output`), not printed.
+    meanwhile are kept for the job's log (:func:`dsmv.app.joblog.keep_early_output`), not printed.
     """
-    from dsmv.joblog import keep_early_output
+    from dsmv.app.joblog import keep_early_output
 
     check_group_choices(argv, program, config_dir)
     if "--version" in argv:
@@ -150,7 +150,7 @@ def _check_overrides(args, program: str, config_name: str, scene: bool, config_d
     from omegaconf.errors import OmegaConfBaseException
 
     from dsmv.errors import ConfigError, DsmvError
-    from dsmv.runner import fail_user_error
+    from dsmv.app.runner import fail_user_error
 
     setup_globals()  # ${now:...} in hydra.run.dir
     GlobalHydra.instance().clear()
@@ -206,7 +206,7 @@ def _check_overrides(args, program: str, config_name: str, scene: bool, config_d
             # one job's config: every override, the first choice of each sweep
             cfg = cfg if cfg is not None else composed(variants[0] + one_job)
             if scene and not multirun:
-                from dsmv.scene import build_scene
+                from dsmv.config.scene import build_scene
 
                 try:
                     build_scene(cfg)
@@ -233,7 +233,7 @@ def _is_group(o, loader) -> bool:
 def _check_choices(o, loader, program: str) -> None:
     """Hydra's own groups (``hydra/launcher=jobib``): an unknown option in one line, as for conf/'s."""
     from dsmv.errors import ConfigError
-    from dsmv.runner import fail_user_error
+    from dsmv.app.runner import fail_user_error
 
     if o.is_delete() or "/" not in o.key_or_group or not (o.is_choice_sweep() or not o.is_sweep_override()):
         return
@@ -292,7 +292,7 @@ def _check_key(o, tree, known: set[str], scene: bool, program: str) -> None:
     ``surrogate.params``); for ``dsmv``, a key of a solver plugin whose config model allows extra keys.
     """
     from dsmv.errors import ConfigError
-    from dsmv.runner import fail_user_error
+    from dsmv.app.runner import fail_user_error
 
     key = o.key_or_group
     if key in known:
@@ -337,7 +337,7 @@ def _check_output_dirs(cfg, multirun: bool, program: str) -> None:
     """``paths.runs_dir`` and the run (sweep) dir Hydra will create must be directories dsmv can create
     and write in; checked without creating anything (a refused run leaves nothing behind)."""
     from dsmv.errors import ConfigError
-    from dsmv.runner import fail_user_error
+    from dsmv.app.runner import fail_user_error
 
     for key in ("paths.runs_dir", "hydra.sweep.dir" if multirun else "hydra.run.dir"):
         try:

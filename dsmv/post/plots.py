@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dsmv import studies
+from dsmv.post import studies
 
 HISTORY_PLOT_FILE = "history.png"
 
@@ -206,13 +206,13 @@ def plot_field_contours(frame_path: Path, path: Path, title: str, flow_frame_pat
     grid's uniform core. Velocity: the mean of a cell's four nodal velocities, with arrows.
     ``flow_frame_path``: a frame whose velocity field is shown too, in the same window (at
     the deepest point a landing body is at rest and the soil's velocity is what rings on;
-    the mechanism shows while it still moves). Reads VTU frames written by :mod:`dsmv.fields`.
+    the mechanism shows while it still moves). Reads VTU frames written by :mod:`dsmv.post.fields`.
 
     A 3D frame is drawn on its symmetry planes: the cross-section (x, z) at ``path`` and, for a
     plate, the longitudinal section (y, z) beside it (:data:`LONGITUDINAL_SUFFIX`). Returns the
     figures written.
     """
-    from dsmv.fields import read_frame
+    from dsmv.post.fields import read_frame
 
     frame = read_frame(frame_path)
     flow = [] if flow_frame_path is None else [read_frame(flow_frame_path)]

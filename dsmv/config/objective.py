@@ -22,7 +22,7 @@ from typing import Any, Optional
 
 from pydantic import Field
 
-from dsmv.scene import Number, Schema, _validate
+from dsmv.config.scene import Number, Schema, _validate
 
 #: the objective that is not a metric of result.json but the scene's area with its penalty
 CONTACT_AREA = "contact_area_m2"
