@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from dsmv.config import tree
 from dsmv.soil_law import SoilLaw
 
 #: the sampled states: ξ (-) uniform on [0, XI_MAX], γ̇ (1/s) log-uniform over RATE_DECADES
@@ -33,27 +34,13 @@ RATE_DECADES = (-9.0, 3.0)
 
 def compose_scene(*overrides: str):
     """The validated scene of the default config with ``overrides`` (Hydra syntax, as on the command line)."""
-    from dsmv.verify.bench import compose_scene as compose
-
-    return compose([*overrides, "tracking=disabled"])
+    return tree.compose_scene([*overrides, "tracking=disabled"])
 
 
 def compose_config(config_name: str, *overrides: str):
     """The composed (unvalidated) config ``config_name`` (``config``: a scene, ``train``: a surrogate's
     training) with ``overrides``, the plugin packages' config groups on the search path."""
-    from hydra import compose, initialize_config_dir
-    from hydra.core.global_hydra import GlobalHydra
-
-    from dsmv.app.command_line import CONFIG_DIR
-    from dsmv.registry import register_plugin_configs
-
-    register_plugin_configs()
-    GlobalHydra.instance().clear()
-    try:
-        with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):
-            return compose(config_name, overrides=list(overrides))
-    finally:
-        GlobalHydra.instance().clear()
+    return tree.compose(config_name, list(overrides))
 
 
 def make_law(name: str, *overrides: str) -> SoilLaw:

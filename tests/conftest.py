@@ -12,7 +12,7 @@ import pytest
 from hydra import compose, initialize_config_dir
 from hydra.core.global_hydra import GlobalHydra
 
-from dsmv.app.command_line import CONFIG_DIR
+from dsmv.config.tree import CONFIG_DIR
 
 BIN = Path(sys.executable).parent
 CONF = Path(CONFIG_DIR)

@@ -61,7 +61,7 @@ def small_strain_prandtl():
     from hydra import compose, initialize_config_dir
     from hydra.core.global_hydra import GlobalHydra
 
-    from dsmv.app.command_line import CONFIG_DIR
+    from dsmv.config.tree import CONFIG_DIR
 
     out = {}
     for h in (0.1, 0.05):

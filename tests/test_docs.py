@@ -144,7 +144,7 @@ def test_every_documented_command_composes(where, line, tmp_path, monkeypatch, c
         from hydra import compose, initialize_config_dir
         from hydra.core.global_hydra import GlobalHydra
 
-        from dsmv.app.command_line import CONFIG_DIR
+        from dsmv.config.tree import CONFIG_DIR
         from dsmv.surrogate.predict import settings_from
 
         GlobalHydra.instance().clear()

@@ -126,7 +126,7 @@ def test_a_compilation_after_numba_came_first_writes_the_keyed_dir(tmp_path):
 PROBE = """
 import json
 from hydra import compose, initialize_config_dir
-from dsmv.app.command_line import CONFIG_DIR
+from dsmv.config.tree import CONFIG_DIR
 from dsmv.config.scene import build_scene
 from dsmv.cel import stepper
 from dsmv.cel.kernels import nodes, plane, remap2d

@@ -16,7 +16,7 @@ from hydra import compose, initialize_config_dir
 from hydra.core.global_hydra import GlobalHydra
 from omegaconf import OmegaConf
 
-from dsmv.app.command_line import CONFIG_DIR
+from dsmv.config.tree import CONFIG_DIR
 from dsmv.errors import ConfigError
 from dsmv.surrogate.dataset import PARAMETERS, TARGET_METRIC
 from dsmv.surrogate.features import LeakFreeFeatures, target

@@ -100,7 +100,7 @@ def base_scene():
     from hydra.core.global_hydra import GlobalHydra
     from omegaconf import OmegaConf
 
-    from dsmv.app.command_line import CONFIG_DIR
+    from dsmv.config.tree import CONFIG_DIR
 
     GlobalHydra.instance().clear()
     with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):
@@ -262,7 +262,7 @@ def legal_bases():
     from hydra.core.global_hydra import GlobalHydra
     from omegaconf import OmegaConf
 
-    from dsmv.app.command_line import CONFIG_DIR
+    from dsmv.config.tree import CONFIG_DIR
 
     bases = {}
     for solver, extra in (("analytic_energy", []), ("cel2d", TINY_CEL)):

@@ -368,7 +368,7 @@ def test_the_template_refuses_a_name_that_is_not_an_identifier(run_cli, tmp_path
 @pytest.mark.parametrize("how", ["--config-dir", "hydra.searchpath"])
 def test_a_profile_in_a_config_dir_of_ones_own_is_a_soil_option(run_cli, tmp_path, how):
     """Hydra's own ways to add configs: the option is found, not refused as 'not a soil option'."""
-    from dsmv.app.command_line import CONFIG_DIR
+    from dsmv.config.tree import CONFIG_DIR
 
     folder = tmp_path / "my_conf" / "soil"
     folder.mkdir(parents=True)

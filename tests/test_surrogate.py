@@ -496,7 +496,7 @@ def test_full_study_trains_on_the_table3_dataset(surrogate, features):
 
     from dsmv.surrogate.train import fit_and_evaluate, settings_from
     from dsmv import registry
-    from dsmv.app.command_line import CONFIG_DIR
+    from dsmv.config.tree import CONFIG_DIR
 
     store = Path(__file__).resolve().parent.parent / "runs" / "mlflow.db"  # the checkout's local store
     if not store.exists():

@@ -23,11 +23,11 @@ SOURCES = ("pyproject.toml", "README.md", "dsmv", "plugins", "hydra_plugins", "c
 
 RUN_FROM_WHEEL = """
 import sys
-import dsmv, dsmv.app.cli, dsmv.app.command_line
+import dsmv, dsmv.app.cli, dsmv.config.tree
 print("dsmv from", dsmv.__file__, file=sys.stderr)
-print("config from", dsmv.app.command_line.CONFIG_DIR, file=sys.stderr)
+print("config from", dsmv.config.tree.CONFIG_DIR, file=sys.stderr)
 assert dsmv.__file__.startswith(sys.argv[1]), dsmv.__file__
-assert dsmv.app.command_line.CONFIG_DIR.startswith(sys.argv[1]), dsmv.app.command_line.CONFIG_DIR
+assert dsmv.config.tree.CONFIG_DIR.startswith(sys.argv[1]), dsmv.config.tree.CONFIG_DIR
 sys.argv = ["dsmv", *sys.argv[2:]]
 dsmv.app.cli.simulate()
 """

@@ -21,7 +21,7 @@ def _hydra_main(task, config_name: str):
     """``task`` as a Hydra main over dsmv's config tree."""
     import hydra
 
-    from dsmv.app.command_line import CONFIG_DIR
+    from dsmv.config.tree import CONFIG_DIR
 
     return hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name=config_name)(task)
 

@@ -1,7 +1,7 @@
 """What every entry point (``dsmv``, ``dsmv-train``, ``dsmv-predict``) composes with, and the command
-line's checks before Hydra composes: the config tree, dsmv's own sweeper, which group choices and
-keys a command names, whether its output folders can be written. A mistake is one line naming the
-key, exit code 2."""
+line's checks before Hydra composes: dsmv's own sweeper and launchers, which group choices and keys a
+command names, whether its output folders can be written. A mistake is one line naming the key, exit
+code 2. The config tree itself is :mod:`dsmv.config.tree`'s."""
 
 from __future__ import annotations
 
@@ -12,34 +12,15 @@ from pathlib import Path
 from hydra.core.plugins import Plugins
 from omegaconf import DictConfig, OmegaConf
 
-import dsmv.config.scene  # noqa: F401  (registers the OmegaConf resolvers used by conf/)
 from dsmv import registry
+from dsmv.config.tree import CONFIG_DIR  # (with dsmv's case sweeper registered, and conf/'s resolvers)
 from hydra_plugins.dsmv_launcher import submitit_launchers
-from hydra_plugins.dsmv_sweeper.case_sweeper import CaseSweeper
 
-# Hydra finds sweepers and launchers by walking the hydra_plugins namespace, which an editable
-# install does not expose to that walk: register ours by hand (a no-op when Hydra found them).
-Plugins.instance().register(CaseSweeper)
+# Hydra finds launchers by walking the hydra_plugins namespace, which an editable install does not
+# expose to that walk: register ours by hand (a no-op when Hydra found them).
 if submitit_launchers.plugin is not None:  # dsmv_local and dsmv_slurm need dsmv[cluster]
     Plugins.instance().register(submitit_launchers.LocalLauncher)
     Plugins.instance().register(submitit_launchers.SlurmLauncher)
-
-
-def find_config_dir() -> Path:
-    """The Hydra config tree: ``dsmv/conf`` in an installed wheel, else ``conf/`` of the source checkout.
-
-    pyproject.toml maps the checkout's top-level ``conf/`` into the wheel as the package data
-    ``dsmv/conf``; an editable install or a plain checkout reads ``conf/`` beside the package.
-    """
-    package = Path(__file__).resolve().parents[1]
-    for candidate in (package / "conf", package.parent / "conf"):
-        if (candidate / "config.yaml").is_file():
-            return candidate
-    raise FileNotFoundError(f"no Hydra config tree (conf/config.yaml) in {package} or beside it")
-
-
-#: the Hydra config tree every entry point composes from
-CONFIG_DIR = str(find_config_dir())
 
 
 def config_roots(argv: list[str], config_dir: str = CONFIG_DIR) -> list[Path]:

@@ -112,6 +112,6 @@ def solver_defaults(name: str) -> dict:
 
     from omegaconf import OmegaConf
 
-    from dsmv.app.command_line import CONFIG_DIR
+    from dsmv.config.tree import CONFIG_DIR
 
     return OmegaConf.to_container(OmegaConf.load(Path(CONFIG_DIR) / "solver" / f"{name}.yaml"), resolve=True)

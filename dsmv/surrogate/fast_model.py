@@ -31,7 +31,7 @@ FITTED = ("depth_coefficient", "strain_coefficient", "drag_coefficient")
 
 @lru_cache(maxsize=1)
 def _default_scene():
-    from dsmv.verify.bench import compose_scene
+    from dsmv.config.tree import compose_scene
 
     return compose_scene(["tracking=disabled", "solver=analytic_dynamic"])
 

@@ -589,7 +589,8 @@ def main() -> None:
     """``dsmv-predict`` (console script: ``dsmv-predict = "dsmv.surrogate.predict:main"``)."""
     import hydra
 
-    from dsmv.app.command_line import CONFIG_DIR, check_group_choices
+    from dsmv.app.command_line import check_group_choices
+    from dsmv.config.tree import CONFIG_DIR
 
     check_group_choices(sys.argv[1:], PROG)
     hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="predict")(predict)()

@@ -150,7 +150,7 @@ def monte_carlo_cases(cfg) -> list[list[str]]:
     ``monte_carlo.seed``) from ``conf/uncertainty/<monte_carlo.uncertainty>.yaml``, each a job."""
     from omegaconf import OmegaConf
 
-    from dsmv.app.command_line import CONFIG_DIR
+    from dsmv.config.tree import CONFIG_DIR
 
     settings = OmegaConf.to_container(cfg.monte_carlo, resolve=True)
     path = Path(CONFIG_DIR) / "uncertainty" / f"{settings['uncertainty']}.yaml"

@@ -38,8 +38,9 @@ from pathlib import Path
 
 import numpy as np
 
-from dsmv.verify import canonical
 from dsmv.analytic.bearing import PRANDTL_NC
+from dsmv.config.tree import compose_scene
+from dsmv.verify import canonical
 
 #: the Prandtl case: the canonical verification scene (conf/experiment/verify_prandtl.yaml: a rough
 #: strip B = 1 m on weightless Tresca soil, su 10 kPa, E = 500·su, the soil free to part from its
@@ -104,24 +105,6 @@ class Row:
     zigzag: float = math.nan       # hourglass_mode_ratio: the zig-zag share of the velocity field (-)
     status: str = ""
     extra: dict = field(default_factory=dict)
-
-
-def compose_scene(overrides: list[str]):
-    """The validated scene of ``overrides``, composed from conf/ exactly as the CLI does."""
-    from hydra import compose, initialize_config_dir
-    from hydra.core.global_hydra import GlobalHydra
-
-    from dsmv.app.command_line import CONFIG_DIR
-    from dsmv.config.scene import build_scene
-
-    from dsmv.registry import register_plugin_configs
-
-    register_plugin_configs()
-    GlobalHydra.instance().clear()
-    with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):
-        cfg = compose("config", overrides=list(overrides))
-    GlobalHydra.instance().clear()
-    return build_scene(cfg)
 
 
 def solve(overrides: list[str], repeats: int, run_dir: Path | None = None) -> tuple[dict, str, list[float]]:

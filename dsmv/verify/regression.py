@@ -111,7 +111,7 @@ QUIET = ["tracking=disabled", "output.plots=false"]
 def run_scene(overrides: list[str]) -> dict:
     """One scene in this process: status, message and every metric but the timings."""
     from dsmv import registry
-    from dsmv.verify.bench import compose_scene
+    from dsmv.config.tree import compose_scene
 
     scene = compose_scene([*overrides, *QUIET])
     result = registry.load("solvers", scene.solver.name, "solver.name")(scene).solve()

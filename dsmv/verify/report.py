@@ -132,7 +132,7 @@ class Outcome:
 def run(check: Check, cell_m: float) -> Outcome:
     """The check's scene on core cells ``cell_m``, in this process (compile time not counted)."""
     from dsmv import registry
-    from dsmv.verify.bench import compose_scene
+    from dsmv.config.tree import compose_scene
 
     scene = compose_scene([*check.overrides, f"mesh.cell_size_m={cell_m}", "solver.progress=off", *QUIET])
     result = registry.load("solvers", scene.solver.name, "solver.name")(scene).solve()
