@@ -317,7 +317,7 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
     print(f"  outputs : {run_dir}")
     if tracker is not None:
         uri = tracker.uri
-        print(f"  MLflow  : {uri}  (experiment {tracking.experiment_name(scene.study)}, run {tracker.run_id})")
+        print(f"  MLflow  : {uri}  (experiment {runs.experiment_name(scene.study)}, run {tracker.run_id})")
         if uri.startswith("http"):
             print(f"  browse  : {uri}")
         else:

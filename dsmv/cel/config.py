@@ -12,7 +12,7 @@ from typing import Literal, Optional, Union
 
 from pydantic import Field, field_validator
 
-from dsmv.config.scene import Count, Number, Schema
+from dsmv.config.schema import Count, Number, Schema
 
 
 class Economies(Schema):

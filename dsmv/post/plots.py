@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dsmv.config.scene import SWEEP_PLOTS
 from dsmv.post import studies
 
 HISTORY_PLOT_FILE = "history.png"
@@ -109,8 +110,7 @@ def plot_fall_cone(sweep_dir: Path, path: Path) -> Path | None:
     return Path(path)
 
 
-#: sweep-level plots an experiment can ask for with ``sweep_plot: <name>``
-SWEEP_PLOTS = {
+_MAKERS = {
     "fall_cone": plot_fall_cone,
     "one_at_a_time": studies.one_at_a_time,
     "compare_analytic": studies.compare_analytic,
@@ -118,6 +118,9 @@ SWEEP_PLOTS = {
     "section_factors": studies.section_factors,
     "bearing_curves": studies.bearing_curves,
 }
+#: what draws each sweep-level plot an experiment can ask for (``sweep_plot: <name>``, one of
+#: :data:`dsmv.config.scene.SWEEP_PLOTS`): ``maker(sweep_dir, png_path)``
+SWEEP_PLOT_MAKERS = {name: _MAKERS[name] for name in SWEEP_PLOTS}
 
 
 FIELD_PLOT_FILE = "fields_max_sinkage.png"

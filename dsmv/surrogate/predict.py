@@ -47,7 +47,8 @@ from omegaconf import DictConfig, OmegaConf
 from pydantic import Field
 
 from dsmv.errors import ConfigError, DsmvError
-from dsmv.config.scene import Count, Number, Schema, _validate, build_scene, build_tracking
+from dsmv.config.scene import build_scene, build_tracking
+from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.surrogate.dataset import COLUMNS, PARAMETERS
 from dsmv.surrogate.intervals import CALIBRATION_FILE, SCORES, BinnedScale, ScoreScale, residual_quantile
 from dsmv.surrogate.inverse import GOALS, TASK_PARAMETERS, InverseResult, solve_inverse

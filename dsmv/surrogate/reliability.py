@@ -34,7 +34,7 @@ import pandas as pd
 from pydantic import Field
 
 from dsmv.errors import ConfigError
-from dsmv.config.scene import Count, Number, Schema, _validate
+from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.surrogate.dataset import COLUMNS
 
 

@@ -27,7 +27,8 @@ from pydantic import Field
 
 from dsmv import registry
 from dsmv.errors import ConfigError
-from dsmv.config.scene import Count, Number, Schema, _resolve, _validate, build_tracking
+from dsmv.config.scene import _resolve, build_tracking
+from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.surrogate import evaluate
 from dsmv.surrogate.base import Surrogate, SurrogateConfig
 from dsmv.surrogate.dataset import PARAMETERS, TARGET_METRIC, Dataset, DatasetError, load_dataset
@@ -259,13 +260,13 @@ def log_to_mlflow(result: Training, cfg: DictConfig, files: list[Path]) -> dict[
     """One MLflow run: params, metrics, dataset hash, files, and the model (registered)."""
     import mlflow
 
-    from dsmv.tracking import runs
     from dsmv.surrogate.serving import scene_frame
+    from dsmv.tracking import runs
+    from dsmv.tracking.run_writer import experiment_id as find_experiment
 
     settings = build_tracking(cfg)
     client = runs._client(settings)
-    experiment_id = tracking._experiment_id(client, tracking.experiment_name(result.settings.experiment),
-                                            settings.artifact_location)
+    experiment_id = find_experiment(client, runs.experiment_name(result.settings.experiment), settings.artifact_location)
     mlflow.set_tracking_uri(client.tracking_uri)
     tags = {"dsmv.study": result.dataset.study, "dsmv.role": "surrogate", "dsmv.surrogate": result.config.name,
             "dsmv.features": result.features.name, "dsmv.dataset_hash": result.dataset.content_hash,
@@ -286,7 +287,7 @@ def log_to_mlflow(result: Training, cfg: DictConfig, files: list[Path]) -> dict[
     if registered and version is not None:
         for key, value in (("feature_set", result.features.name), ("dataset_hash", result.dataset.content_hash)):
             client.set_model_version_tag(registered, str(version), key, value)
-    return {"uri": client.tracking_uri, "experiment": tracking.experiment_name(result.settings.experiment),
+    return {"uri": client.tracking_uri, "experiment": runs.experiment_name(result.settings.experiment),
             "run_id": run.info.run_id, "model": f"{registered} v{version}" if registered else info.model_uri}
 
 

@@ -29,7 +29,6 @@ from hydra.experimental.callback import Callback
 from omegaconf import DictConfig, OmegaConf
 
 from dsmv.results import HISTORY_COLUMNS, SolveResult
-from dsmv.tracking.run_writer import experiment_id as _experiment_id
 from dsmv.tracking.run_writer import for_job, open_client, resolve_uri, serve_sweep
 from dsmv.config.scene import TrackingConfig, build_tracking
 
@@ -396,9 +395,9 @@ def sweep_plot(config: DictConfig, sweep_dir: Path) -> Path | None:
     name = config.get("sweep_plot")
     if not name:
         return None
-    from dsmv.post.plots import SWEEP_PLOTS
+    from dsmv.post.plots import SWEEP_PLOT_MAKERS
 
-    return SWEEP_PLOTS[name](sweep_dir, sweep_dir / f"{name}.png")
+    return SWEEP_PLOT_MAKERS[name](sweep_dir, sweep_dir / f"{name}.png")
 
 
 def summarize_sweep(sweep_dir: Path) -> list[dict]:
