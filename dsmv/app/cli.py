@@ -73,9 +73,17 @@ def simulate() -> None:
 
 
 def _train_job(cfg: DictConfig) -> None:
-    from dsmv.surrogate.train import main
+    """One training; a user mistake ends in one line and exit status 2."""
+    from hydra.core.hydra_config import HydraConfig
 
-    main(cfg)
+    from dsmv.app.runner import fail_user_error
+    from dsmv.errors import DsmvError
+    from dsmv.surrogate.train import run_training
+
+    try:
+        run_training(cfg, Path(HydraConfig.get().runtime.output_dir))
+    except DsmvError as error:
+        fail_user_error(error, "dsmv-train")
 
 
 def train() -> None:
@@ -85,6 +93,16 @@ def train() -> None:
 
     check_command_line(sys.argv[1:], "dsmv-train", "train")
     _hydra_main(_train_job, "train")()
+
+
+def predict() -> None:
+    """``dsmv-predict``: sinkage of a scene from a registered surrogate with its interval, and the
+    inverse questions (:mod:`dsmv.surrogate.predict`)."""
+    from dsmv.app.command_line import check_group_choices
+    from dsmv.surrogate.predict import PROG, predict as predict_job
+
+    check_group_choices(sys.argv[1:], PROG)
+    _hydra_main(predict_job, "predict")()
 
 
 def list_plugins(argv: list[str] | None = None) -> None:

@@ -7,7 +7,7 @@ one batch per sweep, from what the store already holds for the study:
   same draw and energy-method filter as ``experiment=dataset_table3``);
 - while the study has fewer than ``active.initial`` ok runs, the batch is the hypercube's first
   ``active.initial`` candidates not yet run: a space-filling start;
-- after that, a random forest on the physics features (:class:`~dsmv.surrogate.features.PhysicsFeatures`)
+- after that, a random forest on the physics features (:class:`~dsmv.surrogate.fast_model.PhysicsFeatures`)
   is fitted to the tracked runs, and each candidate not yet run is scored by how much its z/B
   varies between the forest's trees (the ensemble's disagreement). The most disputed candidates
   crowd together (one batch of the 20 top-scored ones all sank 0.26–0.29 m), so the batch is
@@ -34,7 +34,8 @@ import pandas as pd
 from dsmv.errors import ConfigError
 from dsmv.surrogate.dataset import COLUMNS, DatasetError, load_dataset
 from dsmv.surrogate.design import DatasetConfig, block_values, table3_design
-from dsmv.surrogate.features import LeakFreeFeatures, PhysicsFeatures, target
+from dsmv.surrogate.fast_model import PhysicsFeatures
+from dsmv.surrogate.features import LeakFreeFeatures, target
 
 #: the forest that measures disagreement (its trees' spread) and scores the comparison
 FOREST = {"n_estimators": 200, "min_samples_leaf": 2}

@@ -26,13 +26,15 @@ from omegaconf import DictConfig
 from pydantic import Field
 
 from dsmv import registry
-from dsmv.errors import ConfigError
 from dsmv.config.scene import _resolve, build_tracking
 from dsmv.config.schema import Count, Number, Schema, _validate
+from dsmv.errors import ConfigError
 from dsmv.surrogate import evaluate
 from dsmv.surrogate.base import Surrogate, SurrogateConfig
 from dsmv.surrogate.dataset import PARAMETERS, TARGET_METRIC, Dataset, DatasetError, load_dataset
-from dsmv.surrogate.features import TARGET, FeatureSet, StudyFeatures, feature_set, target
+from dsmv.surrogate.fast_model import default_settings
+from dsmv.surrogate.features import TARGET, FeatureSet, StudyFeatures, target
+from dsmv.surrogate.model import feature_set
 
 METRICS_FILE = "metrics.json"
 SUMMARY_FILE = "summary.json"
@@ -108,8 +110,6 @@ class Training:
 def dataset_metadata(dataset: Dataset) -> dict:
     """What the feature sets take from the dataset: the physics set's fast model runs the law the
     dataset's runs shared."""
-    from dsmv.surrogate.fast_model import default_settings
-
     law = dataset.settings.get("soil.law") or "einav_randolph"
     return {"fast_model": default_settings() | {"law": law}}
 
@@ -328,19 +328,4 @@ def print_summary(result: Training, run_dir: Path, logged: dict, wall_s: float) 
           f"model {logged['model']})")
 
 
-def main(cfg: DictConfig) -> None:
-    """The body of the Hydra app: user mistakes end in one line and exit status 2."""
-    from hydra.core.hydra_config import HydraConfig
-
-    from dsmv.errors import DsmvError
-    from dsmv.app.runner import fail_user_error
-
-    run_dir = Path(HydraConfig.get().runtime.output_dir)
-    try:
-        run_training(cfg, run_dir)
-    except DsmvError as error:
-        fail_user_error(error, "dsmv-train")
-
-
-__all__ = ["run_training", "fit_and_evaluate", "Training", "TrainSettings", "main",
-           "METRICS_FILE"]
+__all__ = ["run_training", "fit_and_evaluate", "Training", "TrainSettings", "METRICS_FILE"]
