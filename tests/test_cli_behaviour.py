@@ -106,7 +106,7 @@ def test_the_estimate_is_kept_beside_the_wall_time(tmp_path):
 
 
 def test_a_sweep_exits_with_its_worst_job():
-    from dsmv.tracking.runs import sweep_exit_code
+    from dsmv.app.sweep import sweep_exit_code
 
     assert sweep_exit_code(["ok"] * 12 + ["bearing_failure", "failed"]) == ("12 ok, 1 bearing_failure, 1 failed", 1)
     assert sweep_exit_code(["ok", "bearing_failure"]) == ("1 ok, 1 bearing_failure", 0)  # an answer

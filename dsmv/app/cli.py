@@ -63,10 +63,10 @@ def simulate() -> None:
         check_command_line(args, "dsmv", "config", scene=True)
         _hydra_main(_simulate_job, "config")()
     except KeyboardInterrupt as exc:  # before a job started, or a sweep aborted by a second signal
-        from dsmv import tracking
+        from dsmv.app.sweep import abort_sweep
         from dsmv.results import EXIT_CODES
 
-        sweep_dir = tracking.abort_sweep(f"{exc or 'SIGINT'} again: the sweep was aborted")
+        sweep_dir = abort_sweep(f"{exc or 'SIGINT'} again: the sweep was aborted")
         print("dsmv: interrupted" + (f"; the sweep was aborted, its MLflow runs closed KILLED: {sweep_dir}"
                                      if sweep_dir else ""), file=sys.stderr)
         sys.exit(EXIT_CODES["interrupted"])
