@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from dsmv import registry
 from dsmv.config import tree
 from dsmv.soil_law import SoilLaw
 
@@ -46,8 +47,6 @@ def compose_config(config_name: str, *overrides: str):
 def make_law(name: str, *overrides: str) -> SoilLaw:
     """The installed law ``name`` (entry point in ``dsmv.soil_laws``) built on the default soil with
     ``overrides``, as the solvers build it."""
-    from dsmv import registry
-
     scene = compose_scene(f"soil.law={name}", *overrides)
     return registry.load("soil_laws", name, "soil.law")(scene.soil)
 
@@ -122,8 +121,6 @@ def check_surrogate(name: str, samples: int = 300, seed: int = 3, **params) -> N
     fits a smooth function of six features (R² ≥ 0.8 on its own training set), predicts finite
     values of the right shape, exposes one importance per feature with the informative ones
     first, and gives the same predictions when refitted with the same seed."""
-    from dsmv import registry
-
     cls = registry.load("surrogates", name, "surrogate.name")
     rng = np.random.default_rng(seed)
     x = rng.uniform(0.0, 1.0, (samples, 6))

@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import pytest
 
-from dsmv.verify import canonical
 from dsmv.cel.solver import Cel2DSolver
-from dsmv.errors import ConfigError
 from dsmv.config.scene import build_scene
+from dsmv.errors import ConfigError
+from dsmv.verify import canonical
 
 #: Prandtl's strip with the soil tied to its walls (dsmv.verify.canonical), small strain on B/10 cells
 STRIP = [*canonical.PRANDTL_BONDED, "solver.progress=off", "solver.remap=false", "solver.initial_travel_m=0.1",

@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 
 from dsmv import registry
-from dsmv.errors import ConfigError
 from dsmv.config.scene import build_scene
+from dsmv.errors import ConfigError
 
 #: a push in small strain, weightless Tresca soil su 10 kPa, E = 500·su (the strip's verification soil)
 SMALL_STRAIN_PUSH = ["landing=push", "soil.law=tresca", "soil.su0_pa=10000", "soil.ks_pa_per_m=0",

@@ -30,9 +30,9 @@ import pytest
 from omegaconf import OmegaConf
 
 from dsmv import registry
+from dsmv.config.scene import build_scene, build_tracking
 from dsmv.errors import ConfigError
 from dsmv.results import STATUSES
-from dsmv.config.scene import build_scene, build_tracking
 from tests.conftest import BIN, group_options
 
 #: what a run may end with; 'failed' means the code raised

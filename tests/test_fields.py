@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from dsmv import registry
-from dsmv.post import fields
 from dsmv.cel.grid import Grid
-from dsmv.errors import ConfigError
-from dsmv.post.plots import FIELD_PLOT_FILE
 from dsmv.config.scene import build_scene
+from dsmv.errors import ConfigError
+from dsmv.post import fields
+from dsmv.post.plots import FIELD_PLOT_FILE
 from tests.conftest import mlflow_runs
 from tests.test_end_to_end import job_dirs
 

@@ -8,8 +8,8 @@ import json
 import pytest
 import yaml
 
-from dsmv.errors import ConfigError
 from dsmv.config.objective import ObjectiveConfig, objective_config, objective_value
+from dsmv.errors import ConfigError
 
 from tests.conftest import mlflow_runs
 

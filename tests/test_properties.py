@@ -21,8 +21,8 @@ from hypothesis import strategies as st
 
 from dsmv import registry
 from dsmv.cel.solver import Cel2DConfig
-from dsmv.errors import ConfigError
 from dsmv.config.scene import LandingConfig, MeshConfig, RateConfig, SoilConfig, TrackGeometry, build_scene
+from dsmv.errors import ConfigError
 from conftest import group_options
 
 FAST = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

@@ -11,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from dsmv import registry
-from dsmv.config.scene import build_scene
 from dsmv.app.template import package_files
+from dsmv.config.scene import build_scene
 
 LAWS = list(registry.available("soil_laws"))
 

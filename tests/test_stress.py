@@ -26,8 +26,8 @@ import pytest
 
 from dsmv.cel.solver import ENERGY_ERROR_LIMIT
 from dsmv.cel.solver3d import PARALLEL_MIN_CELLS
-from dsmv.verify.regression import STRESS_SCENES, stress_scene
 from dsmv.results import EXIT_CODES, HISTORY_COLUMNS, HISTORY_FILE, RESULT_FILE
+from dsmv.verify.regression import STRESS_SCENES, stress_scene
 
 BIN = Path(sys.executable).parent
 #: quiet runs; every scene is the default landing on Tresca soil unless it names its law (stress_scene)

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from dsmv.cel.solver import Cel2DSolver
-from dsmv.errors import ConfigError
 from dsmv.config.scene import build_scene
+from dsmv.errors import ConfigError
 
 
 def _solver(compose_cfg, *overrides):

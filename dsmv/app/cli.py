@@ -12,6 +12,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from dsmv import registry
+from dsmv.app.template import KINDS, write_package
+from dsmv.errors import ConfigError, DsmvError
+from dsmv.results import EXIT_CODES
 
 if TYPE_CHECKING:
     from omegaconf import DictConfig
@@ -64,7 +67,6 @@ def simulate() -> None:
         _hydra_main(_simulate_job, "config")()
     except KeyboardInterrupt as exc:  # before a job started, or a sweep aborted by a second signal
         from dsmv.app.sweep import abort_sweep
-        from dsmv.results import EXIT_CODES
 
         sweep_dir = abort_sweep(f"{exc or 'SIGINT'} again: the sweep was aborted")
         print("dsmv: interrupted" + (f"; the sweep was aborted, its MLflow runs closed KILLED: {sweep_dir}"
@@ -77,7 +79,6 @@ def _train_job(cfg: DictConfig) -> None:
     from hydra.core.hydra_config import HydraConfig
 
     from dsmv.app.runner import fail_user_error
-    from dsmv.errors import DsmvError
     from dsmv.surrogate.train import run_training
 
     try:
@@ -116,9 +117,6 @@ def list_plugins(argv: list[str] | None = None) -> None:
     parser.add_argument("--dir", default=".", help="with new: the folder to write the package into (default .)")
     args = parser.parse_args(argv)
     if args.new:
-        from dsmv.errors import ConfigError
-        from dsmv.app.template import KINDS, write_package
-
         if len(args.new) != 3 or args.new[0] != "new" or args.new[1] not in KINDS:
             parser.error(f"expected: dsmv-plugins new {{{'|'.join(KINDS)}}} NAME")
         try:

@@ -13,7 +13,11 @@ from hydra.core.plugins import Plugins
 from omegaconf import DictConfig, OmegaConf
 
 from dsmv import registry
+from dsmv.app.joblog import keep_early_output
+from dsmv.app.runner import fail_user_error
+from dsmv.config.scene import build_scene
 from dsmv.config.tree import CONFIG_DIR  # (with dsmv's case sweeper registered, and conf/'s resolvers)
+from dsmv.errors import ConfigError, DsmvError
 from hydra_plugins.dsmv_launcher import submitit_launchers
 
 # Hydra finds launchers by walking the hydra_plugins namespace, which an editable install does not
@@ -51,9 +55,6 @@ def check_group_choices(argv: list[str], program: str, config_dir: str = CONFIG_
     checked value by value; Hydra's own groups (``hydra/launcher=…``), deletions (``~group``)
     and sweep functions (``range(…)``) are left to Hydra.
     """
-    from dsmv.errors import ConfigError
-    from dsmv.app.runner import fail_user_error
-
     roots = config_roots(argv, config_dir)
     for arg in argv:
         key, sep, value = arg.partition("=")
@@ -86,8 +87,6 @@ def check_command_line(argv: list[str], program: str, config_name: str = "config
     ``--info`` ...) and other config dirs or names are left to Hydra. Warnings and log records raised
     meanwhile are kept for the job's log (:func:`dsmv.app.joblog.keep_early_output`), not printed.
     """
-    from dsmv.app.joblog import keep_early_output
-
     check_group_choices(argv, program, config_dir)
     if "--version" in argv:
         return
@@ -129,9 +128,6 @@ def _check_overrides(args, program: str, config_name: str, scene: bool, config_d
     from hydra.core.utils import setup_globals
     from hydra.errors import HydraException
     from omegaconf.errors import OmegaConfBaseException
-
-    from dsmv.errors import ConfigError, DsmvError
-    from dsmv.app.runner import fail_user_error
 
     setup_globals()  # ${now:...} in hydra.run.dir
     GlobalHydra.instance().clear()
@@ -187,8 +183,6 @@ def _check_overrides(args, program: str, config_name: str, scene: bool, config_d
             # one job's config: every override, the first choice of each sweep
             cfg = cfg if cfg is not None else composed(variants[0] + one_job)
             if scene and not multirun:
-                from dsmv.config.scene import build_scene
-
                 try:
                     build_scene(cfg)
                 except DsmvError as error:
@@ -213,9 +207,6 @@ def _is_group(o, loader) -> bool:
 
 def _check_choices(o, loader, program: str) -> None:
     """Hydra's own groups (``hydra/launcher=jobib``): an unknown option in one line, as for conf/'s."""
-    from dsmv.errors import ConfigError
-    from dsmv.app.runner import fail_user_error
-
     if o.is_delete() or "/" not in o.key_or_group or not (o.is_choice_sweep() or not o.is_sweep_override()):
         return
     options = loader.get_group_options(o.key_or_group)
@@ -272,9 +263,6 @@ def _check_key(o, tree, known: set[str], scene: bool, program: str) -> None:
     ``hydra.job.env_set``); a new key in a mapping the config leaves empty for them (``soil.params``,
     ``surrogate.params``); for ``dsmv``, a key of a solver plugin whose config model allows extra keys.
     """
-    from dsmv.errors import ConfigError
-    from dsmv.app.runner import fail_user_error
-
     key = o.key_or_group
     if key in known:
         return
@@ -317,9 +305,6 @@ def _solver_allows_extra(tree) -> bool:
 def _check_output_dirs(cfg, multirun: bool, program: str) -> None:
     """``paths.runs_dir`` and the run (sweep) dir Hydra will create must be directories dsmv can create
     and write in; checked without creating anything (a refused run leaves nothing behind)."""
-    from dsmv.errors import ConfigError
-    from dsmv.app.runner import fail_user_error
-
     for key in ("paths.runs_dir", "hydra.sweep.dir" if multirun else "hydra.run.dir"):
         try:
             value = OmegaConf.select(cfg, key)

@@ -23,11 +23,13 @@ from omegaconf import DictConfig, OmegaConf
 
 from dsmv import registry
 from dsmv.app import interrupts
-from dsmv.tracking import runs
-from dsmv.errors import DsmvError
 from dsmv.app.joblog import job_output
-from dsmv.results import EXIT_CODES, SolveResult, write_history, write_result
 from dsmv.config.scene import Scene, build_scene
+from dsmv.errors import DsmvError
+from dsmv.post import fields
+from dsmv.post.plots import FIELD_PLOT_FILE, HISTORY_PLOT_FILE, plot_field_contours, plot_history
+from dsmv.results import EXIT_CODES, SolveResult, write_history, write_result
+from dsmv.tracking import runs
 
 RESOLVED_CONFIG_FILE = "config_resolved.yaml"
 
@@ -242,18 +244,12 @@ def write_outputs(scene: Scene, result: SolveResult, run_dir: Path) -> list[Path
     if result.history is not None:
         files.append(write_history(run_dir, result.history))
         if scene.output.plots and len(result.history["time_s"]) > 1:
-            from dsmv.post.plots import HISTORY_PLOT_FILE, plot_history
-
             title = f"{scene_label(scene)} — {scene.solver.name}: {result.status}"
             files.append(plot_history(result.history, run_dir / HISTORY_PLOT_FILE, title))
     if scene.output.fields:  # written by a solver that keeps fields (CEL); the others write none
-        from dsmv.post import fields
-
         field_files = fields.written_files(run_dir)
         files += field_files
         if field_files and scene.output.plots:
-            from dsmv.post.plots import FIELD_PLOT_FILE, plot_field_contours
-
             title = f"{scene.soil.name} ({scene.soil.law}), {scene.geometry.name} — {result.status}"
             files.extend(plot_field_contours(run_dir / fields.MAX_SINKAGE_FRAME, run_dir / FIELD_PLOT_FILE, title,
                                              fields.penetration_frame(run_dir, result.history)))

@@ -9,6 +9,7 @@ import numpy as np
 
 from dsmv.config.scene import SWEEP_PLOTS
 from dsmv.post import studies
+from dsmv.post.fields import read_frame
 
 HISTORY_PLOT_FILE = "history.png"
 
@@ -215,8 +216,6 @@ def plot_field_contours(frame_path: Path, path: Path, title: str, flow_frame_pat
     plate, the longitudinal section (y, z) beside it (:data:`LONGITUDINAL_SUFFIX`). Returns the
     figures written.
     """
-    from dsmv.post.fields import read_frame
-
     frame = read_frame(frame_path)
     flow = [] if flow_frame_path is None else [read_frame(flow_frame_path)]
     if frame.z is None:

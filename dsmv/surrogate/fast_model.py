@@ -22,6 +22,7 @@ from types import SimpleNamespace
 import numpy as np
 import pandas as pd
 
+from dsmv import registry
 from dsmv.analytic.dynamic import Coefficients, Landing, sinkage
 from dsmv.surrogate.dataset import TARGET_METRIC
 from dsmv.surrogate.features import LeakFreeFeatures, physics, target
@@ -62,8 +63,6 @@ def table_landing(table: pd.DataFrame, settings: dict | None = None) -> Landing:
 
 def table_factor(table: pd.DataFrame, settings: dict | None = None):
     """The soil law's strength factor of each row, as f(ξ, γ̇) on arrays aligned with the rows."""
-    from dsmv import registry
-
     settings = settings or default_settings()
     law = registry.load("soil_laws", settings.get("law", "einav_randolph"), "soil.law")
     rows = SimpleNamespace(sensitivity=table["sensitivity"].to_numpy(float), xi95=table["xi95"].to_numpy(float),

@@ -21,6 +21,7 @@ from dsmv.errors import ConfigError
 from dsmv.surrogate.dataset import PARAMETERS
 from dsmv.surrogate.fast_model import PhysicsFeatures
 from dsmv.surrogate.features import FeatureSet, LeakFreeFeatures, StudyFeatures
+from dsmv.tracking.run_writer import resolve_uri
 
 
 #: the feature sets by name (``train.features``, and what a trained model records)
@@ -92,8 +93,6 @@ def load_registered(name: str, tracking_uri: str, version: str = "latest") -> Tr
     """Load ``models:/<name>/<version>`` with its dsmv metadata (an MLflow client call, then the model)."""
     import mlflow
     from mlflow.models import get_model_info
-
-    from dsmv.tracking.run_writer import resolve_uri
 
     mlflow.set_tracking_uri(resolve_uri(tracking_uri))
     uri = f"models:/{name}/{version}"

@@ -51,10 +51,12 @@ from dsmv.config.scene import build_scene, build_tracking
 from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError, DsmvError
 from dsmv.surrogate.dataset import COLUMNS, PARAMETERS
+from dsmv.surrogate.evaluate import pyplot
 from dsmv.surrogate.intervals import CALIBRATION_FILE
 from dsmv.surrogate.inverse import GOALS, TASK_PARAMETERS, InverseResult, solve_inverse
 from dsmv.surrogate.model import TrainedSurrogate, scene_table
 from dsmv.surrogate.predictor import CALIBRATION_KEY, PredictError, Predictor, load_predictor
+from dsmv.surrogate.reliability import exceedance, sample_scenes, uncertainty_from
 
 PROG = "dsmv-predict"
 
@@ -148,8 +150,6 @@ def plot_band(values, mid, lower, upper, parameter: str, confidence: float, path
     horizontal line, the answer of the inverse question a vertical one, and the parameter values
     outside the training data are hatched (extrapolation).
     """
-    from dsmv.surrogate.evaluate import pyplot
-
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.2), constrained_layout=True)
     ax.fill_between(values, lower, upper, color="tab:blue", alpha=0.25, lw=0,
@@ -297,8 +297,6 @@ def exceedance_answer(cfg: DictConfig, settings: PredictSettings, predictor: Pre
                       run_dir: Path | None) -> dict:
     """``task=exceedance``: P(z > limit) over the ``uncertainty`` group's samples (dsmv.surrogate.reliability),
     its sinkage distribution drawn, and CEL runs at chosen quantiles of it (``verify``)."""
-    from dsmv.surrogate.reliability import exceedance, sample_scenes, uncertainty_from
-
     limit, c = settings.sinkage_limit_m, settings.confidence
     uncertainty = uncertainty_from(OmegaConf.to_container(cfg, resolve=True))
     table = sample_scenes(base, uncertainty)
@@ -338,8 +336,6 @@ def exceedance_answer(cfg: DictConfig, settings: PredictSettings, predictor: Pre
 
 def plot_exceedance(mid, lower, upper, limit: float, answer, confidence: float, path: Path) -> Path:
     """The predicted sinkage's distribution over the samples, the interval bounds' beside it, the limit."""
-    from dsmv.surrogate.evaluate import pyplot
-
     plt = pyplot()
 
     fig, ax = plt.subplots(figsize=(6.5, 4.2), constrained_layout=True)

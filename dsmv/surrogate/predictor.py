@@ -20,6 +20,7 @@ import pandas as pd
 from dsmv.errors import DsmvError
 from dsmv.surrogate.intervals import CALIBRATION_FILE, SCORES, BinnedScale, ScoreScale, residual_quantile
 from dsmv.surrogate.model import TrainedSurrogate, load_registered
+from dsmv.tracking.run_writer import resolve_uri, store_missing
 
 CALIBRATION_KEY = "conformal"  # or the same record inside the model metadata
 TARGET_SCALES = {"z_over_b": "width", "max_sinkage_m": "metre"}  # how a residual becomes metres
@@ -117,8 +118,6 @@ def load_predictor(name: str, tracking_uri: str, version: str = "latest") -> Pre
     """The registered model ``name`` (``latest`` or a version number) with its calibration."""
     from mlflow.exceptions import MlflowException
     from mlflow.tracking import MlflowClient
-
-    from dsmv.tracking.run_writer import resolve_uri, store_missing
 
     if store_missing(tracking_uri):
         raise PredictError(f"no MLflow store at {tracking_uri}: train a surrogate first (dsmv-train), "

@@ -33,8 +33,8 @@ import numpy as np
 import pandas as pd
 from pydantic import Field
 
-from dsmv.errors import ConfigError
 from dsmv.config.schema import Count, Number, Schema, _validate
+from dsmv.errors import ConfigError
 from dsmv.surrogate.dataset import COLUMNS
 
 

@@ -34,7 +34,10 @@ from dsmv.surrogate.base import Surrogate, SurrogateConfig
 from dsmv.surrogate.dataset import PARAMETERS, TARGET_METRIC, Dataset, DatasetError, load_dataset
 from dsmv.surrogate.fast_model import default_settings
 from dsmv.surrogate.features import TARGET, FeatureSet, StudyFeatures, target
+from dsmv.surrogate.intervals import CALIBRATION_FILE, ConformalRegressor, calibration_record, coverage_over_resplits
 from dsmv.surrogate.model import feature_set
+from dsmv.tracking import runs
+from dsmv.tracking.run_writer import experiment_id as find_experiment
 
 METRICS_FILE = "metrics.json"
 SUMMARY_FILE = "summary.json"
@@ -191,8 +194,6 @@ def interval_method(result: "Training", settings: TrainSettings) -> str:
 def _intervals(result: "Training", X, y, settings: TrainSettings) -> dict[str, float]:
     """Calibrate the registered model's intervals on the training split, and measure their
     coverage over the same Monte Carlo re-splits as ``mc_r2`` (issue #7)."""
-    from dsmv.surrogate.intervals import ConformalRegressor, calibration_record, coverage_over_resplits
-
     method = interval_method(result, settings)
     c = settings.interval_confidence
     train = result.train_idx
@@ -249,8 +250,6 @@ def write_outputs(result: Training, run_dir: Path) -> list[Path]:
                **result.metadata()}
     (run_dir / SUMMARY_FILE).write_text(json.dumps(summary, indent=2, default=str) + "\n")
     if result.calibration:  # dsmv-predict reads it back from the run's artifacts
-        from dsmv.surrogate.intervals import CALIBRATION_FILE
-
         (run_dir / CALIBRATION_FILE).write_text(json.dumps(result.calibration) + "\n")
         files.append(run_dir / CALIBRATION_FILE)
     return [run_dir / METRICS_FILE, run_dir / SUMMARY_FILE, *files]
@@ -261,8 +260,6 @@ def log_to_mlflow(result: Training, cfg: DictConfig, files: list[Path]) -> dict[
     import mlflow
 
     from dsmv.surrogate.serving import scene_frame
-    from dsmv.tracking import runs
-    from dsmv.tracking.run_writer import experiment_id as find_experiment
 
     settings = build_tracking(cfg)
     client = runs._client(settings)

@@ -26,6 +26,7 @@ from typing import Any
 from omegaconf import DictConfig, OmegaConf
 
 from dsmv.config.scene import TrackingConfig, build_tracking
+from dsmv.numba_cache import source_hash
 from dsmv.results import HISTORY_COLUMNS, SolveResult
 from dsmv.tracking.run_writer import for_job, open_client, resolve_uri, serve_sweep
 
@@ -154,8 +155,6 @@ def _history_metrics(history: dict, timestamp_ms: int) -> list:
 def code_hash() -> str:
     """The hash of the solver code whose results a run records (every source file of ``dsmv.cel``,
     the kernels' own cache key): runs of other code are never taken for this code's."""
-    from dsmv.numba_cache import source_hash
-
     return source_hash()
 
 

@@ -38,9 +38,12 @@ from pathlib import Path
 
 import numpy as np
 
+from dsmv import registry
 from dsmv.analytic.bearing import PRANDTL_NC
+from dsmv.config.scene import OutputConfig
 from dsmv.config.tree import compose_scene
-from dsmv.verify import canonical
+from dsmv.convergence import richardson
+from dsmv.verify import bench_sweeps, canonical, regression
 
 #: the Prandtl case: the canonical verification scene (conf/experiment/verify_prandtl.yaml: a rough
 #: strip B = 1 m on weightless Tresca soil, su 10 kPa, E = 500·su, the soil free to part from its
@@ -149,8 +152,6 @@ def landing_reference(plan: Plan, out: Path) -> float:
     """The default landing's max sinkage extrapolated to zero cell size (m): Richardson with the
     observed order (dsmv.convergence) from the reference mesh h and 2h, 4h; cached in ``out`` until
     the solver's code or settings change."""
-    from dsmv.convergence import richardson
-
     h = plan.reference_cell_m
     sizes = (h, 2 * h, 4 * h)
     fingerprint = solver_fingerprint(LANDING + [f"mesh.cell_size_m={h}"])
@@ -204,8 +205,6 @@ def in_subprocess(overrides: list[str], env: dict) -> dict:
 
 def economies(plan: Plan) -> list[dict]:
     """Each economy off and on in the same run: speed-up (off/on wall time) and result change."""
-    from dsmv.config.scene import OutputConfig
-
     cell = [f"mesh.cell_size_m={plan.knob_cell_m}"]
     cases = [
         ("no softening or rate arithmetic for Tresca", LANDING + cell, ["solver.economies.skip_inactive_law=false"]),
@@ -283,8 +282,6 @@ SOLID_REPEATS = 5
 def state_bytes_per_cell(overrides: list[str]) -> tuple[float, float]:
     """The bytes per cell a solver's state holds (every array of its containers, nodes and contact
     included), and what its cost estimate assumes."""
-    from dsmv import registry
-
     scene = compose_scene(overrides)
     solver = registry.load("solvers", scene.solver.name, "solver.name")(scene)
     state = solver.initial_state()
@@ -444,13 +441,9 @@ def main(argv: list[str] | None = None) -> None:
                         "cost a job (bench_sweeps.md under --out)")
     args = parser.parse_args(argv)
     if args.sweeps:
-        from dsmv.verify import bench_sweeps
-
         bench_sweeps.main(Path(args.out), args.quick)
         return
     if args.regression:
-        from dsmv.verify import regression
-
         os.environ.setdefault("NUMBA_NUM_THREADS", "1")
         results = regression.write(Path(args.regression), args.scenes)
         if args.against:

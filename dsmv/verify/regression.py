@@ -19,6 +19,7 @@ import json
 import math
 from pathlib import Path
 
+from dsmv import registry
 from dsmv.verify import canonical
 
 #: the stress suite's scenes: extreme but legal (tests/test_stress.py holds each to its physics)
@@ -110,7 +111,6 @@ QUIET = ["tracking=disabled", "output.plots=false"]
 
 def run_scene(overrides: list[str]) -> dict:
     """One scene in this process: status, message and every metric but the timings."""
-    from dsmv import registry
     from dsmv.config.tree import compose_scene
 
     scene = compose_scene([*overrides, *QUIET])
