@@ -41,7 +41,7 @@ report: install
 # The MLflow UI as a user sees it: a two-job sweep, the UI on loopback, three screenshots in
 # headless Chromium (Debian's chromium package) into runs/mlflow_screenshots.
 mlflow-screenshots: install
-	$(BIN)/python -m dsmv.mlflow_check runs/mlflow_screenshots
+	$(BIN)/python -m dsmv.tracking.mlflow_check runs/mlflow_screenshots
 
 clean:
 	rm -rf runs/outputs runs/multirun runs/mlflow.db runs/mlartifacts

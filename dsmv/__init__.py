@@ -1,8 +1,8 @@
 """dsmv — landing sinkage of deep-sea mining vehicles on ultra-soft seabed clay.
 
 Scenes are composed from Hydra YAML (``conf/``), validated into typed objects
-(:mod:`dsmv.scene`), solved by a solver plugin (analytic energy method or the CEL
-solver) with a soil-law plugin, and tracked in MLflow (:mod:`dsmv.tracking`).
+(:mod:`dsmv.config.scene`), solved by a solver plugin (analytic energy method or the CEL
+solver) with a soil-law plugin, and tracked in MLflow (:mod:`dsmv.tracking.runs`).
 SI units throughout: m, kg, s, Pa, N, J.
 """
 

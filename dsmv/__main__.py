@@ -1,6 +1,6 @@
 """``python -m dsmv`` is ``dsmv``."""
 
-from dsmv.cli import simulate
+from dsmv.app.cli import simulate
 
 if __name__ == "__main__":
     simulate()

@@ -25,7 +25,7 @@ STATUSES = ("ok", "bearing_failure", "out_of_domain", "unstable", "failed", "int
 
 #: the process's exit code for each status (a sweep exits with its worst job's, see EXIT_SEVERITY).
 #: bearing_failure is an answer (the soil cannot stop the body), not a crash: 0, like ok. 2 is a
-#: configuration error, before any run (dsmv.runner.fail_user_error).
+#: configuration error, before any run (dsmv.app.runner.fail_user_error).
 EXIT_CODES = {"ok": 0, "bearing_failure": 0, "failed": 1, "unstable": 3, "out_of_domain": 4, "interrupted": 130}
 #: statuses from the most severe down, for a sweep's exit code
 EXIT_SEVERITY = ("failed", "interrupted", "unstable", "out_of_domain", "bearing_failure", "ok")

@@ -47,7 +47,7 @@ import numpy as np
 
 from pydantic import BaseModel, ConfigDict
 
-from dsmv.scene import SoilConfig
+from dsmv.config.scene import SoilConfig
 
 #: the number of float parameters a compiled law receives
 N_PARAMS = 8

@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from dsmv import registry
+from dsmv.config import tree
 from dsmv.soil_law import SoilLaw
 
 #: the sampled states: ξ (-) uniform on [0, XI_MAX], γ̇ (1/s) log-uniform over RATE_DECADES
@@ -33,34 +35,18 @@ RATE_DECADES = (-9.0, 3.0)
 
 def compose_scene(*overrides: str):
     """The validated scene of the default config with ``overrides`` (Hydra syntax, as on the command line)."""
-    from dsmv.bench import compose_scene as compose
-
-    return compose([*overrides, "tracking=disabled"])
+    return tree.compose_scene([*overrides, "tracking=disabled"])
 
 
 def compose_config(config_name: str, *overrides: str):
     """The composed (unvalidated) config ``config_name`` (``config``: a scene, ``train``: a surrogate's
     training) with ``overrides``, the plugin packages' config groups on the search path."""
-    from hydra import compose, initialize_config_dir
-    from hydra.core.global_hydra import GlobalHydra
-
-    from dsmv.command_line import CONFIG_DIR
-    from dsmv.registry import register_plugin_configs
-
-    register_plugin_configs()
-    GlobalHydra.instance().clear()
-    try:
-        with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):
-            return compose(config_name, overrides=list(overrides))
-    finally:
-        GlobalHydra.instance().clear()
+    return tree.compose(config_name, list(overrides))
 
 
 def make_law(name: str, *overrides: str) -> SoilLaw:
     """The installed law ``name`` (entry point in ``dsmv.soil_laws``) built on the default soil with
     ``overrides``, as the solvers build it."""
-    from dsmv import registry
-
     scene = compose_scene(f"soil.law={name}", *overrides)
     return registry.load("soil_laws", name, "soil.law")(scene.soil)
 
@@ -135,8 +121,6 @@ def check_surrogate(name: str, samples: int = 300, seed: int = 3, **params) -> N
     fits a smooth function of six features (R² ≥ 0.8 on its own training set), predicts finite
     values of the right shape, exposes one importance per feature with the informative ones
     first, and gives the same predictions when refitted with the same seed."""
-    from dsmv import registry
-
     cls = registry.load("surrogates", name, "surrogate.name")
     rng = np.random.default_rng(seed)
     x = rng.uniform(0.0, 1.0, (samples, 6))

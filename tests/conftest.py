@@ -12,7 +12,7 @@ import pytest
 from hydra import compose, initialize_config_dir
 from hydra.core.global_hydra import GlobalHydra
 
-from dsmv.command_line import CONFIG_DIR
+from dsmv.config.tree import CONFIG_DIR
 
 BIN = Path(sys.executable).parent
 CONF = Path(CONFIG_DIR)
@@ -88,7 +88,7 @@ def mlflow_server(backend_uri: str, folder: Path, workers: int = 1):
     import time
     import urllib.request
 
-    from dsmv.mlflow_check import free_port
+    from dsmv.tracking.mlflow_check import free_port
 
     port = free_port()
     env = dict(os.environ, MLFLOW_SERVER_ENABLE_JOB_EXECUTION="false")

@@ -9,7 +9,7 @@ from dsmv.surrogate.dataset import TARGET_METRIC
 
 @pytest.fixture(scope="module")
 def pool():
-    from dsmv.bench import compose_scene
+    from dsmv.config.tree import compose_scene
 
     return candidates(compose_scene(["tracking=disabled"]), ActiveConfig(pool=60, seed=5))
 

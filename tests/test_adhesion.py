@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import pytest
 
-from dsmv import canonical
 from dsmv.cel.solver2d import Cel2DSolver
+from dsmv.config.scene import build_scene
 from dsmv.errors import ConfigError
-from dsmv.scene import build_scene
+from dsmv.verify import canonical
 
-#: Prandtl's strip with the soil tied to its walls (dsmv.canonical), small strain on B/10 cells
+#: Prandtl's strip with the soil tied to its walls (dsmv.verify.canonical), small strain on B/10 cells
 STRIP = [*canonical.PRANDTL_BONDED, "solver.progress=off", "solver.remap=false", "solver.initial_travel_m=0.1",
          "mesh.cell_size_m=0.1"]
 

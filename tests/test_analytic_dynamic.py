@@ -10,7 +10,7 @@ from scipy.optimize import brentq
 from dsmv.analytic.bearing import PRANDTL_NC
 from dsmv.analytic.dynamic import AnalyticDynamicSolver, gradient_factor
 from dsmv.analytic.energy import sinkage_from_energy
-from dsmv.scene import build_scene
+from dsmv.config.scene import build_scene
 
 #: every refinement off: the energy method with sc = 1 (plane strain) and Tresca soil
 BARE = ["solver=analytic_dynamic", "soil.law=tresca", "solver.depth_coefficient=0", "solver.strain_coefficient=0",

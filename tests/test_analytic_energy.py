@@ -7,7 +7,7 @@ import pytest
 from scipy.integrate import quad, solve_ivp
 
 from dsmv.analytic.energy import AnalyticEnergySolver, sinkage_from_energy
-from dsmv.scene import build_scene
+from dsmv.config.scene import build_scene
 
 G = 9.81
 

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from dsmv.bench import Row, cost_exponent, pareto_front
+from dsmv.verify.bench import Row, cost_exponent, pareto_front
 
 
 def _row(wall, error, cells=100.0, steps=10.0):
@@ -27,7 +27,7 @@ def test_cost_exponent_is_one_for_cost_linear_in_cells_times_steps():
 
 
 def test_the_reference_landing_is_recomputed_when_the_solver_changes(tmp_path, monkeypatch):
-    from dsmv import bench
+    from dsmv.verify import bench
 
     runs = []
 
@@ -46,7 +46,7 @@ def test_the_reference_landing_is_recomputed_when_the_solver_changes(tmp_path, m
 def test_the_reference_landing_is_the_extrapolated_answer(tmp_path, monkeypatch):
     """A sinkage exactly first order in h, z = 0.2 − 0.5·h, extrapolates to its limit 0.2 m: the
     Pareto front measures error against the answer at zero cell size, not against one finer mesh."""
-    from dsmv import bench
+    from dsmv.verify import bench
 
     def first_order(overrides, repeats, run_dir=None):
         h = float(next(o for o in overrides if o.startswith("mesh.cell_size_m=")).split("=")[1])

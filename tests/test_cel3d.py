@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 
 from dsmv import registry
+from dsmv.config.scene import build_scene
 from dsmv.errors import ConfigError
-from dsmv.scene import build_scene
 
 #: a push in small strain, weightless Tresca soil su 10 kPa, E = 500·su (the strip's verification soil)
 SMALL_STRAIN_PUSH = ["landing=push", "soil.law=tresca", "soil.su0_pa=10000", "soil.ks_pa_per_m=0",
@@ -312,7 +312,7 @@ def test_the_track_lands_in_3d_and_its_fields_open(compose_cfg, tmp_path):
     no soil inside the track, and field files meshio reads as hexahedra with the named arrays."""
     import meshio
 
-    from dsmv import fields
+    from dsmv.cel import fields
     from dsmv.cel.solver3d import Cel3DSolver
     from tests.test_fields import CELL_FIELDS_3D
 

@@ -2,10 +2,10 @@
 
 import pytest
 
-from dsmv import canonical
-from dsmv.cel.solver2d import Cel2DSolver
-from dsmv.scene import build_scene
 from dsmv.analytic.bearing import NOTCHED_STRIP_LOWER_BOUND_AT_0P05B, STRIP_LOWER_BOUND_AT_0P05B, TBAR_NC
+from dsmv.cel.solver2d import Cel2DSolver
+from dsmv.config.scene import build_scene
+from dsmv.verify import canonical
 from tests.test_cel_verification import PRANDTL, STRIP
 
 pytestmark = pytest.mark.slow

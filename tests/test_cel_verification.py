@@ -11,15 +11,15 @@ import inspect
 import numpy as np
 import pytest
 
-from dsmv import canonical
+from dsmv.verify import canonical
 from dsmv.analytic.bearing import (NOTCHED_STRIP_LOWER_BOUND_AT_0P05B, NOTCHED_STRIP_UPPER_BOUND_AT_0P05B, PRANDTL_NC,
                                    TBAR_NC, embedded_strip_upper_bound)
 from dsmv.cel.checks import Cel2DCheckSolver
 from dsmv.cel.solver2d import Cel2DSolver
-from dsmv.scene import build_scene
+from dsmv.config.scene import build_scene
 
 PRANDTL = PRANDTL_NC
-#: Prandtl's strip with the soil tied to its walls (dsmv.canonical), on B/25 cells unless a test says
+#: Prandtl's strip with the soil tied to its walls (dsmv.verify.canonical), on B/25 cells unless a test says
 STRIP = [*canonical.PRANDTL_BONDED, "mesh.cell_size_m=0.04", "solver.progress=off"]
 
 
@@ -61,7 +61,7 @@ def small_strain_prandtl():
     from hydra import compose, initialize_config_dir
     from hydra.core.global_hydra import GlobalHydra
 
-    from dsmv.command_line import CONFIG_DIR
+    from dsmv.config.tree import CONFIG_DIR
 
     out = {}
     for h in (0.1, 0.05):
@@ -162,7 +162,7 @@ def test_energy_audit_closes_and_fails_when_a_term_is_dropped(compose_cfg, regio
         assert abs(sum(inputs.values()) - rest) / delivered > 0.02, dropped
 
 
-#: the canonical T-bar (dsmv.canonical) on D/10 cells, pushed 0.4 D
+#: the canonical T-bar (dsmv.verify.canonical) on D/10 cells, pushed 0.4 D
 TBAR = [*canonical.TBAR, "landing.displacement_m=0.2", "mesh.cell_size_m=0.05", "solver.progress=off"]
 
 
@@ -263,7 +263,7 @@ def test_nodal_masses_stay_those_of_the_cells(compose_cfg, monkeypatch):
     """The stepper computes nodal masses only after a remap, the one place φ changes: after
     every chunk of steps they must equal a fresh computation from the cells (a kernel that
     changed φ mid-step would leave them stale). The split corner nodes' shares count too."""
-    from dsmv.cel import stepper, stepper2d
+    from dsmv.cel import stepper2d
     from dsmv.cel.kernels.nodes import nodal_mass
 
     real = stepper2d.run_steps
@@ -387,7 +387,7 @@ def test_a_signal_a_sweep_job_caught_while_setting_up_ends_its_run_at_once(compo
     import os
     import signal
 
-    from dsmv import interrupts
+    from dsmv.app import interrupts
 
     with interrupts.sweep_job_signals(tmp_path) as caught:
         os.kill(os.getpid(), signal.SIGTERM)

@@ -106,7 +106,7 @@ def test_the_estimate_is_kept_beside_the_wall_time(tmp_path):
 
 
 def test_a_sweep_exits_with_its_worst_job():
-    from dsmv.tracking import sweep_exit_code
+    from dsmv.app.sweep import sweep_exit_code
 
     assert sweep_exit_code(["ok"] * 12 + ["bearing_failure", "failed"]) == ("12 ok, 1 bearing_failure, 1 failed", 1)
     assert sweep_exit_code(["ok", "bearing_failure"]) == ("1 ok, 1 bearing_failure", 0)  # an answer
@@ -195,7 +195,7 @@ def test_a_dir_refused_in_the_job_is_removed_only_when_hydra_alone_wrote_it(tmp_
     holding anything else stays whole."""
     from types import SimpleNamespace
 
-    from dsmv.runner import remove_unstarted_run_dir
+    from dsmv.app.runner import remove_unstarted_run_dir
 
     hydra_cfg = SimpleNamespace(output_subdir=".hydra", job=SimpleNamespace(name="cli"))
 
@@ -234,7 +234,7 @@ def test_the_stress_suites_fast_scenes_stay_legal_and_the_limits_are_stated(comp
     """10 m/s on the default soil is 0.037 c (c = 267 m/s); the table 3 design's fastest, 8 m/s on su0 = 2 kPa,
     is 0.047 c; a cone's cells are sized to its penetration, so the core-cell bound leaves it alone."""
     from dsmv.errors import ConfigError
-    from dsmv.scene import build_scene, elastic_wave_speed_m_s
+    from dsmv.config.scene import build_scene, elastic_wave_speed_m_s
 
     for overrides in (["landing.velocity_m_s=10", "landing.mass_kg=10500"],
                       ["soil.law=einav_randolph", "soil.rate.eta=0.15", "landing.velocity_m_s=10"],

@@ -2,8 +2,8 @@
 
 import pytest
 
+from dsmv.config.scene import Scene, build_scene, build_tracking
 from dsmv.errors import ConfigError
-from dsmv.scene import Scene, build_scene, build_tracking
 from tests.conftest import group_options
 
 SCENE_GROUPS = ["soil", "geometry", "landing", "mesh", "solver", "tracking"]

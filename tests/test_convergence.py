@@ -37,7 +37,7 @@ def test_every_answer_can_carry_its_mesh_error(compose_cfg):
     error (the interval holds the fine answer's distance to the limit by construction), and the same
     for a push's bearing factors."""
     from dsmv.cel.solver2d import Cel2DSolver
-    from dsmv.scene import build_scene
+    from dsmv.config.scene import build_scene
 
     landing = Cel2DSolver(build_scene(compose_cfg(["solver=cel2d", "solver.progress=off",
                                                    "solver.error_estimate=true"]))).solve()

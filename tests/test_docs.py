@@ -130,7 +130,7 @@ def test_every_documented_command_composes(where, line, tmp_path, monkeypatch, c
     validate, a sweep has -m, and a single dsmv run's whole scene builds (cost guard included).
     Many also run end to end in their own tests; this keeps every one of them from going stale."""
     from dsmv import registry
-    from dsmv.command_line import check_command_line
+    from dsmv.app.command_line import check_command_line
 
     program, args = as_hydra_app(line)
     config, scene = HYDRA_APPS[program]
@@ -144,7 +144,7 @@ def test_every_documented_command_composes(where, line, tmp_path, monkeypatch, c
         from hydra import compose, initialize_config_dir
         from hydra.core.global_hydra import GlobalHydra
 
-        from dsmv.command_line import CONFIG_DIR
+        from dsmv.config.tree import CONFIG_DIR
         from dsmv.surrogate.predict import settings_from
 
         GlobalHydra.instance().clear()

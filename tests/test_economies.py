@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from dsmv.cel.solver2d import Cel2DSolver
+from dsmv.config.scene import build_scene
 from dsmv.errors import ConfigError
-from dsmv.scene import build_scene
 
 #: the default landing on Tresca soil: an inactive law is what one economy skips
 BASE = ["solver=cel2d", "soil.law=tresca", "mesh=coarse", "tracking=disabled", "output.plots=false",

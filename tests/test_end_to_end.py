@@ -179,8 +179,8 @@ def test_a_push_summary_reports_its_depth_and_bearing_factors(compose_cfg, capsy
     """A push has no landing mass and no 'max sinkage' to report: the summary says how far it went
     and q/su at the sampled depths; a landing keeps its max sinkage; a failed run says what happened."""
     from dsmv.results import SolveResult
-    from dsmv.runner import print_summary
-    from dsmv.scene import build_scene
+    from dsmv.app.runner import print_summary
+    from dsmv.config.scene import build_scene
 
     push = build_scene(compose_cfg(["experiment=verify_prandtl", "landing.displacement_m=0.06"]))
     metrics = {"max_sinkage_m": 0.06, "nc_at_0p02B": 4.894, "nc_at_0p05B": 5.532}
@@ -217,7 +217,7 @@ def test_a_slurm_array_s_time_limit_is_its_longest_cost_estimate_with_a_margin_n
 def test_the_slurm_array_asks_for_its_longest_job_s_limit(tmp_path):
     """The sbatch script dsmv_slurm submits (``sbatch`` stands in here and refuses the job): one array
     task per job, two at most at once, ``--time`` from the longest job's cost estimate."""
-    from dsmv.runner import estimated_wall_s
+    from dsmv.app.runner import estimated_wall_s
     from dsmv.testing import compose_config
     from hydra_plugins.dsmv_launcher.submitit_launchers import time_limit_min
 

@@ -6,7 +6,7 @@ SHORT_PUSH_M) and either
 
 (a) runs, in this process, to a result whose status is one of the documented physics outcomes
     (``failed`` is what the runner records when the code raised, so it does not count), or
-(b) is refused by :func:`dsmv.scene.build_scene` with a one-line :class:`~dsmv.errors.ConfigError`,
+(b) is refused by :func:`dsmv.config.scene.build_scene` with a one-line :class:`~dsmv.errors.ConfigError`,
     exactly what the CLI prints before it exits with status 2.
 
 The body groups (geometry × landing × solver) are run as a full product; soil and mesh options
@@ -30,9 +30,9 @@ import pytest
 from omegaconf import OmegaConf
 
 from dsmv import registry
+from dsmv.config.scene import build_scene, build_tracking
 from dsmv.errors import ConfigError
 from dsmv.results import STATUSES
-from dsmv.scene import build_scene, build_tracking
 from tests.conftest import BIN, group_options
 
 #: what a run may end with; 'failed' means the code raised

@@ -8,11 +8,12 @@ import meshio
 import numpy as np
 import pytest
 
-from dsmv import fields, registry
+from dsmv import registry
 from dsmv.cel.grid import Grid2D
+from dsmv.config.scene import build_scene
 from dsmv.errors import ConfigError
-from dsmv.plots import FIELD_PLOT_FILE
-from dsmv.scene import build_scene
+from dsmv.cel import fields
+from dsmv.post.plots import FIELD_PLOT_FILE
 from tests.conftest import mlflow_runs
 from tests.test_end_to_end import job_dirs
 
@@ -97,7 +98,7 @@ def test_a_landing_with_fields_writes_a_paraview_series_and_contours(run_cli, tm
 @pytest.mark.parametrize("overrides", [["solver=cel2d", "solver.progress=off"], ["solver=analytic_energy", "output.fields=true"]],
                          ids=["cel2d_default", "analytic"])
 def test_no_fields_by_default_nor_from_a_solver_without_them(compose_cfg, tmp_path, overrides):
-    from dsmv.runner import write_outputs
+    from dsmv.app.runner import write_outputs
 
     scene = build_scene(compose_cfg(["mesh=coarse", "tracking=disabled", *overrides]))
     solver = registry.load("solvers", scene.solver.name, "solver.name")(scene)
@@ -181,7 +182,7 @@ def test_field_frames_is_validated(compose_cfg, value):
 def test_a_run_that_goes_unstable_still_leaves_its_fields_and_contours(compose_cfg, tmp_path, monkeypatch):
     """The last frame holds the non-finite state (to look at in ParaView); the PNG draws what is finite."""
     from dsmv.cel import stepper, stepper2d
-    from dsmv.runner import write_outputs
+    from dsmv.app.runner import write_outputs
 
     real, calls = stepper2d.run_steps, {"n": 0}
 
@@ -215,8 +216,8 @@ def test_a_3d_run_writes_hexahedra_and_both_sections(compose_cfg, tmp_path, monk
     (mobilised strength 1: the field's principal stresses agree with the return's), shifted down by
     the sinkage, and the two sections' contour figures."""
     from dsmv.cel.solver3d import Cel3DSolver
-    from dsmv.plots import LONGITUDINAL_SUFFIX
-    from dsmv.runner import write_outputs
+    from dsmv.post.plots import LONGITUDINAL_SUFFIX
+    from dsmv.app.runner import write_outputs
     from tests.test_cel3d import SMALL_STRAIN_PUSH
 
     captured = keep_state(monkeypatch, Cel3DSolver)

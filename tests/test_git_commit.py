@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 import dsmv
-from dsmv.tracking import _git_sha
+from dsmv.tracking.runs import _git_sha
 
 PACKAGE_DIR = Path(dsmv.__file__).resolve().parent
 

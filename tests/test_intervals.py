@@ -245,7 +245,7 @@ def test_binned_scale_by_hand_and_its_record():
     """Eight runs, two bins at the median of ŷ: each bin's mean residual, and each run scored by its
     bin's mean without itself; the record serves the same interval the regressor does."""
     from dsmv.surrogate.intervals import BinnedScale
-    from dsmv.surrogate.predict import Calibration
+    from dsmv.surrogate.predictor import Calibration
 
     y_hat = np.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0])
     r = np.array([0.1, 0.3, 0.2, 0.2, 1.0, 2.0, 3.0, 2.0])

@@ -16,13 +16,13 @@ import numpy as np
 import pytest
 
 from dsmv.cel.solver2d import Cel2DSolver
-from dsmv.scene import build_scene
+from dsmv.config.scene import build_scene
 from dsmv.surrogate.dataset import TARGET_METRIC
 from dsmv.surrogate.features import LeakFreeFeatures, target
 from dsmv.surrogate.intervals import ConformalRegressor, calibration_record
 from dsmv.surrogate.inverse import solve_inverse
 from dsmv.surrogate.model import TrainedSurrogate, scene_table
-from dsmv.surrogate.predict import Calibration, Predictor
+from dsmv.surrogate.predictor import Calibration, Predictor
 
 BASE = ["solver=cel2d", "mesh=coarse", "tracking=disabled", "output.plots=false", "solver.progress=off"]
 VELOCITIES_M_S = np.linspace(0.5, 5.0, 10)

@@ -261,7 +261,7 @@ def test_the_mask_grows_as_scipys_dilation_by_the_full_cube(shape):
 def test_auto_keeps_the_hourglass_force_everywhere_only_for_the_fall_cone(compose_cfg):
     """solver.hourglass_region: auto (cel2d's default) is cut_cells for every body but the cone, whose
     staircase gathers the zig-zag (decision 0016); an explicit value is taken as given."""
-    from dsmv.scene import build_scene
+    from dsmv.config.scene import build_scene
 
     def cells(*overrides):
         scene = build_scene(compose_cfg(["solver=cel2d", *overrides]))

@@ -126,11 +126,11 @@ def test_a_compilation_after_numba_came_first_writes_the_keyed_dir(tmp_path):
 PROBE = """
 import json
 from hydra import compose, initialize_config_dir
-from dsmv.command_line import CONFIG_DIR
-from dsmv.scene import build_scene
 from dsmv.cel import stepper2d
 from dsmv.cel.kernels import nodes, elements2d, remap2d
 from dsmv.cel.solver2d import Cel2DSolver
+from dsmv.config.scene import build_scene
+from dsmv.config.tree import CONFIG_DIR
 with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):
     cfg = compose("config", overrides=["solver=cel2d", "mesh=coarse", "tracking=disabled", "solver.progress=off",
                                        "soil.law=einav_randolph"])

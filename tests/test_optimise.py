@@ -1,4 +1,4 @@
-"""Design search with the CEL in the loop: each job returns its objective (:mod:`dsmv.objective`),
+"""Design search with the CEL in the loop: each job returns its objective (:mod:`dsmv.config.objective`),
 and Hydra's Optuna sweeper minimises it (``experiment=optimise_track``)."""
 
 from __future__ import annotations
@@ -8,8 +8,8 @@ import json
 import pytest
 import yaml
 
+from dsmv.config.objective import ObjectiveConfig, objective_config, objective_value
 from dsmv.errors import ConfigError
-from dsmv.objective import ObjectiveConfig, objective_config, objective_value
 
 from tests.conftest import mlflow_runs
 

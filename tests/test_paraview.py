@@ -13,7 +13,7 @@ import meshio
 import numpy as np
 import pytest
 
-from dsmv import fields
+from dsmv.cel import fields
 from tests.test_end_to_end import job_dirs
 
 pytestmark = pytest.mark.paraview

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from dsmv.plots import moving_mean, plot_history
+from dsmv.post.plots import moving_mean, plot_history
 
 
 def test_the_moving_mean_keeps_what_a_centred_mean_keeps():

@@ -8,6 +8,7 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -16,7 +17,7 @@ from hydra import compose, initialize_config_dir
 from hydra.core.global_hydra import GlobalHydra
 from omegaconf import OmegaConf
 
-from dsmv.command_line import CONFIG_DIR
+from dsmv.config.tree import CONFIG_DIR
 from dsmv.errors import ConfigError
 from dsmv.surrogate.dataset import PARAMETERS, TARGET_METRIC
 from dsmv.surrogate.features import LeakFreeFeatures, target
@@ -85,7 +86,7 @@ def test_quantile_of_the_test_residuals():
 
 def test_scaled_calibration_widens_the_interval_with_the_prediction():
     """A scaled record (dsmv-train's default): half-width = B·q·(a + b·z/B), in metres."""
-    from dsmv.surrogate.predict import Calibration, PredictError
+    from dsmv.surrogate.predictor import Calibration, PredictError
 
     record = {"target": "z_over_b", "residuals": RESIDUALS.tolist(), "score": "scaled",
               "scale_intercept": 0.01, "scale_slope": 0.1}
@@ -105,7 +106,8 @@ def test_scaled_calibration_widens_the_interval_with_the_prediction():
 
 def test_check_command_reproduces_the_training_runs_kind_and_the_scene():
     from dsmv.surrogate.model import TrainedSurrogate
-    from dsmv.surrogate.predict import Predictor, check_command
+    from dsmv.surrogate.predict import check_command
+    from dsmv.surrogate.predictor import Predictor
 
     metadata = {"run_settings": {"solver": "cel2d", "soil.law": "einav_randolph", "mesh": "medium"},
                 "ranges": {"velocity_m_s": [1.0, 8.0], "su0_pa": [2000.0, 10000.0], "gravity_m_s2": [9.81, 9.81]}}
@@ -145,8 +147,9 @@ def test_scene_outside_the_training_range_warns(store, capsys):
                                                       "contact_length_m")])
 def test_inverse_tasks_agree_with_a_brute_force_scan_of_the_model(store, tmp_path, task, parameter, column):
     from dsmv.surrogate.model import scene_table
-    from dsmv.surrogate.predict import load_predictor, run_predict
-    from dsmv.scene import build_scene
+    from dsmv.surrogate.predict import run_predict
+    from dsmv.surrogate.predictor import load_predictor
+    from dsmv.config.scene import build_scene
 
     cfg = config(store, f"task={task}", "sinkage_limit_m=0.3", "verify=false")
     out = run_predict(cfg, tmp_path)
@@ -248,7 +251,7 @@ def test_plot_band_writes_a_png(tmp_path):
 
 def cli(cwd, *args):
     env = dict(os.environ, NUMBA_NUM_THREADS="1", HYDRA_FULL_ERROR="0")
-    return subprocess.run([sys.executable, "-m", "dsmv.surrogate.predict", *args], cwd=cwd, env=env,
+    return subprocess.run([str(Path(sys.executable).parent / "dsmv-predict"), *args], cwd=cwd, env=env,
                           capture_output=True, text=True, timeout=120)
 
 
@@ -314,9 +317,10 @@ def test_exceedance_is_the_share_of_sampled_scenes_over_the_limit(store, tmp_pat
     """P(z > limit) is the fraction of the seeded samples whose prediction exceeds the limit, with the
     binomial standard error; the interval's bounds bracket it; a limit above every sample gives 0,
     one below every sample 1."""
-    from dsmv.scene import build_scene
+    from dsmv.config.scene import build_scene
     from dsmv.surrogate.model import scene_table
-    from dsmv.surrogate.predict import load_predictor, run_predict
+    from dsmv.surrogate.predict import run_predict
+    from dsmv.surrogate.predictor import load_predictor
     from dsmv.surrogate.reliability import sample_scenes, uncertainty_from
 
     args = ["task=exceedance", "verify=false", "uncertainty.samples=2000", "uncertainty.soil.su0_pa.cov=0.3"]

@@ -21,8 +21,8 @@ from hypothesis import strategies as st
 
 from dsmv import registry
 from dsmv.cel.config import Cel2DConfig
+from dsmv.config.scene import LandingConfig, MeshConfig, RateConfig, SoilConfig, TrackGeometry, build_scene
 from dsmv.errors import ConfigError
-from dsmv.scene import LandingConfig, MeshConfig, RateConfig, SoilConfig, TrackGeometry, build_scene
 from conftest import group_options
 
 FAST = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
@@ -100,7 +100,7 @@ def base_scene():
     from hydra.core.global_hydra import GlobalHydra
     from omegaconf import OmegaConf
 
-    from dsmv.command_line import CONFIG_DIR
+    from dsmv.config.tree import CONFIG_DIR
 
     GlobalHydra.instance().clear()
     with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):
@@ -225,7 +225,7 @@ def legal_scene(draw):
     (geometry option, {config path: value})."""
     su0 = draw(st.floats(500, 20000))
     density, poisson = draw(st.floats(300, 1000)), draw(st.floats(0, 0.49))
-    # legal touchdowns stay below a tenth of the soil's elastic wave speed (dsmv.scene.check_touchdown_speed)
+    # legal touchdowns stay below a tenth of the soil's elastic wave speed (dsmv.config.scene.check_touchdown_speed)
     bulk, shear = 500 * su0 / (3 * (1 - 2 * poisson)), 500 * su0 / (2 * (1 + poisson))
     fastest = min(5.0, 0.1 * ((bulk + 4 * shear / 3) / density) ** 0.5)
     values = {
@@ -262,7 +262,7 @@ def legal_bases():
     from hydra.core.global_hydra import GlobalHydra
     from omegaconf import OmegaConf
 
-    from dsmv.command_line import CONFIG_DIR
+    from dsmv.config.tree import CONFIG_DIR
 
     bases = {}
     for solver, extra in (("analytic_energy", []), ("cel2d", TINY_CEL)):

@@ -5,7 +5,7 @@ import re
 
 import pytest
 
-from dsmv import report
+from dsmv.verify import report
 
 #: a fenced code block of a Markdown page
 FENCE = re.compile(r"^(```|~~~).*?^\1", re.MULTILINE | re.DOTALL)

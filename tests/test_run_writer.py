@@ -1,4 +1,4 @@
-"""The MLflow writer process (dsmv.run_writer): runs opened and closed through it arrive in the store,
+"""The MLflow writer process (dsmv.tracking.run_writer): runs opened and closed through it arrive in the store,
 a sweep's writer serves other connections over its socket and parents their runs, errors come back
 as WriterError, and the writer's log records land in the asking process's logging."""
 
@@ -10,8 +10,8 @@ from multiprocessing.connection import Client
 
 import pytest
 
-from dsmv import run_writer
-from dsmv.run_writer import SOCKET_FILE, Writer, WriterError
+from dsmv.tracking import run_writer
+from dsmv.tracking.run_writer import SOCKET_FILE, Writer, WriterError
 
 
 @pytest.fixture

@@ -11,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from dsmv import registry
-from dsmv.scene import build_scene
-from dsmv.template import package_files
+from dsmv.app.template import package_files
+from dsmv.config.scene import build_scene
 
 LAWS = list(registry.available("soil_laws"))
 
@@ -95,7 +95,7 @@ def test_inactive_law_is_the_tresca_path(compose_cfg):
     xi=st.floats(0.0, 200.0), dxi=st.floats(0.0, 50.0), g=st.floats(0.0, 1e3), dg_decades=st.floats(0.0, 6.0),
 )
 def test_einav_randolph_monotone_in_strain_and_rate(st_, xi95, eta, n, xi, dxi, g, dg_decades):
-    from dsmv.scene import SoilConfig
+    from dsmv.config.scene import SoilConfig
     from dsmv_plugins.einav_randolph import EinavRandolphLaw
 
     soil = SoilConfig(name="h", law="einav_randolph", su0_pa=5e3, ks_pa_per_m=0, sensitivity=st_, xi95=xi95,
@@ -188,7 +188,7 @@ def test_a_missing_declared_parameter_without_default_is_one_line_naming_it():
     from pydantic import Field
 
     from dsmv.errors import ConfigError
-    from dsmv.scene import _law_parameters
+    from dsmv.config.scene import _law_parameters
     from dsmv.soil_law import LawParameters
     from dsmv.testing import compose_scene
 
@@ -368,7 +368,7 @@ def test_the_template_refuses_a_name_that_is_not_an_identifier(run_cli, tmp_path
 @pytest.mark.parametrize("how", ["--config-dir", "hydra.searchpath"])
 def test_a_profile_in_a_config_dir_of_ones_own_is_a_soil_option(run_cli, tmp_path, how):
     """Hydra's own ways to add configs: the option is found, not refused as 'not a soil option'."""
-    from dsmv.command_line import CONFIG_DIR
+    from dsmv.config.tree import CONFIG_DIR
 
     folder = tmp_path / "my_conf" / "soil"
     folder.mkdir(parents=True)

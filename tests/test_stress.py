@@ -26,8 +26,8 @@ import pytest
 
 from dsmv.cel.solver import ENERGY_ERROR_LIMIT
 from dsmv.cel.solver3d import PARALLEL_MIN_CELLS
-from dsmv.regression import STRESS_SCENES, stress_scene
 from dsmv.results import EXIT_CODES, HISTORY_COLUMNS, HISTORY_FILE, RESULT_FILE
+from dsmv.verify.regression import STRESS_SCENES, stress_scene
 
 BIN = Path(sys.executable).parent
 #: quiet runs; every scene is the default landing on Tresca soil unless it names its law (stress_scene)
@@ -67,7 +67,7 @@ def read_run(run_dir: Path) -> Run:
 
 def run_cli(run_dir: Path, overrides, threads: int = 1, solver: str | None = "cel2d") -> Run:
     """One CEL job through the ``dsmv`` console script, in its own Hydra run dir: a 2D stress scene
-    (:func:`dsmv.regression.stress_scene`), or with ``solver=None`` the overrides as they are."""
+    (:func:`dsmv.verify.regression.stress_scene`), or with ``solver=None`` the overrides as they are."""
     env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), HYDRA_FULL_ERROR="0")
     scene = stress_scene(overrides) if solver == "cel2d" else list(overrides)
     proc = subprocess.run([str(BIN / "dsmv"), *BASE, *scene, f"hydra.run.dir={run_dir}"],
@@ -82,8 +82,8 @@ def run_cli(run_dir: Path, overrides, threads: int = 1, solver: str | None = "ce
 def run_in_process(compose_cfg, run_dir: Path, overrides) -> Run:
     """The same job without the CLI's start-up cost: solve, write the job's files, read them back."""
     from dsmv.cel.solver2d import Cel2DSolver
-    from dsmv.runner import write_outputs
-    from dsmv.scene import build_scene
+    from dsmv.app.runner import write_outputs
+    from dsmv.config.scene import build_scene
 
     scene = build_scene(compose_cfg([*BASE, *stress_scene(overrides)]))
     run_dir.mkdir(parents=True, exist_ok=True)

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dsmv import studies
+from dsmv.post import studies
 from hydra_plugins.dsmv_sweeper.case_sweeper import one_at_a_time
 
 STUDY_DIRECTIONS = {

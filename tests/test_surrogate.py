@@ -120,7 +120,7 @@ def test_design_is_seeded_on_table3_levels_and_reports_what_it_dropped(compose_c
 
 def test_design_filter_keeps_only_scenes_below_the_analytic_limit(compose_cfg):
     from dsmv.analytic.energy import energy_estimate
-    from dsmv.scene import build_scene
+    from dsmv.config.scene import build_scene
 
     scene = build_scene(compose_cfg(["experiment=dataset_table3"]))
     limit = 0.3
@@ -496,7 +496,7 @@ def test_full_study_trains_on_the_table3_dataset(surrogate, features):
 
     from dsmv.surrogate.train import fit_and_evaluate, settings_from
     from dsmv import registry
-    from dsmv.command_line import CONFIG_DIR
+    from dsmv.config.tree import CONFIG_DIR
 
     store = Path(__file__).resolve().parent.parent / "runs" / "mlflow.db"  # the checkout's local store
     if not store.exists():

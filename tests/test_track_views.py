@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from dsmv.cel.solver2d import Cel2DSolver
+from dsmv.config.scene import build_scene
 from dsmv.errors import ConfigError
-from dsmv.scene import build_scene
 
 
 def _solver(compose_cfg, *overrides):

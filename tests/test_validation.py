@@ -2,8 +2,8 @@
 
 import pytest
 
+from dsmv.config.scene import build_scene
 from dsmv.errors import ConfigError
-from dsmv.scene import build_scene
 
 BAD_VALUES = [
     ("landing.mass_kg=-1", "landing.mass_kg", "greater than 0"),

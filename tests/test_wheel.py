@@ -23,13 +23,13 @@ SOURCES = ("pyproject.toml", "README.md", "dsmv", "plugins", "hydra_plugins", "c
 
 RUN_FROM_WHEEL = """
 import sys
-import dsmv, dsmv.cli, dsmv.command_line
+import dsmv, dsmv.app.cli, dsmv.config.tree
 print("dsmv from", dsmv.__file__, file=sys.stderr)
-print("config from", dsmv.command_line.CONFIG_DIR, file=sys.stderr)
+print("config from", dsmv.config.tree.CONFIG_DIR, file=sys.stderr)
 assert dsmv.__file__.startswith(sys.argv[1]), dsmv.__file__
-assert dsmv.command_line.CONFIG_DIR.startswith(sys.argv[1]), dsmv.command_line.CONFIG_DIR
+assert dsmv.config.tree.CONFIG_DIR.startswith(sys.argv[1]), dsmv.config.tree.CONFIG_DIR
 sys.argv = ["dsmv", *sys.argv[2:]]
-dsmv.cli.simulate()
+dsmv.app.cli.simulate()
 """
 
 

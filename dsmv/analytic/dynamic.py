@@ -56,7 +56,8 @@ from dsmv.analytic.bearing import PRANDTL_NC
 from dsmv.analytic.energy import skempton_shape_factor
 from dsmv.errors import ConfigError
 from dsmv.results import SolveResult
-from dsmv.scene import Count, Number, Scene, Schema
+from dsmv.config.scene import Scene
+from dsmv.config.schema import Count, Number, Schema
 
 #: (κ = ks·B/su, G): a rough surface strip's q/su0 over its weightless value. The midpoints of the
 #: limit-analysis brackets (default mesh, 8480 triangles): κ = 0 [5.1254, 5.1765], 0.25 [5.5722,

@@ -33,7 +33,8 @@ from dsmv import registry
 from dsmv.analytic.bearing import PRANDTL_NC
 from dsmv.errors import ConfigError
 from dsmv.results import SolveResult
-from dsmv.scene import Count, Number, Scene, Schema
+from dsmv.config.scene import Scene
+from dsmv.config.schema import Count, Number, Schema
 
 
 def _check_shape_factor(value):

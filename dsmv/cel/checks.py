@@ -24,7 +24,8 @@ from dsmv.cel.layout import B_TIME, N_BODY, SoilLawKernel
 from dsmv.cel.state import Elastic, body_free_state, geostatic_state, step_parameters
 from dsmv import registry
 from dsmv.results import SolveResult
-from dsmv.scene import Number, Scene, Schema
+from dsmv.config.scene import Scene
+from dsmv.config.schema import Number, Schema
 
 
 class Cel2DCheckConfig(Schema):

@@ -12,7 +12,7 @@ from typing import Literal, Optional, Union
 
 from pydantic import Field, field_validator
 
-from dsmv.scene import Count, Number, Schema
+from dsmv.config.schema import Count, Number, Schema
 
 
 class Economies(Schema):
@@ -112,6 +112,6 @@ def solver_defaults(name: str) -> dict:
 
     from omegaconf import OmegaConf
 
-    from dsmv.command_line import CONFIG_DIR
+    from dsmv.config.tree import CONFIG_DIR
 
     return OmegaConf.to_container(OmegaConf.load(Path(CONFIG_DIR) / "solver" / f"{name}.yaml"), resolve=True)

@@ -37,7 +37,7 @@ from dsmv.cel.layout import B_INFLOW, B_TIME, B_VEL, N_BODY, CellRows, Cells, In
 from dsmv.cel.state import Elastic, geostatic_state, hourglass_factor, step_parameters
 from dsmv.errors import ConfigError
 from dsmv.results import SolveResult
-from dsmv.scene import Scene
+from dsmv.config.scene import Scene
 
 #: s/B at which push curves are sampled for the bearing factor q/su0 (averaged over ±0.005·B)
 NC_SAMPLES = {"nc_at_0p02B": 0.02, "nc_at_0p05B": 0.05, "nc_at_0p1B": 0.1, "nc_at_1B": 1.0}
@@ -530,7 +530,7 @@ class CelSolver:
         return state.stepper(n, *args)
 
     def field_recorder(self, state: State):
-        from dsmv.fields import FieldRecorder
+        from dsmv.cel.fields import FieldRecorder
 
         recorder = FieldRecorder(state.grid, state.cells.solid, state.mesh.corner, tresca=state.par.tresca,
                                  stress_cutoff=self.scene.solver.stress_cutoff,

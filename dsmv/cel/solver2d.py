@@ -21,7 +21,7 @@ from dsmv.cel.grid import Grid2D, build_grid_2d
 from dsmv.cel.layout import Faces2D, Mesh2D, split_cells
 from dsmv.cel.solver import CelSolver
 from dsmv.errors import ConfigError
-from dsmv.scene import Scene
+from dsmv.config.scene import Scene
 
 
 class Cel2DSolver(CelSolver):

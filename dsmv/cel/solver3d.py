@@ -26,7 +26,7 @@ from dsmv.cel.grid import Grid3D, build_grid_3d
 from dsmv.cel.layout import Faces3D, Mesh3D, split_cells
 from dsmv.cel.solver import CelSolver, State, in_sweep
 from dsmv.errors import ConfigError
-from dsmv.scene import Scene
+from dsmv.config.scene import Scene
 
 #: the throughput the 3D cost estimate assumes (cell updates per second, one thread), a guard
 #: against hours, not a prediction: the quarter square plate at B/10, small strain, measured

@@ -7,7 +7,7 @@ one batch per sweep, from what the store already holds for the study:
   same draw and energy-method filter as ``experiment=dataset_table3``);
 - while the study has fewer than ``active.initial`` ok runs, the batch is the hypercube's first
   ``active.initial`` candidates not yet run: a space-filling start;
-- after that, a random forest on the physics features (:class:`~dsmv.surrogate.features.PhysicsFeatures`)
+- after that, a random forest on the physics features (:class:`~dsmv.surrogate.fast_model.PhysicsFeatures`)
   is fitted to the tracked runs, and each candidate not yet run is scored by how much its z/B
   varies between the forest's trees (the ensemble's disagreement). The most disputed candidates
   crowd together (one batch of the 20 top-scored ones all sank 0.26–0.29 m), so the batch is
@@ -31,10 +31,15 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from dsmv.config.scene import build_scene, build_tracking
 from dsmv.errors import ConfigError
-from dsmv.surrogate.dataset import COLUMNS, DatasetError, load_dataset
-from dsmv.surrogate.design import DatasetConfig, block_values, table3_design
-from dsmv.surrogate.features import LeakFreeFeatures, PhysicsFeatures, target
+from dsmv.surrogate.dataset import COLUMNS, DatasetError, load_dataset, search_study_runs
+from dsmv.surrogate.design import CONTACT_LENGTH_KEY, DatasetConfig, TABLE3_LEVELS, block_values, table3_design
+from dsmv.surrogate.evaluate import pyplot
+from dsmv.surrogate.fast_model import PhysicsFeatures
+from dsmv.surrogate.features import LeakFreeFeatures, target
+from dsmv.surrogate.model import scene_table
+from dsmv.tracking.run_writer import store_missing
 
 #: the forest that measures disagreement (its trees' spread) and scores the comparison
 FOREST = {"n_estimators": 200, "min_samples_leaf": 2}
@@ -65,8 +70,6 @@ class ActiveConfig:
 
 def candidates(base_scene, active: ActiveConfig) -> pd.DataFrame:
     """The candidate scenes as a dataset table (the base scene's values where the design is silent)."""
-    from dsmv.surrogate.model import scene_table
-
     design = table3_design(base_scene, DatasetConfig(active.pool, active.seed, active.max_analytic_sinkage_m))
     table = pd.concat([scene_table([base_scene])] * len(design.scenes), ignore_index=True)
     for column in {COLUMNS[key] for scene in design.scenes for key in scene}:
@@ -122,10 +125,6 @@ def next_batch(cfg: Any) -> list[list[str]]:
     """``hydra.sweeper.cases_from`` of ``experiment=dataset_active``: the next batch's overrides."""
     from omegaconf import OmegaConf
 
-    from dsmv.run_writer import store_missing
-    from dsmv.scene import build_scene, build_tracking
-    from dsmv.surrogate.design import CONTACT_LENGTH_KEY, TABLE3_LEVELS
-
     active = ActiveConfig.from_cfg(cfg)
     plain = OmegaConf.create({k: cfg[k] for k in cfg if k != "hydra"})
     base = build_scene(plain)
@@ -149,8 +148,6 @@ def next_batch(cfg: Any) -> list[list[str]]:
 
 def _ordered(tracking_uri: str, study: str) -> pd.DataFrame:
     """The study's ok runs, oldest first (the order a design added them in)."""
-    from dsmv.surrogate.dataset import search_study_runs
-
     dataset = load_dataset(tracking_uri, study)
     started = {run.info.run_id: run.info.start_time or 0 for run in search_study_runs(tracking_uri, study)}
     order = np.argsort([started[r] for r in dataset.table["run_id"]], kind="stable")
@@ -190,8 +187,6 @@ def compare(tracking_uri: str, active_study: str = "dataset_active", plain_study
 
 
 def plot_comparison(curves: pd.DataFrame, path: Path) -> Path:
-    from dsmv.surrogate.evaluate import pyplot
-
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(6, 4), constrained_layout=True)
     for design, frame in curves.groupby("design"):

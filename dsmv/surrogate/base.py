@@ -23,7 +23,7 @@ from typing import Any, ClassVar
 
 from pydantic import Field
 
-from dsmv.scene import Count, Schema
+from dsmv.config.schema import Count, Schema
 
 
 class SurrogateConfig(Schema):

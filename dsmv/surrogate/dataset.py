@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from dsmv.errors import DsmvError
+from dsmv.tracking.run_writer import resolve_uri
 
 #: table column → the config key it is read from (MLflow param), units in the column name
 PARAMETERS: dict[str, str] = {
@@ -105,8 +106,6 @@ def search_study_runs(tracking_uri: str, study: str) -> list:
     """Every job run tagged ``dsmv.study = study`` (runs with a ``dsmv.role``, sweep parents and
     surrogate trainings, are not jobs)."""
     from mlflow.tracking import MlflowClient
-
-    from dsmv.run_writer import resolve_uri
 
     client = MlflowClient(tracking_uri=resolve_uri(tracking_uri))
     experiment_ids = [e.experiment_id for e in client.search_experiments()]

@@ -31,7 +31,10 @@ from typing import Any
 
 import numpy as np
 
+from dsmv.analytic.energy import energy_estimate, sinkage_from_energy
+from dsmv.config.scene import build_scene, build_tracking
 from dsmv.errors import ConfigError
+from dsmv.tracking import runs
 
 #: Table 3 of Zeng et al. (2025): the levels of each parameter in the 257-sample dataset.
 #: Keys are the config keys; the contact area A (m²) is turned into L = A/B below.
@@ -150,8 +153,6 @@ def analytic_sinkage(base_scene, scenes: list[dict[str, float]]) -> list[float]:
     :func:`~dsmv.analytic.energy.energy_estimate` gives it once per contact length, and
     :func:`~dsmv.analytic.energy.sinkage_from_energy` solves each scene.
     """
-    from dsmv.analytic.energy import energy_estimate, sinkage_from_energy
-
     resistance_area: dict[float, float] = {}
     out = []
     for values in scenes:
@@ -212,8 +213,6 @@ def table3_cases(cfg: Any) -> list[list[str]]:
     """
     from omegaconf import OmegaConf
 
-    from dsmv.scene import build_scene
-
     dataset = DatasetConfig.from_cfg(cfg)
     plain = OmegaConf.create({k: cfg[k] for k in cfg if k != "hydra"})
     design = table3_design(build_scene(plain), dataset)
@@ -238,14 +237,11 @@ def _sweep_dir(cfg) -> Path | None:
 
 def _log_to_parent(cfg, sweep_dir: Path, design: Design) -> None:
     """The design's counts as metrics of the sweep's parent run, and the design CSV as an artifact."""
-    from dsmv import tracking
-    from dsmv.scene import build_tracking
-
-    run_id = tracking.parent_run_id(sweep_dir)
+    run_id = runs.parent_run_id(sweep_dir)
     settings = build_tracking(cfg)
     if run_id is None or not settings.enabled:
         return
-    client = tracking._client(settings)
+    client = runs._client(settings)
     client.log_metric(run_id, "dataset_n_drawn", design.n_drawn)
     client.log_metric(run_id, "dataset_n_dropped", sum(design.dropped.values()))
     client.log_metric(run_id, "dataset_n_kept", len(design.scenes))

@@ -1,4 +1,5 @@
-"""The fast landing model (``solver=analytic_dynamic``) over a dataset table, and its calibration.
+"""The fast landing model (``solver=analytic_dynamic``) over a dataset table, its calibration, and the
+physics feature set built on it (:class:`PhysicsFeatures`).
 
 Each row of a dataset table (:mod:`dsmv.surrogate.dataset`) is a landing. The columns hold what the
 study varied; the soil's other values are the default soil's (``conf/soil/nodule_field.yaml``:
@@ -21,9 +22,10 @@ from types import SimpleNamespace
 import numpy as np
 import pandas as pd
 
+from dsmv import registry
 from dsmv.analytic.dynamic import Coefficients, Landing, sinkage
 from dsmv.surrogate.dataset import TARGET_METRIC
-from dsmv.surrogate.features import physics
+from dsmv.surrogate.features import LeakFreeFeatures, physics, target
 
 #: the coefficients a calibration fits; the others keep their cited values
 FITTED = ("depth_coefficient", "strain_coefficient", "drag_coefficient")
@@ -31,7 +33,7 @@ FITTED = ("depth_coefficient", "strain_coefficient", "drag_coefficient")
 
 @lru_cache(maxsize=1)
 def _default_scene():
-    from dsmv.bench import compose_scene
+    from dsmv.config.tree import compose_scene
 
     return compose_scene(["tracking=disabled", "solver=analytic_dynamic"])
 
@@ -61,8 +63,6 @@ def table_landing(table: pd.DataFrame, settings: dict | None = None) -> Landing:
 
 def table_factor(table: pd.DataFrame, settings: dict | None = None):
     """The soil law's strength factor of each row, as f(ξ, γ̇) on arrays aligned with the rows."""
-    from dsmv import registry
-
     settings = settings or default_settings()
     law = registry.load("soil_laws", settings.get("law", "einav_randolph"), "soil.law")
     rows = SimpleNamespace(sensitivity=table["sensitivity"].to_numpy(float), xi95=table["xi95"].to_numpy(float),
@@ -78,6 +78,26 @@ def fast_sinkage(table: pd.DataFrame, coefficients: Coefficients | None = None,
     settings = settings or default_settings()
     coefficients = coefficients or Coefficients(**settings["coefficients"])
     return sinkage(table_landing(table, settings), table_factor(table, settings), coefficients)
+
+
+class PhysicsFeatures(LeakFreeFeatures):
+    """The leak-free inputs and the fast landing model's z/B (``solver=analytic_dynamic``, in
+    milliseconds from the same inputs): the forest learns the CEL's departure from the physics."""
+
+    name = "physics"
+    columns = (*LeakFreeFeatures.columns, "fast_model_z_over_b")
+
+    def __init__(self, settings: dict | None = None):
+        #: the fast model's coefficients and soil fill (recorded with a trained model)
+        self.settings = settings or default_settings()
+
+    def transform(self, table: pd.DataFrame, sinkage_m=None) -> pd.DataFrame:
+        X = super().transform(table)
+        X["fast_model_z_over_b"] = fast_sinkage(table, settings=self.settings) / table["width_m"].to_numpy(float)
+        return X
+
+    def metadata(self) -> dict:
+        return {"fast_model": self.settings}
 
 
 def errors(model_m, cel_m) -> dict[str, float]:
@@ -125,8 +145,6 @@ def nested_r2(table: pd.DataFrame, folds: int = 10, seed: int = 0) -> dict[str, 
     from sklearn.metrics import r2_score
     from sklearn.model_selection import KFold
     from xgboost import XGBRegressor
-
-    from dsmv.surrogate.features import LeakFreeFeatures, target
 
     y, inputs = target(table), LeakFreeFeatures().transform(table)
     models = {"random forest": lambda: RandomForestRegressor(146, max_depth=9, random_state=seed),

@@ -5,7 +5,7 @@ The reference study writes its target as "z/A" with A the contact area (m²): z/
 1/m and is not dimensionless. With B fixed (0.6 m) in its dataset, z/B carries the same
 information and is what the study's own normalisation ``E_total/(A·B·(su0 + ks·z))`` implies.
 
-Two feature sets (:data:`FEATURE_SETS`, ``train.features``):
+The feature sets (``train.features``; by name: :func:`dsmv.surrogate.model.feature_set`):
 
 ``study`` — the reference study's Eq. (3) inputs: δrem = 1/St, ξ95, η and the energy ratio
     Π_E = E_total / (A·B·(su0 + ks·z)),  E_total = ½·M·vi² + W·z,
@@ -17,6 +17,8 @@ Two feature sets (:data:`FEATURE_SETS`, ``train.features``):
     and is unique.
 ``leak_free`` — inputs only: the raw parameters (m, A, vi, su0, ks, δrem, ξ95, η) and the groups
     Π_kin = ½·M·vi²/(A·B·su0), Π_W = W/(A·su0), Π_ks = ks·B/su0.
+``physics`` (the default) — the leak-free inputs and the fast landing model's z/B: built on the
+    fast model, it lives beside it (:class:`dsmv.surrogate.fast_model.PhysicsFeatures`).
 """
 
 from __future__ import annotations
@@ -26,7 +28,6 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from dsmv.errors import ConfigError
 from dsmv.surrogate.dataset import TARGET_METRIC
 
 TARGET = "z_over_b"  # z/B (-)
@@ -112,30 +113,6 @@ class LeakFreeFeatures(FeatureSet):
         }, columns=list(self.columns))
 
 
-class PhysicsFeatures(LeakFreeFeatures):
-    """The leak-free inputs and the fast landing model's z/B (``solver=analytic_dynamic``, in
-    milliseconds from the same inputs): the forest learns the CEL's departure from the physics."""
-
-    name = "physics"
-    columns = (*LeakFreeFeatures.columns, "fast_model_z_over_b")
-
-    def __init__(self, settings: dict | None = None):
-        from dsmv.surrogate.fast_model import default_settings
-
-        #: the fast model's coefficients and soil fill (recorded with a trained model)
-        self.settings = settings or default_settings()
-
-    def transform(self, table: pd.DataFrame, sinkage_m=None) -> pd.DataFrame:
-        from dsmv.surrogate.fast_model import fast_sinkage
-
-        X = super().transform(table)
-        X["fast_model_z_over_b"] = fast_sinkage(table, settings=self.settings) / table["width_m"].to_numpy(float)
-        return X
-
-    def metadata(self) -> dict:
-        return {"fast_model": self.settings}
-
-
 class StudyFeatures(FeatureSet):
     name = "study"
     columns = ("delta_rem", "xi95", "eta", "energy_ratio")
@@ -173,17 +150,3 @@ class StudyFeatures(FeatureSet):
 
     def predict_sinkage(self, estimator, table: pd.DataFrame, z_max_m: float = 2.0, points: int = 200, **_):
         return self.solve(estimator, table, z_max_m, points).sinkage_m
-
-
-FEATURE_SETS: dict[str, type[FeatureSet]] = {"physics": PhysicsFeatures, "leak_free": LeakFreeFeatures,
-                                              "study": StudyFeatures}
-
-
-def feature_set(name: str, metadata: dict | None = None) -> FeatureSet:
-    """The feature set called ``name`` (``train.features``); ``metadata``: a trained model's, whose
-    recorded settings rebuild the features it was trained on."""
-    if name not in FEATURE_SETS:
-        raise ConfigError("train.features", name, f"must be one of {', '.join(FEATURE_SETS)}")
-    if name == "physics":
-        return PhysicsFeatures((metadata or {}).get("fast_model"))
-    return FEATURE_SETS[name]()

@@ -67,6 +67,8 @@ from typing import Callable, Literal
 
 import numpy as np
 
+from dsmv.surrogate.evaluate import split
+
 METHODS = ("pooled", "cv_plus", "oob")
 #: the calibration record, an artifact of the registered model's training run (written by dsmv-train, read by dsmv-predict)
 CALIBRATION_FILE = "conformal.json"
@@ -356,8 +358,6 @@ def coverage_over_resplits(make_estimator: Callable, X, y, n_splits: int = 200, 
     predictions whose ŷ lies in the lower, middle and upper third of the dataset's y (grouping
     by ŷ, what a user sees, not by the true y: selecting rows by y selects their noise too).
     """
-    from dsmv.surrogate.evaluate import split
-
     c = check_confidence(confidence)
     if n_splits < 1:
         raise ValueError(f"n_splits = {n_splits!r}: must be ≥ 1")

@@ -17,12 +17,30 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from dsmv.errors import ConfigError
 from dsmv.surrogate.dataset import PARAMETERS
-from dsmv.surrogate.features import FeatureSet, feature_set
+from dsmv.surrogate.fast_model import PhysicsFeatures
+from dsmv.surrogate.features import FeatureSet, LeakFreeFeatures, StudyFeatures
+from dsmv.tracking.run_writer import resolve_uri
+
+
+#: the feature sets by name (``train.features``, and what a trained model records)
+FEATURE_SETS: dict[str, type[FeatureSet]] = {"physics": PhysicsFeatures, "leak_free": LeakFreeFeatures,
+                                              "study": StudyFeatures}
+
+
+def feature_set(name: str, metadata: dict | None = None) -> FeatureSet:
+    """The feature set called ``name`` (``train.features``); ``metadata``: a trained model's, whose
+    recorded settings rebuild the features it was trained on."""
+    if name not in FEATURE_SETS:
+        raise ConfigError("train.features", name, f"must be one of {', '.join(FEATURE_SETS)}")
+    if name == "physics":
+        return PhysicsFeatures((metadata or {}).get("fast_model"))
+    return FEATURE_SETS[name]()
 
 
 def scene_table(scenes) -> pd.DataFrame:
-    """Validated :class:`~dsmv.scene.Scene` objects → a dataset-style table (one row each, SI)."""
+    """Validated :class:`~dsmv.config.scene.Scene` objects → a dataset-style table (one row each, SI)."""
     rows = []
     for scene in scenes:
         landing, body, soil = scene.landing, scene.geometry, scene.soil
@@ -60,14 +78,21 @@ class TrainedSurrogate:
         return outside
 
 
+def load_estimator(path: str):
+    """A fitted estimator saved in its MLflow flavour (xgboost, else scikit-learn) at ``path`` (a
+    local folder or a model URI)."""
+    import mlflow
+    from mlflow.models import get_model_info
+
+    if "xgboost" in get_model_info(str(path)).flavors:
+        return mlflow.xgboost.load_model(str(path))
+    return mlflow.sklearn.load_model(str(path))  # the trusted types saved with it travel in its MLmodel file
+
+
 def load_registered(name: str, tracking_uri: str, version: str = "latest") -> TrainedSurrogate:
     """Load ``models:/<name>/<version>`` with its dsmv metadata (an MLflow client call, then the model)."""
     import mlflow
     from mlflow.models import get_model_info
-
-    from dsmv.run_writer import resolve_uri
-
-    from dsmv.surrogate.serving import load_estimator
 
     mlflow.set_tracking_uri(resolve_uri(tracking_uri))
     uri = f"models:/{name}/{version}"

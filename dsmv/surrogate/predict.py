@@ -24,7 +24,9 @@ With q the ⌈c·(n+1)⌉-th smallest score and ``target = z_over_b``, the inter
 width grows with the predicted sinkage, as the surrogates' errors do) and ``B·(ŷ ± q)`` for the absolute one
 (records without ``score`` are absolute). The lower bound is clipped at 0 m (a sinkage is never
 negative; clipping cannot lose coverage). Without a calibration the sinkage is printed without an
-interval, and the inverse tasks (which need upper bounds) stop with a one-line error.
+interval, and the inverse tasks (which need upper bounds) stop with a one-line error. The calibration
+and the predictor are :mod:`dsmv.surrogate.predictor`'s (the served model uses them too); the
+console script is :func:`dsmv.app.cli.predict`.
 
 User mistakes (no store, no registered model, no calibration for an inverse task, unknown
 task, a limit ≤ 0, a bad CSV) end in one line ``dsmv-predict: error: …`` and exit status 2.
@@ -37,7 +39,6 @@ import math
 import os
 import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
@@ -46,20 +47,18 @@ import pandas as pd
 from omegaconf import DictConfig, OmegaConf
 from pydantic import Field
 
+from dsmv.config.scene import build_scene, build_tracking
+from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError, DsmvError
-from dsmv.scene import Count, Number, Schema, _validate, build_scene, build_tracking
 from dsmv.surrogate.dataset import COLUMNS, PARAMETERS
-from dsmv.surrogate.intervals import CALIBRATION_FILE, SCORES, BinnedScale, ScoreScale, residual_quantile
+from dsmv.surrogate.evaluate import pyplot
+from dsmv.surrogate.intervals import CALIBRATION_FILE
 from dsmv.surrogate.inverse import GOALS, TASK_PARAMETERS, InverseResult, solve_inverse
 from dsmv.surrogate.model import TrainedSurrogate, scene_table
+from dsmv.surrogate.predictor import CALIBRATION_KEY, PredictError, Predictor, load_predictor
+from dsmv.surrogate.reliability import exceedance, sample_scenes, uncertainty_from
 
 PROG = "dsmv-predict"
-CALIBRATION_KEY = "conformal"  # or the same record inside the model metadata
-TARGET_SCALES = {"z_over_b": "width", "max_sinkage_m": "metre"}  # how a residual becomes metres
-
-
-class PredictError(DsmvError):
-    """A user mistake of dsmv-predict (store, model, calibration, CSV): one line, exit 2."""
 
 
 class SearchSettings(Schema):
@@ -98,120 +97,6 @@ def settings_from(cfg: DictConfig) -> PredictSettings:
         raise ConfigError("sinkage_limit_m", None, f"task={settings.task} needs a limit (m) > 0, "
                                                    "e.g. sinkage_limit_m=0.3")
     return settings
-
-
-# ----------------------------------------------------------------------------- the predictor
-
-
-@dataclass(frozen=True)
-class Calibration:
-    """Out-of-fold conformal scores of a surrogate (conformal.json): absolute residuals in its
-    target's units, or scaled ones (residual / (scale_intercept + scale_slope·|ŷ|)); records
-    written before ``score`` existed are absolute."""
-
-    target: str
-    residuals: np.ndarray
-    method: str = "cross_conformal_pooled"
-    score: str = "absolute"
-    scale: ScoreScale | BinnedScale = ScoreScale()  # s(ŷ) in the target's units; (1, 0) for the absolute score
-
-    @classmethod
-    def from_record(cls, record: dict, source: str) -> "Calibration":
-        try:
-            target, residuals = record["target"], np.asarray(record["residuals"], dtype=float)
-        except (KeyError, TypeError, ValueError):
-            raise PredictError(f"{source}: a calibration needs 'target' and 'residuals' (a list of numbers)") from None
-        if target not in TARGET_SCALES:
-            raise PredictError(f"{source}: target {target!r} is not one of {', '.join(TARGET_SCALES)}")
-        if residuals.ndim != 1 or not len(residuals) or not np.all(np.isfinite(residuals)) or np.any(residuals < 0):
-            raise PredictError(f"{source}: residuals must be a non-empty list of finite numbers ≥ 0")
-        score = record.get("score", cls.score)
-        if score not in SCORES:
-            raise PredictError(f"{source}: score {score!r} is not one of {', '.join(SCORES)}")
-        try:
-            if score == "binned":
-                scale = BinnedScale(tuple(map(float, record["scale_edges"])), tuple(map(float, record["scale_values"])))
-            else:
-                scale = ScoreScale(record["scale_intercept"], record["scale_slope"]) if score == "scaled" else ScoreScale()
-        except (KeyError, TypeError, ValueError) as error:
-            what = ("scale_edges and scale_values (one more value than edges, values > 0)" if score == "binned"
-                    else "scale_intercept and scale_slope, numbers ≥ 0, not both 0")
-            raise PredictError(f"{source}: a {score} score needs {what} ({error})") from None
-        return cls(target, residuals, str(record.get("method", cls.method)), score, scale)
-
-    def half_width_m(self, table: pd.DataFrame, sinkage_m: np.ndarray, confidence: float) -> np.ndarray:
-        """Half-width of the interval of z (m) per row, given the predicted z (m):
-        B·q·s(z/B) for the z/B target, q·s(z) for z; s = 1 (absolute) or a + b·|ŷ| (scaled)."""
-        q = residual_quantile(self.residuals, confidence)
-        metres_per_unit = table["width_m"].to_numpy(float) if TARGET_SCALES[self.target] == "width" \
-            else np.ones(len(table))
-        prediction = np.asarray(sinkage_m, dtype=float) / metres_per_unit  # in the target's units
-        return q * self.scale(prediction) * metres_per_unit
-
-
-@dataclass
-class Predictor:
-    """A registered surrogate with its calibration: z (m) and its interval for a table of scenes."""
-
-    name: str
-    version: str
-    run_id: str
-    model: TrainedSurrogate
-    calibration: Calibration | None
-
-    def interval(self, table: pd.DataFrame, confidence: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(z, lower, upper) in m; lower/upper are NaN without a calibration."""
-        mid = np.asarray(self.model.predict_sinkage(table), dtype=float)
-        if self.calibration is None:
-            nan = np.full_like(mid, np.nan)
-            return mid, nan, nan
-        half = self.calibration.half_width_m(table, mid, confidence)
-        return mid, np.maximum(mid - half, 0.0), mid + half
-
-    def upper(self, confidence: float):
-        """``table -> upper bound of z (m)`` for :func:`dsmv.surrogate.inverse.solve_inverse`."""
-        return lambda table: self.interval(table, confidence)[2]
-
-
-def _calibration(model: TrainedSurrogate, client, run_id: str) -> Calibration | None:
-    record = model.metadata.get(CALIBRATION_KEY)
-    if record is not None:
-        return Calibration.from_record(record, f"model metadata '{CALIBRATION_KEY}'")
-    import tempfile
-
-    with tempfile.TemporaryDirectory() as tmp:
-        try:
-            path = client.download_artifacts(run_id, CALIBRATION_FILE, tmp)
-        except Exception:  # absent: MLflow raises its own error types per store
-            return None
-        return Calibration.from_record(json.loads(Path(path).read_text()), f"run {run_id} {CALIBRATION_FILE}")
-
-
-def load_predictor(name: str, tracking_uri: str, version: str = "latest") -> Predictor:
-    """The registered model ``name`` (``latest`` or a version number) with its calibration."""
-    from mlflow.exceptions import MlflowException
-    from mlflow.tracking import MlflowClient
-
-    from dsmv.surrogate.model import load_registered
-    from dsmv.run_writer import resolve_uri, store_missing
-
-    if store_missing(tracking_uri):
-        raise PredictError(f"no MLflow store at {tracking_uri}: train a surrogate first (dsmv-train), "
-                           "or point tracking.uri at the store that holds it")
-    uri = resolve_uri(tracking_uri)
-    client = MlflowClient(tracking_uri=uri)
-    try:
-        versions = client.search_model_versions(f"name='{name}'")
-    except MlflowException as error:
-        raise PredictError(f"cannot read registered models from {uri}: {str(error).splitlines()[0]}") from None
-    if not versions:
-        raise PredictError(f"no registered model '{name}' in {uri}: train one with dsmv-train")
-    by_number = {str(v.version): v for v in versions}
-    chosen = max(versions, key=lambda v: int(v.version)) if version == "latest" else by_number.get(str(version))
-    if chosen is None:
-        raise PredictError(f"model_version = {version!r}: '{name}' has versions {', '.join(sorted(by_number, key=int))}")
-    model = load_registered(name, uri, str(chosen.version))
-    return Predictor(name, str(chosen.version), chosen.run_id, model, _calibration(model, client, chosen.run_id))
 
 
 # ----------------------------------------------------------------------------- tables and CSV
@@ -265,8 +150,6 @@ def plot_band(values, mid, lower, upper, parameter: str, confidence: float, path
     horizontal line, the answer of the inverse question a vertical one, and the parameter values
     outside the training data are hatched (extrapolation).
     """
-    from dsmv.surrogate.evaluate import pyplot
-
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.2), constrained_layout=True)
     ax.fill_between(values, lower, upper, color="tab:blue", alpha=0.25, lw=0,
@@ -414,8 +297,6 @@ def exceedance_answer(cfg: DictConfig, settings: PredictSettings, predictor: Pre
                       run_dir: Path | None) -> dict:
     """``task=exceedance``: P(z > limit) over the ``uncertainty`` group's samples (dsmv.surrogate.reliability),
     its sinkage distribution drawn, and CEL runs at chosen quantiles of it (``verify``)."""
-    from dsmv.surrogate.reliability import exceedance, sample_scenes, uncertainty_from
-
     limit, c = settings.sinkage_limit_m, settings.confidence
     uncertainty = uncertainty_from(OmegaConf.to_container(cfg, resolve=True))
     table = sample_scenes(base, uncertainty)
@@ -455,8 +336,6 @@ def exceedance_answer(cfg: DictConfig, settings: PredictSettings, predictor: Pre
 
 def plot_exceedance(mid, lower, upper, limit: float, answer, confidence: float, path: Path) -> Path:
     """The predicted sinkage's distribution over the samples, the interval bounds' beside it, the limit."""
-    from dsmv.surrogate.evaluate import pyplot
-
     plt = pyplot()
 
     fig, ax = plt.subplots(figsize=(6.5, 4.2), constrained_layout=True)
@@ -585,19 +464,5 @@ def predict(cfg: DictConfig) -> dict | None:
         fail(error)
 
 
-def main() -> None:
-    """``dsmv-predict`` (console script: ``dsmv-predict = "dsmv.surrogate.predict:main"``)."""
-    import hydra
 
-    from dsmv.command_line import CONFIG_DIR, check_group_choices
-
-    check_group_choices(sys.argv[1:], PROG)
-    hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="predict")(predict)()
-
-
-if __name__ == "__main__":
-    main()
-
-
-__all__ = ["predict", "main", "run_predict", "load_predictor", "Predictor", "Calibration", "plot_band",
-           "PredictSettings", "PredictError"]
+__all__ = ["predict", "run_predict", "plot_band", "PredictSettings"]

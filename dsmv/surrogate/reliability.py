@@ -33,8 +33,8 @@ import numpy as np
 import pandas as pd
 from pydantic import Field
 
+from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError
-from dsmv.scene import Count, Number, Schema, _validate
 from dsmv.surrogate.dataset import COLUMNS
 
 
@@ -150,7 +150,7 @@ def monte_carlo_cases(cfg) -> list[list[str]]:
     ``monte_carlo.seed``) from ``conf/uncertainty/<monte_carlo.uncertainty>.yaml``, each a job."""
     from omegaconf import OmegaConf
 
-    from dsmv.command_line import CONFIG_DIR
+    from dsmv.config.tree import CONFIG_DIR
 
     settings = OmegaConf.to_container(cfg.monte_carlo, resolve=True)
     path = Path(CONFIG_DIR) / "uncertainty" / f"{settings['uncertainty']}.yaml"

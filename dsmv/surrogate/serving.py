@@ -26,6 +26,8 @@ import pandas as pd
 from mlflow.pyfunc import PythonModel
 
 from dsmv.surrogate.dataset import COLUMNS, PARAMETERS
+from dsmv.surrogate.model import TrainedSurrogate, feature_set, load_estimator
+from dsmv.surrogate.predictor import CALIBRATION_KEY, Calibration, Predictor
 
 #: the interval a served prediction carries (-): the confidence dsmv-predict uses by default
 CONFIDENCE = 0.9
@@ -64,27 +66,12 @@ def dataset_table(frame: pd.DataFrame, metadata: dict) -> pd.DataFrame:
     return table[list(PARAMETERS)].reset_index(drop=True)
 
 
-def load_estimator(path: str):
-    """A fitted estimator saved in its MLflow flavour (xgboost, else scikit-learn) at ``path`` (a
-    local folder or a model URI)."""
-    import mlflow
-    from mlflow.models import get_model_info
-
-    if "xgboost" in get_model_info(str(path)).flavors:
-        return mlflow.xgboost.load_model(str(path))
-    return mlflow.sklearn.load_model(str(path))  # the trusted types saved with it travel in its MLmodel file
-
-
 class SceneSinkageModel(PythonModel):
     """The registered model: the fitted estimator, its feature set and its interval calibration,
     behind scene config keys. ``model`` (a :class:`~dsmv.surrogate.model.TrainedSurrogate`) and
     ``calibration`` are what ``dsmv-predict`` unwraps."""
 
     def load_context(self, context) -> None:
-        from dsmv.surrogate.features import feature_set
-        from dsmv.surrogate.model import TrainedSurrogate
-        from dsmv.surrogate.predict import CALIBRATION_KEY, Calibration
-
         metadata = dict(context.model_config)
         self.model = TrainedSurrogate(load_estimator(context.artifacts[ESTIMATOR_ARTIFACT]),
                                       feature_set(metadata["feature_set"], metadata), metadata)
@@ -92,8 +79,6 @@ class SceneSinkageModel(PythonModel):
         self.calibration = Calibration.from_record(record, "model config") if record else None
 
     def predict(self, context, model_input: pd.DataFrame, params=None) -> pd.DataFrame:
-        from dsmv.surrogate.predict import Predictor
-
         table = dataset_table(pd.DataFrame(model_input), self.model.metadata)
         mid, lower, upper = Predictor("", "", "", self.model, self.calibration).interval(table, CONFIDENCE)
         return pd.DataFrame(dict(zip(OUTPUT_COLUMNS, (mid, lower, upper))))

@@ -26,12 +26,18 @@ from omegaconf import DictConfig
 from pydantic import Field
 
 from dsmv import registry
+from dsmv.config.scene import _resolve, build_tracking
+from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError
-from dsmv.scene import Count, Number, Schema, _resolve, _validate, build_tracking
 from dsmv.surrogate import evaluate
 from dsmv.surrogate.base import Surrogate, SurrogateConfig
 from dsmv.surrogate.dataset import PARAMETERS, TARGET_METRIC, Dataset, DatasetError, load_dataset
-from dsmv.surrogate.features import TARGET, FeatureSet, StudyFeatures, feature_set, target
+from dsmv.surrogate.fast_model import default_settings
+from dsmv.surrogate.features import TARGET, FeatureSet, StudyFeatures, target
+from dsmv.surrogate.intervals import CALIBRATION_FILE, ConformalRegressor, calibration_record, coverage_over_resplits
+from dsmv.surrogate.model import feature_set
+from dsmv.tracking import runs
+from dsmv.tracking.run_writer import experiment_id as find_experiment
 
 METRICS_FILE = "metrics.json"
 SUMMARY_FILE = "summary.json"
@@ -107,8 +113,6 @@ class Training:
 def dataset_metadata(dataset: Dataset) -> dict:
     """What the feature sets take from the dataset: the physics set's fast model runs the law the
     dataset's runs shared."""
-    from dsmv.surrogate.fast_model import default_settings
-
     law = dataset.settings.get("soil.law") or "einav_randolph"
     return {"fast_model": default_settings() | {"law": law}}
 
@@ -190,8 +194,6 @@ def interval_method(result: "Training", settings: TrainSettings) -> str:
 def _intervals(result: "Training", X, y, settings: TrainSettings) -> dict[str, float]:
     """Calibrate the registered model's intervals on the training split, and measure their
     coverage over the same Monte Carlo re-splits as ``mc_r2`` (issue #7)."""
-    from dsmv.surrogate.intervals import ConformalRegressor, calibration_record, coverage_over_resplits
-
     method = interval_method(result, settings)
     c = settings.interval_confidence
     train = result.train_idx
@@ -248,8 +250,6 @@ def write_outputs(result: Training, run_dir: Path) -> list[Path]:
                **result.metadata()}
     (run_dir / SUMMARY_FILE).write_text(json.dumps(summary, indent=2, default=str) + "\n")
     if result.calibration:  # dsmv-predict reads it back from the run's artifacts
-        from dsmv.surrogate.intervals import CALIBRATION_FILE
-
         (run_dir / CALIBRATION_FILE).write_text(json.dumps(result.calibration) + "\n")
         files.append(run_dir / CALIBRATION_FILE)
     return [run_dir / METRICS_FILE, run_dir / SUMMARY_FILE, *files]
@@ -259,20 +259,18 @@ def log_to_mlflow(result: Training, cfg: DictConfig, files: list[Path]) -> dict[
     """One MLflow run: params, metrics, dataset hash, files, and the model (registered)."""
     import mlflow
 
-    from dsmv import tracking
     from dsmv.surrogate.serving import scene_frame
 
     settings = build_tracking(cfg)
-    client = tracking._client(settings)
-    experiment_id = tracking._experiment_id(client, tracking.experiment_name(result.settings.experiment),
-                                            settings.artifact_location)
+    client = runs._client(settings)
+    experiment_id = find_experiment(client, runs.experiment_name(result.settings.experiment), settings.artifact_location)
     mlflow.set_tracking_uri(client.tracking_uri)
     tags = {"dsmv.study": result.dataset.study, "dsmv.role": "surrogate", "dsmv.surrogate": result.config.name,
             "dsmv.features": result.features.name, "dsmv.dataset_hash": result.dataset.content_hash,
             "dsmv.status": "ok"}
     run_name = f"{result.config.name} {result.features.name} on {result.dataset.study}"
     with mlflow.start_run(experiment_id=experiment_id, run_name=run_name, tags=tags) as run:
-        params = tracking.flatten({"train": result.settings.model_dump(), "surrogate": result.config.model_dump(),
+        params = runs.flatten({"train": result.settings.model_dump(), "surrogate": result.config.model_dump(),
                                    "best": result.best_params})
         params["dataset_hash"] = result.dataset.content_hash
         mlflow.log_params({k: v[:6000] for k, v in params.items()})
@@ -286,7 +284,7 @@ def log_to_mlflow(result: Training, cfg: DictConfig, files: list[Path]) -> dict[
     if registered and version is not None:
         for key, value in (("feature_set", result.features.name), ("dataset_hash", result.dataset.content_hash)):
             client.set_model_version_tag(registered, str(version), key, value)
-    return {"uri": client.tracking_uri, "experiment": tracking.experiment_name(result.settings.experiment),
+    return {"uri": client.tracking_uri, "experiment": runs.experiment_name(result.settings.experiment),
             "run_id": run.info.run_id, "model": f"{registered} v{version}" if registered else info.model_uri}
 
 
@@ -327,19 +325,4 @@ def print_summary(result: Training, run_dir: Path, logged: dict, wall_s: float) 
           f"model {logged['model']})")
 
 
-def main(cfg: DictConfig) -> None:
-    """The body of the Hydra app: user mistakes end in one line and exit status 2."""
-    from hydra.core.hydra_config import HydraConfig
-
-    from dsmv.errors import DsmvError
-    from dsmv.runner import fail_user_error
-
-    run_dir = Path(HydraConfig.get().runtime.output_dir)
-    try:
-        run_training(cfg, run_dir)
-    except DsmvError as error:
-        fail_user_error(error, "dsmv-train")
-
-
-__all__ = ["run_training", "fit_and_evaluate", "Training", "TrainSettings", "main",
-           "METRICS_FILE"]
+__all__ = ["run_training", "fit_and_evaluate", "Training", "TrainSettings", "METRICS_FILE"]

@@ -12,7 +12,7 @@ and the results come back in the sweep's order. SLURM keeps one array task per j
 
 A SLURM array's time limit is its longest job's cost estimate with a margin (:func:`time_limit_min`),
 never below ``timeout_min``: each job's config is composed and its scene sized in the sweep's
-process, as the job will (:func:`dsmv.runner.estimated_wall_s`). A local worker's is ``timeout_min``
+process, as the job will (:func:`dsmv.app.runner.estimated_wall_s`). A local worker's is ``timeout_min``
 per job of its share: composing every job beforehand took 0.45 s a job on the busy 2-core machine
 (7.2 s for 16), more than a medium-mesh job's solve, and a local run waits in no queue.
 """
@@ -29,7 +29,7 @@ from typing import Any, Sequence
 from hydra.core.singleton import Singleton
 from hydra.core.utils import JobReturn, filter_overrides
 
-from dsmv import interrupts
+from dsmv.app import interrupts
 
 try:
     from hydra_plugins.hydra_submitit_launcher import submitit_launcher as plugin
@@ -108,7 +108,7 @@ class SlurmLauncher(plugin.SlurmLauncher if plugin else object):
     """submitit's SLURM array, its time limit that of the sweep's longest job (:func:`time_limit_min`)."""
 
     def launch(self, job_overrides: Sequence[Sequence[str]], initial_job_idx: int) -> Sequence[JobReturn]:
-        from dsmv.runner import estimated_wall_s
+        from dsmv.app.runner import estimated_wall_s
 
         started = time.perf_counter()
         loader = self.hydra_context.config_loader

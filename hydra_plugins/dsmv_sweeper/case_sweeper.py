@@ -118,7 +118,7 @@ class CaseSweeper(Sweeper):
         sweep_dir = Path(self.config.hydra.sweep.dir)
         sweep_dir.mkdir(parents=True, exist_ok=True)
         OmegaConf.save(self.config, sweep_dir / "multirun.yaml")
-        from dsmv.tracking import write_sweep_size
+        from dsmv.tracking.runs import write_sweep_size
 
         write_sweep_size(sweep_dir, len(jobs))
         batch_size = self.max_batch_size or len(jobs)

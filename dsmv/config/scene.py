@@ -18,9 +18,11 @@ from typing import Annotated, Any, Literal, Optional, Union
 
 from omegaconf import DictConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, BeforeValidator, Field, model_validator
 
 from dsmv import registry
+from dsmv.config.objective import objective_config
+from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError
 
 # --------------------------------------------------------------------------- resolvers
@@ -56,26 +58,6 @@ def _resolve(node: Any) -> Any:
 
 
 register_resolvers()
-
-# --------------------------------------------------------------------------- field types
-
-
-def _reject_bool(value):
-    # YAML `yes`/`true` must not pass as the number 1.
-    if isinstance(value, bool):
-        raise ValueError("must be a number, not a boolean")
-    return value
-
-
-Number = Annotated[float, BeforeValidator(_reject_bool)]
-Count = Annotated[int, BeforeValidator(_reject_bool)]
-
-
-class Schema(BaseModel):
-    """Base of all config schemas: unknown keys, NaN and ±inf are errors; objects are frozen."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
-
 
 # --------------------------------------------------------------------------- soil
 
@@ -270,11 +252,16 @@ class MeshConfig(Schema):
 
 
 class OutputConfig(Schema):
-    """What a run writes besides result.json and the history CSV (see :mod:`dsmv.fields`)."""
+    """What a run writes besides result.json and the history CSV (see :mod:`dsmv.cel.fields`)."""
 
     plots: bool = Field(True, description="history.png; with fields, the contour PNG too")
     fields: bool = Field(False, description="CEL: fields.pvd and fields/*.vtu for ParaView")
     field_frames: Count = Field(20, ge=1, description="evenly spaced frames: N to 2N of them, plus the deepest (-)")
+
+
+#: the sweep-level plots an experiment can ask for with ``sweep_plot: <name>`` (drawn by
+#: :data:`dsmv.post.plots.SWEEP_PLOT_MAKERS`)
+SWEEP_PLOTS = ("fall_cone", "one_at_a_time", "compare_analytic", "mesh_study", "section_factors", "bearing_curves")
 
 
 class TrackingConfig(Schema):
@@ -327,31 +314,6 @@ class Scene:
         }
 
 
-def _validate(model: type[BaseModel], data: Any, prefix: str) -> BaseModel:
-    """Validate one group; turn the first pydantic error into a one-line ConfigError."""
-    if not isinstance(data, dict):
-        raise ConfigError(prefix, data, "must be a config group (a mapping)")
-    try:
-        return model.model_validate(data)
-    except ValidationError as exc:
-        err = exc.errors()[0]
-        path = ".".join([prefix, *(str(p) for p in err["loc"])])
-        value = err.get("input")
-        if err["type"] == "missing":
-            value = None
-        message = err["msg"].replace("Input should be", "must be").replace("Value error, ", "")
-        if err["type"] == "missing" and len(err["loc"]) == 1:  # say what the missing key is
-            field = model.model_fields.get(str(err["loc"][0]))
-            message = "missing" + (f": {field.description}" if field is not None and field.description else "")
-        if err["type"] == "extra_forbidden" and len(err["loc"]) == 1:  # a typo: name the closest key
-            import difflib
-
-            close = difflib.get_close_matches(str(err["loc"][0]), list(model.model_fields), n=1, cutoff=0.6)
-            if close:
-                message += f"; did you mean {prefix}.{close[0]}?"
-        raise ConfigError(path, value, message) from None
-
-
 def _law_parameters(law_cls, soil: SoilConfig) -> SoilConfig:
     """``soil.params`` validated against the law's declared parameters (``parameters_model``), with the
     defaults filled in (so the config hash covers them); unchanged for a law that declares none."""
@@ -391,14 +353,10 @@ def build_scene(cfg: DictConfig | dict) -> Scene:
 
     output = _validate(OutputConfig, container.get("output", {}), "output")
     study = str(container.get("study", "default"))
-    from dsmv.plots import SWEEP_PLOTS
-
     if not isinstance(container.get("resume", False), bool):
         raise ConfigError("resume", container["resume"], "must be true or false")
     if container.get("sweep_plot") not in (None, *SWEEP_PLOTS):
         raise ConfigError("sweep_plot", container["sweep_plot"], f"must be null or one of {', '.join(SWEEP_PLOTS)}")
-
-    from dsmv.objective import objective_config
 
     objective_config(container)  # not part of the scene either: a wrong objective fails before the run
     build_tracking(cfg)  # not part of the scene, but a wrong store fails here too

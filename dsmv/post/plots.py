@@ -7,7 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
-from dsmv import studies
+from dsmv.config.scene import SWEEP_PLOTS
+from dsmv.post import studies
+from dsmv.cel.fields import read_frame
 
 HISTORY_PLOT_FILE = "history.png"
 
@@ -109,8 +111,7 @@ def plot_fall_cone(sweep_dir: Path, path: Path) -> Path | None:
     return Path(path)
 
 
-#: sweep-level plots an experiment can ask for with ``sweep_plot: <name>``
-SWEEP_PLOTS = {
+_MAKERS = {
     "fall_cone": plot_fall_cone,
     "one_at_a_time": studies.one_at_a_time,
     "compare_analytic": studies.compare_analytic,
@@ -118,6 +119,9 @@ SWEEP_PLOTS = {
     "section_factors": studies.section_factors,
     "bearing_curves": studies.bearing_curves,
 }
+#: what draws each sweep-level plot an experiment can ask for (``sweep_plot: <name>``, one of
+#: :data:`dsmv.config.scene.SWEEP_PLOTS`): ``maker(sweep_dir, png_path)``
+SWEEP_PLOT_MAKERS = {name: _MAKERS[name] for name in SWEEP_PLOTS}
 
 
 FIELD_PLOT_FILE = "fields_max_sinkage.png"
@@ -206,14 +210,12 @@ def plot_field_contours(frame_path: Path, path: Path, title: str, flow_frame_pat
     grid's uniform core. Velocity: the mean of a cell's four nodal velocities, with arrows.
     ``flow_frame_path``: a frame whose velocity field is shown too, in the same window (at
     the deepest point a landing body is at rest and the soil's velocity is what rings on;
-    the mechanism shows while it still moves). Reads VTU frames written by :mod:`dsmv.fields`.
+    the mechanism shows while it still moves). Reads VTU frames written by :mod:`dsmv.cel.fields`.
 
     A 3D frame is drawn on its symmetry planes: the cross-section (x, z) at ``path`` and, for a
     plate, the longitudinal section (y, z) beside it (:data:`LONGITUDINAL_SUFFIX`). Returns the
     figures written.
     """
-    from dsmv.fields import read_frame
-
     frame = read_frame(frame_path)
     flow = [] if flow_frame_path is None else [read_frame(flow_frame_path)]
     if frame.z is None:

@@ -18,7 +18,7 @@ Writes ``bench.md`` (the tables), ``bench.csv`` (every run) and ``bench.png`` un
 ``--out`` (default ``runs/bench``). ``--quick`` runs a short version (coarser levels, one
 repeat) in under three minutes; ``--3d`` the 3D solver's throughput, threads, cold start and
 memory per cell instead (``bench_3d.md``); ``--sweeps`` what tracking and the launchers cost a job
-(:mod:`dsmv.bench_sweeps`).
+(:mod:`dsmv.verify.bench_sweeps`).
 """
 
 from __future__ import annotations
@@ -38,8 +38,12 @@ from pathlib import Path
 
 import numpy as np
 
-from dsmv import canonical
+from dsmv import registry
 from dsmv.analytic.bearing import PRANDTL_NC
+from dsmv.config.scene import OutputConfig
+from dsmv.config.tree import compose_scene
+from dsmv.convergence import richardson
+from dsmv.verify import bench_sweeps, canonical, regression
 
 #: the Prandtl case: the canonical verification scene (conf/experiment/verify_prandtl.yaml: a rough
 #: strip B = 1 m on weightless Tresca soil, su 10 kPa, E = 500·su, the soil free to part from its
@@ -106,24 +110,6 @@ class Row:
     extra: dict = field(default_factory=dict)
 
 
-def compose_scene(overrides: list[str]):
-    """The validated scene of ``overrides``, composed from conf/ exactly as the CLI does."""
-    from hydra import compose, initialize_config_dir
-    from hydra.core.global_hydra import GlobalHydra
-
-    from dsmv.command_line import CONFIG_DIR
-    from dsmv.scene import build_scene
-
-    from dsmv.registry import register_plugin_configs
-
-    register_plugin_configs()
-    GlobalHydra.instance().clear()
-    with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):
-        cfg = compose("config", overrides=list(overrides))
-    GlobalHydra.instance().clear()
-    return build_scene(cfg)
-
-
 def solve(overrides: list[str], repeats: int, run_dir: Path | None = None) -> tuple[dict, str, list[float]]:
     """Run a scene up to ``repeats`` times in this process (within REPEAT_BUDGET_S); metrics of the last
     run, its status, and every run's wall time (s, compile excluded)."""
@@ -156,7 +142,7 @@ def solver_fingerprint(overrides: list[str]) -> str:
     import hashlib
 
     digest = hashlib.sha256()
-    for source in sorted((Path(__file__).parent / "cel").glob("*.py")):
+    for source in sorted((Path(__file__).resolve().parents[1] / "cel").glob("*.py")):
         digest.update(source.read_bytes())
     digest.update(compose_scene(overrides).config_hash.encode())
     return digest.hexdigest()[:16]
@@ -166,8 +152,6 @@ def landing_reference(plan: Plan, out: Path) -> float:
     """The default landing's max sinkage extrapolated to zero cell size (m): Richardson with the
     observed order (dsmv.convergence) from the reference mesh h and 2h, 4h; cached in ``out`` until
     the solver's code or settings change."""
-    from dsmv.convergence import richardson
-
     h = plan.reference_cell_m
     sizes = (h, 2 * h, 4 * h)
     fingerprint = solver_fingerprint(LANDING + [f"mesh.cell_size_m={h}"])
@@ -221,8 +205,6 @@ def in_subprocess(overrides: list[str], env: dict) -> dict:
 
 def economies(plan: Plan) -> list[dict]:
     """Each economy off and on in the same run: speed-up (off/on wall time) and result change."""
-    from dsmv.scene import OutputConfig
-
     cell = [f"mesh.cell_size_m={plan.knob_cell_m}"]
     cases = [
         ("no softening or rate arithmetic for Tresca", LANDING + cell, ["solver.economies.skip_inactive_law=false"]),
@@ -300,8 +282,6 @@ SOLID_REPEATS = 5
 def state_bytes_per_cell(overrides: list[str]) -> tuple[float, float]:
     """The bytes per cell a solver's state holds (every array of its containers, nodes and contact
     included), and what its cost estimate assumes."""
-    from dsmv import registry
-
     scene = compose_scene(overrides)
     solver = registry.load("solvers", scene.solver.name, "solver.name")(scene)
     state = solver.initial_state()
@@ -452,7 +432,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--quick", action="store_true", help="a short version (under three minutes)")
     parser.add_argument("--out", default="runs/bench", help="output folder (default runs/bench)")
     parser.add_argument("--regression", metavar="FILE", help="instead: every metric of the regression scenes "
-                        "(dsmv.regression) into FILE (JSON; scenes already there are kept)")
+                        "(dsmv.verify.regression) into FILE (JSON; scenes already there are kept)")
     parser.add_argument("--against", metavar="REF", help="with --regression: compare with a file written before")
     parser.add_argument("--scenes", nargs="*", help="with --regression: only these scenes")
     parser.add_argument("--3d", dest="solid", action="store_true", help="instead: the 3D solver's throughput, "
@@ -461,13 +441,9 @@ def main(argv: list[str] | None = None) -> None:
                         "cost a job (bench_sweeps.md under --out)")
     args = parser.parse_args(argv)
     if args.sweeps:
-        from dsmv import bench_sweeps
-
         bench_sweeps.main(Path(args.out), args.quick)
         return
     if args.regression:
-        from dsmv import regression
-
         os.environ.setdefault("NUMBA_NUM_THREADS", "1")
         results = regression.write(Path(args.regression), args.scenes)
         if args.against:

@@ -12,6 +12,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from dsmv import registry
+from dsmv.app.template import KINDS, write_package
+from dsmv.errors import ConfigError, DsmvError
+from dsmv.results import EXIT_CODES
 
 if TYPE_CHECKING:
     from omegaconf import DictConfig
@@ -21,17 +24,17 @@ def _hydra_main(task, config_name: str):
     """``task`` as a Hydra main over dsmv's config tree."""
     import hydra
 
-    from dsmv.command_line import CONFIG_DIR
+    from dsmv.config.tree import CONFIG_DIR
 
     return hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name=config_name)(task)
 
 
 def _simulate_job(cfg: DictConfig) -> float:
-    """One job; returns its objective (dsmv.objective), the number an optimising sweeper minimises."""
+    """One job; returns its objective (dsmv.config.objective), the number an optimising sweeper minimises."""
     from omegaconf import OmegaConf
 
-    from dsmv.objective import objective_config, objective_value
-    from dsmv.runner import run_job
+    from dsmv.config.objective import objective_config, objective_value
+    from dsmv.app.runner import run_job
 
     result = run_job(cfg)
     config = OmegaConf.to_container(cfg, resolve=True)
@@ -47,44 +50,60 @@ def simulate() -> None:
     """``dsmv``: run one scene, or a sweep with ``-m``."""
     import os
 
-    # MLflow's messages go to the job's log (dsmv.joblog), not to a console handler of MLflow's own
+    # MLflow's messages go to the job's log (dsmv.app.joblog), not to a console handler of MLflow's own
     os.environ.setdefault("MLFLOW_CONFIGURE_LOGGING", "false")
     args = sys.argv[1:]
     if not set(args) & INFO_FLAGS and "tracking=disabled" not in args:
-        from dsmv.run_writer import writer
+        from dsmv.tracking.run_writer import writer
 
         # first of all: MLflow's import (2-3 s) runs on the other core while the command line is
         # checked, Hydra composes and the job solves; a command line refused below closes it unused
         writer()
-    from dsmv.command_line import check_command_line
+    from dsmv.app.command_line import check_command_line
 
     registry.register_plugin_configs()
     try:
         check_command_line(args, "dsmv", "config", scene=True)
         _hydra_main(_simulate_job, "config")()
     except KeyboardInterrupt as exc:  # before a job started, or a sweep aborted by a second signal
-        from dsmv import tracking
-        from dsmv.results import EXIT_CODES
+        from dsmv.app.sweep import abort_sweep
 
-        sweep_dir = tracking.abort_sweep(f"{exc or 'SIGINT'} again: the sweep was aborted")
+        sweep_dir = abort_sweep(f"{exc or 'SIGINT'} again: the sweep was aborted")
         print("dsmv: interrupted" + (f"; the sweep was aborted, its MLflow runs closed KILLED: {sweep_dir}"
                                      if sweep_dir else ""), file=sys.stderr)
         sys.exit(EXIT_CODES["interrupted"])
 
 
 def _train_job(cfg: DictConfig) -> None:
-    from dsmv.surrogate.train import main
+    """One training; a user mistake ends in one line and exit status 2."""
+    from hydra.core.hydra_config import HydraConfig
 
-    main(cfg)
+    from dsmv.app.runner import fail_user_error
+    from dsmv.surrogate.train import run_training
+
+    try:
+        run_training(cfg, Path(HydraConfig.get().runtime.output_dir))
+    except DsmvError as error:
+        fail_user_error(error, "dsmv-train")
 
 
 def train() -> None:
     """``dsmv-train``: train and evaluate a surrogate on a study's tracked runs."""
     registry.register_plugin_configs()
-    from dsmv.command_line import check_command_line
+    from dsmv.app.command_line import check_command_line
 
     check_command_line(sys.argv[1:], "dsmv-train", "train")
     _hydra_main(_train_job, "train")()
+
+
+def predict() -> None:
+    """``dsmv-predict``: sinkage of a scene from a registered surrogate with its interval, and the
+    inverse questions (:mod:`dsmv.surrogate.predict`)."""
+    from dsmv.app.command_line import check_group_choices
+    from dsmv.surrogate.predict import PROG, predict as predict_job
+
+    check_group_choices(sys.argv[1:], PROG)
+    _hydra_main(predict_job, "predict")()
 
 
 def list_plugins(argv: list[str] | None = None) -> None:
@@ -98,9 +117,6 @@ def list_plugins(argv: list[str] | None = None) -> None:
     parser.add_argument("--dir", default=".", help="with new: the folder to write the package into (default .)")
     args = parser.parse_args(argv)
     if args.new:
-        from dsmv.errors import ConfigError
-        from dsmv.template import KINDS, write_package
-
         if len(args.new) != 3 or args.new[0] != "new" or args.new[1] not in KINDS:
             parser.error(f"expected: dsmv-plugins new {{{'|'.join(KINDS)}}} NAME")
         try:

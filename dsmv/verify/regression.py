@@ -19,7 +19,8 @@ import json
 import math
 from pathlib import Path
 
-from dsmv import canonical
+from dsmv import registry
+from dsmv.verify import canonical
 
 #: the stress suite's scenes: extreme but legal (tests/test_stress.py holds each to its physics)
 STRESS_SCENES = {
@@ -110,8 +111,7 @@ QUIET = ["tracking=disabled", "output.plots=false"]
 
 def run_scene(overrides: list[str]) -> dict:
     """One scene in this process: status, message and every metric but the timings."""
-    from dsmv import registry
-    from dsmv.bench import compose_scene
+    from dsmv.config.tree import compose_scene
 
     scene = compose_scene([*overrides, *QUIET])
     result = registry.load("solvers", scene.solver.name, "solver.name")(scene).solve()

@@ -1,7 +1,7 @@
 """What every entry point (``dsmv``, ``dsmv-train``, ``dsmv-predict``) composes with, and the command
-line's checks before Hydra composes: the config tree, dsmv's own sweeper, which group choices and
-keys a command names, whether its output folders can be written. A mistake is one line naming the
-key, exit code 2."""
+line's checks before Hydra composes: dsmv's own sweeper and launchers, which group choices and keys a
+command names, whether its output folders can be written. A mistake is one line naming the key, exit
+code 2. The config tree itself is :mod:`dsmv.config.tree`'s."""
 
 from __future__ import annotations
 
@@ -12,34 +12,19 @@ from pathlib import Path
 from hydra.core.plugins import Plugins
 from omegaconf import DictConfig, OmegaConf
 
-import dsmv.scene  # noqa: F401  (registers the OmegaConf resolvers used by conf/)
 from dsmv import registry
+from dsmv.app.joblog import keep_early_output
+from dsmv.app.runner import fail_user_error
+from dsmv.config.scene import build_scene
+from dsmv.config.tree import CONFIG_DIR  # (with dsmv's case sweeper registered, and conf/'s resolvers)
+from dsmv.errors import ConfigError, DsmvError
 from hydra_plugins.dsmv_launcher import submitit_launchers
-from hydra_plugins.dsmv_sweeper.case_sweeper import CaseSweeper
 
-# Hydra finds sweepers and launchers by walking the hydra_plugins namespace, which an editable
-# install does not expose to that walk: register ours by hand (a no-op when Hydra found them).
-Plugins.instance().register(CaseSweeper)
+# Hydra finds launchers by walking the hydra_plugins namespace, which an editable install does not
+# expose to that walk: register ours by hand (a no-op when Hydra found them).
 if submitit_launchers.plugin is not None:  # dsmv_local and dsmv_slurm need dsmv[cluster]
     Plugins.instance().register(submitit_launchers.LocalLauncher)
     Plugins.instance().register(submitit_launchers.SlurmLauncher)
-
-
-def find_config_dir() -> Path:
-    """The Hydra config tree: ``dsmv/conf`` in an installed wheel, else ``conf/`` of the source checkout.
-
-    pyproject.toml maps the checkout's top-level ``conf/`` into the wheel as the package data
-    ``dsmv/conf``; an editable install or a plain checkout reads ``conf/`` beside the package.
-    """
-    package = Path(__file__).resolve().parent
-    for candidate in (package / "conf", package.parent / "conf"):
-        if (candidate / "config.yaml").is_file():
-            return candidate
-    raise FileNotFoundError(f"no Hydra config tree (conf/config.yaml) in {package} or beside it")
-
-
-#: the Hydra config tree every entry point composes from
-CONFIG_DIR = str(find_config_dir())
 
 
 def config_roots(argv: list[str], config_dir: str = CONFIG_DIR) -> list[Path]:
@@ -70,9 +55,6 @@ def check_group_choices(argv: list[str], program: str, config_dir: str = CONFIG_
     checked value by value; Hydra's own groups (``hydra/launcher=…``), deletions (``~group``)
     and sweep functions (``range(…)``) are left to Hydra.
     """
-    from dsmv.errors import ConfigError
-    from dsmv.runner import fail_user_error
-
     roots = config_roots(argv, config_dir)
     for arg in argv:
         key, sep, value = arg.partition("=")
@@ -99,14 +81,12 @@ def check_command_line(argv: list[str], program: str, config_name: str = "config
 
     On top of :func:`check_group_choices`: an override Hydra cannot parse; an unknown key, with or
     without ``+`` (the closest valid key is suggested); a sweep (``a,b``) without ``-m``; for ``dsmv``
-    (``scene=True``) a single run's whole scene, validated as the job would (dsmv.scene.build_scene,
+    (``scene=True``) a single run's whole scene, validated as the job would (dsmv.config.scene.build_scene,
     the solver's cost guard included); and ``paths.runs_dir`` and the run or sweep dir Hydra is about
     to create, which must be creatable. Flags that only show something (``--help``, ``--cfg``,
     ``--info`` ...) and other config dirs or names are left to Hydra. Warnings and log records raised
-    meanwhile are kept for the job's log (:func:`dsmv.joblog.keep_early_output`), not printed.
+    meanwhile are kept for the job's log (:func:`dsmv.app.joblog.keep_early_output`), not printed.
     """
-    from dsmv.joblog import keep_early_output
-
     check_group_choices(argv, program, config_dir)
     if "--version" in argv:
         return
@@ -148,9 +128,6 @@ def _check_overrides(args, program: str, config_name: str, scene: bool, config_d
     from hydra.core.utils import setup_globals
     from hydra.errors import HydraException
     from omegaconf.errors import OmegaConfBaseException
-
-    from dsmv.errors import ConfigError, DsmvError
-    from dsmv.runner import fail_user_error
 
     setup_globals()  # ${now:...} in hydra.run.dir
     GlobalHydra.instance().clear()
@@ -206,8 +183,6 @@ def _check_overrides(args, program: str, config_name: str, scene: bool, config_d
             # one job's config: every override, the first choice of each sweep
             cfg = cfg if cfg is not None else composed(variants[0] + one_job)
             if scene and not multirun:
-                from dsmv.scene import build_scene
-
                 try:
                     build_scene(cfg)
                 except DsmvError as error:
@@ -232,9 +207,6 @@ def _is_group(o, loader) -> bool:
 
 def _check_choices(o, loader, program: str) -> None:
     """Hydra's own groups (``hydra/launcher=jobib``): an unknown option in one line, as for conf/'s."""
-    from dsmv.errors import ConfigError
-    from dsmv.runner import fail_user_error
-
     if o.is_delete() or "/" not in o.key_or_group or not (o.is_choice_sweep() or not o.is_sweep_override()):
         return
     options = loader.get_group_options(o.key_or_group)
@@ -291,9 +263,6 @@ def _check_key(o, tree, known: set[str], scene: bool, program: str) -> None:
     ``hydra.job.env_set``); a new key in a mapping the config leaves empty for them (``soil.params``,
     ``surrogate.params``); for ``dsmv``, a key of a solver plugin whose config model allows extra keys.
     """
-    from dsmv.errors import ConfigError
-    from dsmv.runner import fail_user_error
-
     key = o.key_or_group
     if key in known:
         return
@@ -336,9 +305,6 @@ def _solver_allows_extra(tree) -> bool:
 def _check_output_dirs(cfg, multirun: bool, program: str) -> None:
     """``paths.runs_dir`` and the run (sweep) dir Hydra will create must be directories dsmv can create
     and write in; checked without creating anything (a refused run leaves nothing behind)."""
-    from dsmv.errors import ConfigError
-    from dsmv.runner import fail_user_error
-
     for key in ("paths.runs_dir", "hydra.sweep.dir" if multirun else "hydra.run.dir"):
         try:
             value = OmegaConf.select(cfg, key)

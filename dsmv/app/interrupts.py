@@ -16,7 +16,7 @@
   the tally, and the exit code of the worst job (130 for ``interrupted``).
 - A second signal to the main process aborts at once (KeyboardInterrupt): the launcher kills its
   workers, and the parent run and the jobs' runs still RUNNING are closed KILLED
-  (:func:`dsmv.tracking.abort_sweep`).
+  (:func:`dsmv.app.sweep.abort_sweep`).
 
 A joblib worker between two jobs keeps a handler that marks the sweep, so a Ctrl-C reaching it while
 idle does not kill it (loky would then break the whole pool).

@@ -119,7 +119,7 @@ def report(figures: dict, repeats: int) -> str:
           f"{med[f'launchers {mesh}']['joblib, 2 workers']:.2f} s | {figures['dsmv_local_over_joblib'][mesh]:.2f}× |"
           for mesh in MESHES),
         "",
-        "A job's MLflow run is written by a writer process (`dsmv.run_writer`) that imports MLflow while the job "
+        "A job's MLflow run is written by a writer process (`dsmv.tracking.run_writer`) that imports MLflow while the job "
         "composes its scene and solves; a sweep has one writer on its machine, which its jobs reach through a Unix "
         "socket whatever the launcher. `dsmv_local` starts a submitit worker per core, each taking the sweep's next "
         "job in turn: like joblib's workers, each pays Python's start, the imports and the kernels' loading from the "

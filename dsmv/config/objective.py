@@ -22,7 +22,8 @@ from typing import Any, Optional
 
 from pydantic import Field
 
-from dsmv.scene import Number, Schema, _validate
+from dsmv.config.schema import Number, Schema, _validate
+from dsmv.errors import ConfigError
 
 #: the objective that is not a metric of result.json but the scene's area with its penalty
 CONTACT_AREA = "contact_area_m2"
@@ -39,8 +40,6 @@ class ObjectiveConfig(Schema):
 
 def objective_config(container: dict[str, Any]) -> ObjectiveConfig:
     """The validated ``objective`` of a composed config (its defaults when absent)."""
-    from dsmv.errors import ConfigError
-
     config = _validate(ObjectiveConfig, container.get("objective") or {}, "objective")
     if config.name == CONTACT_AREA and config.sinkage_limit_m is None:
         raise ConfigError("objective.sinkage_limit_m", None, f"objective.name = {CONTACT_AREA} needs the sinkage allowed (m)")

@@ -7,31 +7,28 @@ physical axis), result.json / the resolved config / the history CSV as artifacts
 tags for status, soil law, solver, geometry and config hash. A completed job is FINISHED
 whatever its physics status; FAILED means the code raised.
 
-A multirun gets one parent run, opened by :class:`MlflowSweepCallback` before the jobs
-start; each job's run, in whatever process a launcher puts it, is tagged with its
+A multirun gets one parent run, opened for the sweep callback (:class:`dsmv.app.sweep.MlflowSweepCallback`)
+before the jobs start; each job's run, in whatever process a launcher puts it, is tagged with its
 ``mlflow.parentRunId`` from the sweep dir (nested runs only work within one process).
-The runs are written by a writer process beside the solve (:mod:`dsmv.run_writer`), through
+The runs are written by a writer process beside the solve (:mod:`dsmv.tracking.run_writer`), through
 ``MlflowClient`` with explicit run ids: no global "active run" state.
 """
 
 from __future__ import annotations
 
 import json
-import logging
 import os
 import subprocess
-import sys
 import time
 from pathlib import Path
 from typing import Any
 
-from hydra.experimental.callback import Callback
 from omegaconf import DictConfig, OmegaConf
 
+from dsmv.config.scene import TrackingConfig, build_tracking
+from dsmv.numba_cache import source_hash
 from dsmv.results import HISTORY_COLUMNS, SolveResult
-from dsmv.run_writer import experiment_id as _experiment_id
-from dsmv.run_writer import for_job, open_client, resolve_uri, serve_sweep
-from dsmv.scene import TrackingConfig, build_tracking
+from dsmv.tracking.run_writer import for_job, open_client, resolve_uri, serve_sweep
 
 PARENT_RUN_FILE = "mlflow_parent_run.json"
 #: how many jobs a sweep has, in its sweep dir (written before they start), for the jobs' progress
@@ -40,7 +37,6 @@ SWEEP_SIZE_FILE = "sweep_size.json"
 JOB_RUN_FILE = "mlflow_run.json"
 #: statuses that are the solver's answer: a finished run with one of these is not run again on resume
 ANSWER_STATUSES = ("ok", "bearing_failure", "out_of_domain", "unstable")
-SWEEP_SUMMARY_FILE = "sweep_summary.csv"
 MAX_HISTORY_POINTS = 1000  # per curve logged to MLflow; the CSV artifact keeps every sample
 
 
@@ -80,7 +76,7 @@ def _git_sha(package_dir: Path | None = None) -> str | None:
     None when dsmv's package directory is not tracked by a git checkout: installed from a wheel,
     including into a virtualenv that happens to sit inside some repository's work tree.
     """
-    package_dir = Path(package_dir or Path(__file__).resolve().parent)
+    package_dir = Path(package_dir or Path(__file__).resolve().parents[1])
     env = {k: v for k, v in os.environ.items() if k not in ("GIT_DIR", "GIT_WORK_TREE")}
     git = ["git", "-C", str(package_dir)]
     try:
@@ -97,7 +93,7 @@ def _git_sha(package_dir: Path | None = None) -> str | None:
 
 
 class JobTracker:
-    """The MLflow run of one job, written by this process's writer (:mod:`dsmv.run_writer`): MLflow's
+    """The MLflow run of one job, written by this process's writer (:mod:`dsmv.tracking.run_writer`): MLflow's
     import and store set-up overlap the solve. ``run_id`` waits for the run to exist; an error of the
     store is raised there or in :meth:`finish`."""
 
@@ -159,8 +155,6 @@ def _history_metrics(history: dict, timestamp_ms: int) -> list:
 def code_hash() -> str:
     """The hash of the solver code whose results a run records (every source file of ``dsmv.cel``,
     the kernels' own cache key): runs of other code are never taken for this code's."""
-    from dsmv.numba_cache import source_hash
-
     return source_hash()
 
 
@@ -251,121 +245,53 @@ def parent_run_id(sweep_dir: Path) -> str | None:
     return json.loads(path.read_text())["run_id"] if path.exists() else None
 
 
-#: the sweep's own log in its sweep dir: what the sweep's main process logs (library warnings, MLflow's
-#: messages), beside each job's <job>.log
-SWEEP_LOG_FILE = "sweep.log"
-
-#: the sweep running in this process, for :func:`abort_sweep`
-_active_sweep: dict = {}
 #: per sweep dir: the writer opening its parent run, the request's ticket and the store's URI
 _parent_runs: dict = {}
 
 
-class MlflowSweepCallback(Callback):
-    """Hydra callback owning a multirun's parent MLflow run, its summary, its log (SWEEP_LOG_FILE) and
-    its signal handling (dsmv.interrupts)."""
-
-    def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
-        from dsmv.interrupts import SweepSignals
-
-        sweep_dir = Path(str(config.hydra.sweep.dir))
-        sweep_dir.mkdir(parents=True, exist_ok=True)
-        self.signals = SweepSignals(sweep_dir)
-        self.signals.install()
-        _sweep_log(sweep_dir)
-        _active_sweep.update(sweep_dir=sweep_dir, config=config)
-        sweeper = str(config.hydra.sweeper.get("_target_", ""))
-        if "optuna" in sweeper.lower():  # its trials, proposed batch by batch
-            write_sweep_size(sweep_dir, int(config.hydra.sweeper.n_trials))
-        elif "cases" not in sweeper:  # the case sweeper counts its own
-            write_sweep_size(sweep_dir, basic_sweep_size(list(config.hydra.overrides.task)))
-        tracking = build_tracking(config)
-        if not tracking.enabled:
-            return
-        # the parent run is opened by the sweep's writer, which then serves the jobs' runs too
-        writer = serve_sweep(sweep_dir)
-        study = str(config.get("study", "default"))
-        tags = {"dsmv.study": study, "dsmv.sweep_dir": str(sweep_dir.resolve()), "dsmv.role": "sweep"}
-        sha = _git_sha()
-        if sha:
-            tags["mlflow.source.git.commit"] = sha
-        varied = scene_overrides(config.hydra.overrides.task)
-        name = f"sweep {study}: {varied}" if varied else f"sweep {study} {sweep_dir.name}"
-        overrides = list(config.hydra.overrides.task)
-        params = {"sweep.overrides": " ".join(overrides)[:6000]} if overrides else {}
-        uri = resolve_uri(tracking.uri)
-        ticket = writer.ask("open", uri, tracking.artifact_location, experiment_name(study), name[:250], params, tags,
-                            None, str(sweep_dir / PARENT_RUN_FILE))
-        _parent_runs[str(sweep_dir)] = (writer, ticket, uri)  # (not on self: Hydra pickles its callbacks)
-
-    def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
-        """Summarise the sweep, close its parent run, print the tally and exit with the code of its
-        worst job (:func:`sweep_exit_code`)."""
-        from dsmv.interrupts import interrupted
-
-        sweep_dir = Path(str(config.hydra.sweep.dir))
-        if getattr(self, "signals", None) is not None:
-            self.signals.uninstall()
-        _active_sweep.clear()
-        _sweep_log(sweep_dir, config)  # jobs run in this process (the basic launcher) took the root logger over
-        writer, ticket, uri = _parent_runs.pop(str(sweep_dir), (None, None, None))
-        run_id = writer.answer(ticket) if writer is not None else None
-        status, rows, metrics, files = "FAILED", [], [], []
-        try:
-            rows = summarize_sweep(sweep_dir)
-            plot = sweep_plot(config, sweep_dir)
-            now = int(time.time() * 1000)
-            counts = {s: sum(r["status"] == s for r in rows) for s in {r["status"] for r in rows}}
-            metrics = [(f"jobs_{job_status}", float(count), now, 0) for job_status, count in counts.items()]
-            metrics.append(("jobs_total", float(len(rows)), now, 0))
-            files = [str(path) for path in (sweep_dir / SWEEP_SUMMARY_FILE, plot)
-                     if path is not None and Path(path).exists()]
-            status = "KILLED" if interrupted(sweep_dir) else "FINISHED"
-        finally:  # the parent run never stays RUNNING
-            if run_id is not None:
-                writer.answer(writer.ask("finish", uri, run_id, metrics, {}, {}, files, status))
-        tally, code = sweep_exit_code([r["status"] for r in rows])
-        line = f"dsmv: sweep done: {tally} — see {sweep_dir / SWEEP_SUMMARY_FILE}"
-        print(line)
-        logging.getLogger("dsmv.sweep").info(line)
-        if code != 0:
-            sys.exit(code)
+def open_sweep_run(config: DictConfig, sweep_dir: Path) -> None:
+    """Ask the sweep's writer to open the sweep's parent run (nothing when tracking is off); the writer
+    then serves the jobs' runs too. :func:`opened_sweep_run` waits for it."""
+    tracking = build_tracking(config)
+    if not tracking.enabled:
+        return
+    writer = serve_sweep(sweep_dir)
+    study = str(config.get("study", "default"))
+    tags = {"dsmv.study": study, "dsmv.sweep_dir": str(sweep_dir.resolve()), "dsmv.role": "sweep"}
+    sha = _git_sha()
+    if sha:
+        tags["mlflow.source.git.commit"] = sha
+    varied = scene_overrides(config.hydra.overrides.task)
+    name = f"sweep {study}: {varied}" if varied else f"sweep {study} {sweep_dir.name}"
+    overrides = list(config.hydra.overrides.task)
+    params = {"sweep.overrides": " ".join(overrides)[:6000]} if overrides else {}
+    uri = resolve_uri(tracking.uri)
+    ticket = writer.ask("open", uri, tracking.artifact_location, experiment_name(study), name[:250], params, tags,
+                        None, str(sweep_dir / PARENT_RUN_FILE))
+    _parent_runs[str(sweep_dir)] = (writer, ticket, uri)  # (not on the callback: Hydra pickles its callbacks)
 
 
-def _sweep_log(sweep_dir: Path | None, config: DictConfig | None = None) -> None:
-    """Log the sweep's main process into SWEEP_LOG_FILE (dsmv.joblog.SweepLogHandler), Python warnings
-    included; with ``config``, first give the process Hydra's logging back (jobs the basic launcher ran
-    here reconfigured it for theirs)."""
-    from dsmv.joblog import log_sweep_to, replay_early_output
-
-    if config is not None:
-        from hydra.core.utils import configure_log
-
-        configure_log(config.hydra.hydra_logging, config.hydra.verbose)
-    log_sweep_to(Path(sweep_dir) / SWEEP_LOG_FILE if sweep_dir is not None else None)
-    logging.captureWarnings(sweep_dir is not None)
-    if sweep_dir is not None:
-        replay_early_output()  # what the command line's checks met (dsmv.command_line.check_command_line)
+def opened_sweep_run(sweep_dir: Path):
+    """The sweep's parent run once its writer has opened it: ``(writer, run id, store URI)``, or None
+    (tracking off, or the run could not be opened)."""
+    writer, ticket, uri = _parent_runs.pop(str(sweep_dir), (None, None, None))
+    run_id = writer.answer(ticket) if writer is not None else None
+    return None if run_id is None else (writer, run_id, uri)
 
 
-def abort_sweep(reason: str) -> Path | None:
-    """The sweep in this process was aborted (a second signal): close its parent MLflow run and its jobs'
-    runs still RUNNING as KILLED, mark it interrupted, summarise what finished. Returns its dir, or None."""
-    from dsmv.interrupts import mark
+def finish_sweep_run(parent, metrics: list, files: list[str], status: str) -> None:
+    """Close the parent run :func:`opened_sweep_run` gave with the sweep's metrics, files and status."""
+    writer, run_id, uri = parent
+    writer.answer(writer.ask("finish", uri, run_id, metrics, {}, {}, files, status))
 
-    sweep_dir, config = _active_sweep.get("sweep_dir"), _active_sweep.get("config")
-    _active_sweep.clear()
-    if sweep_dir is None:
-        return None
-    mark(sweep_dir, reason)
-    try:
-        summarize_sweep(sweep_dir)
-    except Exception:
-        pass
+
+def kill_sweep_runs(config: DictConfig, sweep_dir: Path) -> None:
+    """Close a sweep's parent run and its jobs' runs still RUNNING as KILLED (the jobs' tagged
+    ``interrupted``); nothing when tracking is off or the sweep has no parent run."""
     run_id = parent_run_id(sweep_dir)
     tracking = build_tracking(config)
     if run_id is None or not tracking.enabled:
-        return sweep_dir
+        return
     client = _client(tracking)
     experiment_id = client.get_run(run_id).info.experiment_id
     children = client.search_runs([experiment_id], f"tags.mlflow.parentRunId = '{run_id}' and "
@@ -374,52 +300,3 @@ def abort_sweep(reason: str) -> Path | None:
         client.set_tag(child.info.run_id, "dsmv.status", "interrupted")
         client.set_terminated(child.info.run_id, "KILLED")
     client.set_terminated(run_id, "KILLED")
-    return sweep_dir
-
-
-def sweep_exit_code(statuses: list[str]) -> tuple[str, int]:
-    """A sweep's tally ('12 ok, 1 bearing_failure, 1 failed') and exit code: that of its worst job
-    (dsmv.results.EXIT_SEVERITY). Jobs that failed, were interrupted, went unstable or left the
-    domain make it non-zero; bearing failures are answers and leave it 0."""
-    from collections import Counter
-
-    from dsmv.results import EXIT_CODES, EXIT_SEVERITY
-
-    counts = Counter(statuses)
-    tally = ", ".join(f"{counts[s]} {s}" for s in reversed(EXIT_SEVERITY) if counts[s]) or "no jobs"
-    worst = next((s for s in EXIT_SEVERITY if counts[s]), "ok")
-    return tally, EXIT_CODES[worst]
-
-
-def sweep_plot(config: DictConfig, sweep_dir: Path) -> Path | None:
-    """The sweep-level plot the experiment asks for (``sweep_plot: <name>``), written into the sweep dir."""
-    name = config.get("sweep_plot")
-    if not name:
-        return None
-    from dsmv.plots import SWEEP_PLOTS
-
-    return SWEEP_PLOTS[name](sweep_dir, sweep_dir / f"{name}.png")
-
-
-def summarize_sweep(sweep_dir: Path) -> list[dict]:
-    """Collect every job's result.json below a sweep dir into ``sweep_summary.csv``."""
-    import csv
-
-    from dsmv.studies import sweep_jobs
-
-    rows = []
-    for job in sweep_jobs(sweep_dir):
-        row = {"job": job.name, "overrides": " ".join(job.overrides), "status": job.result["status"]}
-        recorded = job.path / JOB_RUN_FILE
-        if recorded.exists():  # the MLflow run that holds the job, and whether an earlier sweep made it
-            row |= json.loads(recorded.read_text())
-        row |= job.result["metrics"]
-        row["message"] = job.result["message"]
-        rows.append(row)
-    if rows:
-        columns = list(dict.fromkeys(k for row in rows for k in row))
-        with (Path(sweep_dir) / SWEEP_SUMMARY_FILE).open("w", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=columns)
-            writer.writeheader()
-            writer.writerows(rows)
-    return rows

@@ -4,7 +4,7 @@ Nothing is lost on failure: a solver that raises still leaves result.json (statu
 ``failed``, the error as message), the resolved config, and a FAILED MLflow run; a run stopped by
 SIGINT or SIGTERM leaves result.json with status ``interrupted`` and a KILLED MLflow run. A
 single run exits with its status's code (:data:`dsmv.results.EXIT_CODES`); how a sweep stops is in
-:mod:`dsmv.interrupts`. What a job prints also goes to its log (:mod:`dsmv.joblog`).
+:mod:`dsmv.app.interrupts`. What a job prints also goes to its log (:mod:`dsmv.app.joblog`).
 """
 
 from __future__ import annotations
@@ -21,11 +21,15 @@ from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
-from dsmv import interrupts, registry, tracking
+from dsmv import registry
+from dsmv.app import interrupts
+from dsmv.app.joblog import job_output
+from dsmv.config.scene import Scene, build_scene
 from dsmv.errors import DsmvError
-from dsmv.joblog import job_output
+from dsmv.cel import fields
+from dsmv.post.plots import FIELD_PLOT_FILE, HISTORY_PLOT_FILE, plot_field_contours, plot_history
 from dsmv.results import EXIT_CODES, SolveResult, write_history, write_result
-from dsmv.scene import Scene, build_scene
+from dsmv.tracking import runs
 
 RESOLVED_CONFIG_FILE = "config_resolved.yaml"
 
@@ -59,8 +63,8 @@ def estimated_wall_s(cfg: DictConfig) -> float:
 def run_job(cfg: DictConfig) -> dict:
     """Run the scene of one Hydra job; return result.json's content.
 
-    What the job prints also goes to its log (dsmv.joblog); a job of a sweep takes SIGINT and SIGTERM
-    as dsmv.interrupts describes."""
+    What the job prints also goes to its log (dsmv.app.joblog); a job of a sweep takes SIGINT and SIGTERM
+    as dsmv.app.interrupts describes."""
     hydra_cfg = HydraConfig.get()
     run_dir = Path(hydra_cfg.runtime.output_dir)
     multirun = hydra_cfg.mode == RunMode.MULTIRUN
@@ -91,14 +95,14 @@ def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, sweep_dir: Path | None, caug
         return {"status": result.status, "metrics": {}}
     try:
         scene = build_scene(cfg)
-        if multirun and cfg.get("resume") and (earlier := tracking.finished_run(cfg, scene)) is not None:
+        if multirun and cfg.get("resume") and (earlier := runs.finished_run(cfg, scene)) is not None:
             return _reuse(earlier, scene, run_dir, names)
         # named from the scene; a sweep's job adds what it varies, so that no two of its runs read alike
-        swept = tracking.scene_overrides(hydra_cfg.overrides.task) if multirun else ""
+        swept = runs.scene_overrides(hydra_cfg.overrides.task) if multirun else ""
         run_name = scene_label(scene) + (f" [{swept}]" if swept else "")
-        tracker = tracking.start_job(cfg, scene, run_dir, run_name, sweep_dir)
+        tracker = runs.start_job(cfg, scene, run_dir, run_name, sweep_dir)
     except DsmvError as error:
-        if not multirun:  # (dsmv.command_line.check_command_line refuses most before Hydra makes the run dir)
+        if not multirun:  # (dsmv.app.command_line.check_command_line refuses most before Hydra makes the run dir)
             print(f"dsmv: error: {error}", file=sys.stderr)
             remove_unstarted_run_dir(run_dir, hydra_cfg, str(cfg.get("paths", {}).get("runs_dir", run_dir.parent)))
             sys.exit(2)
@@ -109,7 +113,7 @@ def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, sweep_dir: Path | None, caug
 
     error_text, end_status = None, "FAILED"
     try:
-        # a sweep's job only raises a flag on a signal (dsmv.interrupts); a single run stops where it is
+        # a sweep's job only raises a flag on a signal (dsmv.app.interrupts); a single run stops where it is
         with interrupts_as_keyboard_interrupt() if not multirun else nullcontext():
             (run_dir / RESOLVED_CONFIG_FILE).write_text(OmegaConf.to_yaml(cfg, resolve=True))
             try:
@@ -157,8 +161,8 @@ def _reuse(run, scene: Scene, run_dir: Path, names: tuple[str, str]) -> dict:
     status, message = run.data.tags["dsmv.status"], run.data.tags.get("dsmv.message", "")
     result = SolveResult(status, f"reused run {run.info.run_id} (resume=true): {message}", metrics)
     write_result(run_dir, result, *names, scene.config_hash)
-    tracking.record_job_run(run_dir, run.info.run_id, reused=True)
-    print(f"[{run_dir.name}] {status}: reused run {run.info.run_id}{tracking.sweep_progress(run_dir.parent)}")
+    runs.record_job_run(run_dir, run.info.run_id, reused=True)
+    print(f"[{run_dir.name}] {status}: reused run {run.info.run_id}{runs.sweep_progress(run_dir.parent)}")
     return {"status": status, "metrics": metrics}
 
 
@@ -240,18 +244,12 @@ def write_outputs(scene: Scene, result: SolveResult, run_dir: Path) -> list[Path
     if result.history is not None:
         files.append(write_history(run_dir, result.history))
         if scene.output.plots and len(result.history["time_s"]) > 1:
-            from dsmv.plots import HISTORY_PLOT_FILE, plot_history
-
             title = f"{scene_label(scene)} — {scene.solver.name}: {result.status}"
             files.append(plot_history(result.history, run_dir / HISTORY_PLOT_FILE, title))
     if scene.output.fields:  # written by a solver that keeps fields (CEL); the others write none
-        from dsmv import fields
-
         field_files = fields.written_files(run_dir)
         files += field_files
         if field_files and scene.output.plots:
-            from dsmv.plots import FIELD_PLOT_FILE, plot_field_contours
-
             title = f"{scene.soil.name} ({scene.soil.law}), {scene.geometry.name} — {result.status}"
             files.extend(plot_field_contours(run_dir / fields.MAX_SINKAGE_FRAME, run_dir / FIELD_PLOT_FILE, title,
                                              fields.penetration_frame(run_dir, result.history)))
@@ -294,7 +292,7 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
     """A short human summary: status, what the run found (with units), where outputs and MLflow are."""
     what = _answer(scene, result)
     if multirun:
-        print(f"[{run_dir.name}] {result.status}: {what}{tracking.sweep_progress(run_dir.parent)}")
+        print(f"[{run_dir.name}] {result.status}: {what}{runs.sweep_progress(run_dir.parent)}")
         return
     print(f"\ndsmv: {result.status} — {what}")
     print(f"  scene   : {scene_label(scene)}, solver {scene.solver.name}")
@@ -315,7 +313,7 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
     print(f"  outputs : {run_dir}")
     if tracker is not None:
         uri = tracker.uri
-        print(f"  MLflow  : {uri}  (experiment {tracking.experiment_name(scene.study)}, run {tracker.run_id})")
+        print(f"  MLflow  : {uri}  (experiment {runs.experiment_name(scene.study)}, run {tracker.run_id})")
         if uri.startswith("http"):
             print(f"  browse  : {uri}")
         else:

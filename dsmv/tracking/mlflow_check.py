@@ -1,6 +1,6 @@
 """Look at the MLflow UI as a user would: a small sweep, the UI on loopback, screenshots in headless Chromium.
 
-``make mlflow-screenshots`` (or ``python -m dsmv.mlflow_check OUTDIR``) runs two landings as a
+``make mlflow-screenshots`` (or ``python -m dsmv.tracking.mlflow_check OUTDIR``) runs two landings as a
 sweep into a fresh store, starts ``mlflow ui`` on a free loopback port, and saves three PNGs
 into OUTDIR: the experiment's runs list (``runs_list.png``), one run's page (``run.png``) and
 the sweep's overlaid sinkage histories (``histories.png``; the x axis "Step" is simulated time

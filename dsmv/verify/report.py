@@ -28,7 +28,10 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
-from dsmv.regression import QUIET
+from dsmv import registry
+from dsmv.convergence import richardson
+from dsmv.results import EXIT_CODES
+from dsmv.verify.regression import QUIET
 
 PAGE = Path("docs/verification/report.md")
 QUICK_DIR = Path("runs/report")
@@ -131,8 +134,7 @@ class Outcome:
 
 def run(check: Check, cell_m: float) -> Outcome:
     """The check's scene on core cells ``cell_m``, in this process (compile time not counted)."""
-    from dsmv import registry
-    from dsmv.bench import compose_scene
+    from dsmv.config.tree import compose_scene
 
     scene = compose_scene([*check.overrides, f"mesh.cell_size_m={cell_m}", "solver.progress=off", *QUIET])
     result = registry.load("solvers", scene.solver.name, "solver.name")(scene).solve()
@@ -165,8 +167,6 @@ def provenance() -> dict[str, str]:
 
 def estimate(outcomes: list[Outcome]):
     """Richardson over the three finest meshes that ended ok (None with fewer)."""
-    from dsmv.convergence import richardson
-
     ok = [o for o in outcomes if o.status == "ok" and math.isfinite(o.value)][:3]
     if len(ok) < 3:
         return None
@@ -356,7 +356,6 @@ def main(argv: list[str] | None = None) -> int:
                 results.append((check, outcomes))
                 partial = write_page(QUICK_DIR / "report.interrupted.md", results, args.quick, stamp)
                 print(f"dsmv-report: interrupted; the checks done so far are in {partial}", file=sys.stderr)
-                from dsmv.results import EXIT_CODES
 
                 return EXIT_CODES["interrupted"]
         results.append((check, outcomes))

@@ -29,6 +29,9 @@ from pathlib import Path
 import numpy as np
 from omegaconf import OmegaConf
 
+from dsmv.analytic.bearing import (NOTCHED_STRIP_LOWER_BOUND_AT_0P05B, PRANDTL_NC, STRIP_LOWER_BOUND_AT_0P05B,
+                                   TBAR_NC, embedded_strip_upper_bound)
+from dsmv.convergence import richardson
 from dsmv.results import HISTORY_FILE, RESULT_FILE
 
 
@@ -374,8 +377,6 @@ def mesh_study(sweep_dir: Path, path: Path) -> Path | None:
 def _plot_sinkage_against_cell_size(ax, rows: list[dict]) -> None:
     """Max sinkage against core cell size, with its value extrapolated from the three finest meshes
     (Richardson with the observed order, dsmv.convergence) and that estimate's error band."""
-    from dsmv.convergence import richardson
-
     sizes = np.array([r["cell_size_m"] for r in rows])
     sinkages = np.array([r["max_sinkage_m"] for r in rows])
     ax.plot(sizes, sinkages, "o-", color="tab:blue", label="max sinkage")
@@ -404,9 +405,6 @@ def bearing_curves(sweep_dir: Path, path: Path) -> Path | None:
     its last sample ``nc_end``, its ``nc_*`` metrics and wall time) and the PNG. Jobs that are not
     pushes of a strip or a T-bar are left out.
     """
-    from dsmv.analytic.bearing import (NOTCHED_STRIP_LOWER_BOUND_AT_0P05B, PRANDTL_NC, STRIP_LOWER_BOUND_AT_0P05B,
-                                       TBAR_NC, embedded_strip_upper_bound)
-
     curves, rows, separations = [], [], set()
     for job in sweep_jobs(sweep_dir):
         history, config_file = job.history(), job.path / "config_resolved.yaml"

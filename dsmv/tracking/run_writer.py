@@ -139,7 +139,7 @@ def _parent_id(parent_file: str | None) -> str | None:
     path, deadline = Path(parent_file), time.monotonic() + PARENT_WAIT_S
     while not path.exists():
         if time.monotonic() > deadline:
-            logging.getLogger("dsmv.run_writer").warning("no parent run in %s: the job's run is opened without it",
+            logging.getLogger("dsmv.tracking.run_writer").warning("no parent run in %s: the job's run is opened without it",
                                                           path.parent)
             return None
         time.sleep(0.05)
@@ -191,7 +191,7 @@ REQUESTS = {"open": _open, "finish": _finish, "terminate": _terminate}
 class _Collector(logging.Handler):
     """The writer's log records (MLflow's, alembic's, Python warnings), kept per serving thread to
     travel with that connection's next answer: the job logs them where its own messages go
-    (dsmv.joblog), not on the writer's console."""
+    (dsmv.app.joblog), not on the writer's console."""
 
     def __init__(self):
         super().__init__(logging.INFO)
@@ -313,7 +313,7 @@ class Writer:
         """A writer process of this process's own."""
         to_writer_r, to_writer_w = os.pipe()
         from_writer_r, from_writer_w = os.pipe()
-        code = "from dsmv.run_writer import main; main()"
+        code = "from dsmv.tracking.run_writer import main; main()"
         process = subprocess.Popen([sys.executable, "-c", code, str(to_writer_r), str(from_writer_w)],
                                    pass_fds=(to_writer_r, from_writer_w), stdin=subprocess.DEVNULL,
                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
