@@ -14,7 +14,7 @@ import pytest
 from dsmv.verify import canonical
 from dsmv.analytic.bearing import (NOTCHED_STRIP_LOWER_BOUND_AT_0P05B, NOTCHED_STRIP_UPPER_BOUND_AT_0P05B, PRANDTL_NC,
                                    TBAR_NC, embedded_strip_upper_bound)
-from dsmv.cel.checks import Cel2DCheckSolver
+from dsmv.cel.checks2d import Cel2DCheckSolver
 from dsmv.cel.solver2d import Cel2DSolver
 from dsmv.config.scene import build_scene
 

@@ -28,7 +28,7 @@ import numpy as np
 
 from dsmv.cel.body import Cone, Cylinder, FlatBody, TrackSideView, nodes_touching, soil_cells_touching, solid_cells
 from dsmv.cel.grid import Grid2D, Openings
-from dsmv.cel.kernels.elements2d import CUT_OPEN_FLOOR
+from dsmv.cel.kernels.common import CUT_OPEN_FLOOR
 from dsmv.cel.layout import Contact, corner_offsets, structured_corners
 from dsmv.errors import ConfigError
 

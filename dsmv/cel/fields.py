@@ -93,12 +93,8 @@ def hourglass_velocity(corner, v) -> np.ndarray:
     root sum of squares over the four vectors ηζ, ζξ, ξη, ξηζ. The cells' nodes come from the corner
     table (a body's split corners included)."""
     w = v[:, corner]  # (d, cells..., 2^d)
-    if corner.shape[-1] == 4:
-        a = 0.25 * (w[..., 0] - w[..., 1] + w[..., 2] - w[..., 3])
-        return np.hypot(a[0], a[1])
-    from dsmv.cel.kernels.elements3d import HOURGLASS
-
-    a = w @ HOURGLASS.T / 8.0  # (3, cells..., 4)
+    vectors = K.hourglass_vectors(corner.shape[-1].bit_length() - 1)
+    a = w @ vectors.T / vectors.shape[1]  # (d, cells..., modes)
     return np.sqrt((a * a).sum(axis=(0, -1)))
 
 

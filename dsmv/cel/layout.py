@@ -252,6 +252,20 @@ def corner_offsets(dim: int) -> np.ndarray:
     return np.array([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)])
 
 
+def corner_sides(dim: int) -> np.ndarray:
+    """Each local corner's side (−1 or +1) along each axis, (d, 2^d), in the corner table's order."""
+    return 2.0 * corner_offsets(dim).T - 1.0
+
+
+def hourglass_vectors(dim: int) -> np.ndarray:
+    """The hourglass vectors over a cell's corners, (modes, 2^d): the products of the corners' sides
+    that the one-point rule cannot see, Γ = ξη = (1, −1, 1, −1) in 2D, ηζ, ζξ, ξη and ξηζ in 3D."""
+    s = corner_sides(dim)
+    if dim == 2:
+        return (s[0] * s[1])[None, :]
+    return np.stack([s[1] * s[2], s[2] * s[0], s[0] * s[1], s[0] * s[1] * s[2]])
+
+
 def structured_corners(cell_shape: tuple[int, ...]) -> np.ndarray:
     """The corner table of a grid without split nodes: (*cell_shape, 2^d) flat node indices (int32:
     the per-cell gather reads half the bytes)."""

@@ -1,6 +1,6 @@
 """The CEL model's starting point: elastic constants, the geostatic soil state, packed parameters.
 
-One home for what the solver and the verification cases (dsmv.cel.checks) both set up.
+One home for what the solver and the verification cases (dsmv.cel.checks2d) both set up.
 """
 
 from __future__ import annotations

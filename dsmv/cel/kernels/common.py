@@ -18,6 +18,10 @@ JIT = dict(cache=True, error_model="numpy", fastmath=FAST)
 #: container would otherwise count references on each of its arrays. Per-cell loops call scalar
 #: helpers only, and read their arrays once, before the loop (a container passed per cell cost 5×).
 INLINE = dict(JIT, inline="always")
+#: a sliver of a cut cell is weighed as if this much of it were open: the open faces' stiffness
+#: grows as aperture/open, unbounded for a sliver, and with it the explicit step's limit; a sliver
+#: more closed than this merges with a neighbour (dsmv.cel.contact.sliver_pairs)
+CUT_OPEN_FLOOR = 0.5
 #: the 3D per-cell kernels' drivers: parallel over slabs of cells, in an order that does not depend on
 #: the number of threads (:mod:`dsmv.cel.kernels.elements3d`)
 PARALLEL = dict(JIT, parallel=True)

@@ -20,16 +20,13 @@ import math
 import numpy as np
 from numba import njit
 
-from dsmv.cel.kernels.common import (INLINE, JIT, bulk_viscosity, elastic_energy_density, law_factor, law_state,
-                                     radial_return, tresca_return)
+from dsmv.cel.kernels.common import (CUT_OPEN_FLOOR, INLINE, JIT, bulk_viscosity, elastic_energy_density, law_factor,
+                                     law_state, radial_return, tresca_return)
 from dsmv.cel.layout import ROWS_2D
 
 SXX, SYY, SXY, SZZ = (ROWS_2D.of(c) for c in ("xx", "yy", "xy", "zz"))
 XI, Z0, NQ_BASE = ROWS_2D.xi, ROWS_2D.z0, ROWS_2D.base
 
-# A sliver of a cut cell is weighed as if this much of it were open: the open faces' stiffness
-# grows as aperture/open, unbounded for a sliver, and with it the explicit step's limit.
-CUT_OPEN_FLOOR = 0.5
 #: a cell beside a face the soil may leave is full, and carries stress, from this fill on (-): a
 #: cell in contact reads 1 ± a few per mille (compression, remap round-off); at 0.999 the stress
 #: flickered on and off (curve roughness 0.49 at B/20), 0.95 and 0.99 read the same factors

@@ -26,17 +26,15 @@ from numba import njit, prange
 from dsmv.cel.kernels.common import (INLINE, JIT, PARALLEL, bulk_viscosity, elastic_energy_density, law_factor,
                                      law_state, ordered_sums, radial_return, spread_order, tresca_return)
 from dsmv.cel.kernels.nodes import zero_in_blocks
-from dsmv.cel.layout import ROWS_3D
+from dsmv.cel.layout import ROWS_3D, corner_sides, hourglass_vectors
 
 SXX, SYY, SZZ, SXY, SYZ, SZX = (ROWS_3D.of(c) for c in ("xx", "yy", "zz", "xy", "yz", "zx"))
 XI, Z0, NQ_BASE = ROWS_3D.xi, ROWS_3D.z0, ROWS_3D.base
 
 #: each local corner's side (−1 or +1) along x, y and z (rows), in the corner table's order
-SIDE = np.array([[-1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0, -1.0],
-                 [-1.0, -1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0],
-                 [-1.0, -1.0, -1.0, -1.0, 1.0, 1.0, 1.0, 1.0]])
+SIDE = corner_sides(3)
 #: the hourglass vectors ηζ, ζξ, ξη, ξηζ over the corners: the trilinear modes the one-point rule cannot see
-HOURGLASS = np.stack([SIDE[1] * SIDE[2], SIDE[2] * SIDE[0], SIDE[0] * SIDE[1], SIDE[0] * SIDE[1] * SIDE[2]])
+HOURGLASS = hourglass_vectors(3)
 #: the viscous hourglass force's scale, ρ·c·V^(2/3) times this: a slab one cell thick whose nodes
 #: move alike on both faces then feels, per unit thickness, the 2D element's force (ρ·c·√A/4 on
 #: the Q4 mode, which the slab sees as the ζξ vector over both faces, twice over eight nodes)
