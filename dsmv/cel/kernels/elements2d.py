@@ -161,15 +161,12 @@ def add_hourglass_forces(fn, n0, n1, n2, n3, vel, c):
 
 
 @njit(**INLINE)
-def cell_divergence(i, j, dx, dy, r, axisym, vel, v_body, faces, open_ij):
-    """A cell's volumetric strain rate (1/s): the one-point rule's, with the hoop rate in axisymmetry;
-    in a cell the body cuts, the remap's (:func:`cut_divergence`)."""
+def cell_divergence(dx, dy, r, axisym, vel):
+    """A cell's volumetric strain rate (1/s) by the one-point rule, with the hoop rate in axisymmetry."""
     vx0, vx1, vx2, vx3, vy0, vy1, vy2, vy3 = vel
     div = (vx1 + vx2 - vx0 - vx3) / (2.0 * dx) + (vy2 + vy3 - vy0 - vy1) / (2.0 * dy)
     if axisym:
         div += 0.25 * (vx0 + vx1 + vx2 + vx3) / r
-    if open_ij < 1.0:
-        div = cut_divergence(i, j, dx, dy, vel, v_body, faces, open_ij)
     return div
 
 
@@ -212,7 +209,9 @@ def nodal_forces(mesh, cells, faces, nodes, par, v_body, work):
             n0, n1, n2, n3 = cell_nodes(corner, split, i, j, ny1)
             vel = (v[0, n0], v[0, n1], v[0, n2], v[0, n3], v[1, n0], v[1, n1], v[1, n2], v[1, n3])
             open_ij = open_frac[i, j]
-            div = cell_divergence(i, j, dx, dy, r, axisym, vel, v_body, faces, open_ij)
+            div = cell_divergence(dx, dy, r, axisym, vel)
+            if open_ij < 1.0:  # a cell the body cuts: the remap's
+                div = cut_divergence(i, j, dx, dy, vel, v_body, faces, open_ij)
             # bulk viscosity: like σ it acts on the cell's soil fraction f
             qb = 0.0
             if div < 0.0:
