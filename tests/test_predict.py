@@ -276,12 +276,32 @@ def test_user_mistakes_are_one_line_with_exit_2(store, overrides, message, capsy
 @pytest.mark.parametrize("args, message", [
     (["task=bogus"], "dsmv-predict: error: task = 'bogus': must be"),
     (["surrogate=svm"], "dsmv-predict: error: surrogate = 'svm': not a surrogate option; available: rf, xgboost"),
+    (["landing.mas_kg=5000"], "dsmv-predict: error: landing.mas_kg = 5000: no such config key; did you mean "
+                              "landing.mass_kg?"),
+    (["landing.mass_kg=-5"], "dsmv-predict: error: landing.mass_kg = -5: must be greater than 0"),
 ])
 def test_cli_mistakes_are_one_line_with_exit_2(tmp_path, args, message):
     done = cli(tmp_path, *args)
     assert done.returncode == 2, done.stderr
     assert done.stderr.strip().startswith(message), done.stderr
     assert len(done.stderr.strip().splitlines()) == 1 and "Traceback" not in done.stderr
+
+
+def test_a_scene_the_soil_cannot_stop_is_a_bearing_failure_answer(store, tmp_path, capsys):
+    """50 t on one track: the fast landing model (solver=analytic_dynamic, which answers the same scene
+    bearing_failure) finds no depth where the soil stops it; dsmv-predict says so instead of predicting."""
+    from dsmv.analytic.dynamic import AnalyticDynamicSolver
+    from dsmv.config.scene import build_scene
+    from dsmv.surrogate.predict import run_predict
+
+    heavy = config(store, "landing.mass_kg=50000")
+    assert AnalyticDynamicSolver(build_scene(config(store, "landing.mass_kg=50000", "solver=analytic_dynamic"))
+                                 ).solve().status == "bearing_failure"
+    out = run_predict(heavy, tmp_path)
+    assert out["status"] == "bearing_failure" and "sinkage_m" not in out
+    assert "answer   : bearing_failure" in capsys.readouterr().out
+    assert json.loads((tmp_path / "prediction.json").read_text())["status"] == "bearing_failure"
+    assert "sinkage_m" in run_predict(config(store, "landing.mass_kg=6500"))  # a landing the soil stops: predicted
 
 
 @pytest.mark.slow  # three processes that each import MLflow and open a store: about 35 s

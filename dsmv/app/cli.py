@@ -99,10 +99,11 @@ def train() -> None:
 def predict() -> None:
     """``dsmv-predict``: sinkage of a scene from a registered surrogate with its interval, and the
     inverse questions (:mod:`dsmv.surrogate.predict`)."""
-    from dsmv.app.command_line import check_group_choices
+    from dsmv.app.command_line import check_command_line
     from dsmv.surrogate.predict import PROG, predict as predict_job
 
-    check_group_choices(sys.argv[1:], PROG)
+    registry.register_plugin_configs()
+    check_command_line(sys.argv[1:], PROG, "predict")
     _hydra_main(predict_job, "predict")()
 
 

@@ -47,11 +47,13 @@ import pandas as pd
 from omegaconf import DictConfig, OmegaConf
 from pydantic import Field
 
+from dsmv.analytic.dynamic import LARGEST_SINKAGE_WIDTHS
 from dsmv.config.scene import build_scene, build_tracking
 from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError, DsmvError
 from dsmv.surrogate.dataset import COLUMNS, PARAMETERS
 from dsmv.surrogate.evaluate import pyplot
+from dsmv.surrogate.fast_model import fast_sinkage
 from dsmv.surrogate.intervals import CALIBRATION_FILE
 from dsmv.surrogate.inverse import GOALS, TASK_PARAMETERS, InverseResult, solve_inverse
 from dsmv.surrogate.model import TrainedSurrogate, scene_table
@@ -398,6 +400,13 @@ def run_predict(cfg: DictConfig, run_dir: Path | None = None) -> dict:
                   f"{_outside_text(predictor.model, outside, table, rows=True)}")
         return out | {"csv": str(target), "n": len(table), "predict_s": predict_s}
 
+    if settings.task == "predict" and not np.isfinite(fast_sinkage(base, settings=meta.get("fast_model"))[0]):
+        # the soil cannot stop the body: an answer, not a sinkage to predict (the surrogate's features
+        # would hold the fast model's infinite sinkage)
+        message = (f"the fast landing model (solver=analytic_dynamic) finds the body passes "
+                   f"{LARGEST_SINKAGE_WIDTHS:g} B without stopping: the soil cannot stop it")
+        print(f"  answer   : bearing_failure — {message}")
+        return write_answer(out | {"status": "bearing_failure", "message": message}, run_dir)
     started = time.perf_counter()
     mid, lower, upper = predictor.interval(base, c)
     predict_s = time.perf_counter() - started
@@ -438,6 +447,11 @@ def run_predict(cfg: DictConfig, run_dir: Path | None = None) -> dict:
                             settings.sinkage_limit_m, answer.value, tuple(trained) if trained else None,
                             f"{name} v{predictor.version}: {settings.task}, limit {settings.sinkage_limit_m:g} m")
             print(f"  plot     : {png}")
+    return write_answer(out, run_dir)
+
+
+def write_answer(out: dict, run_dir: Path | None) -> dict:
+    """The answer into ``run_dir/prediction.json`` (when there is a run dir); returns it."""
     if run_dir is not None:
         run_dir.mkdir(parents=True, exist_ok=True)
         (run_dir / "prediction.json").write_text(json.dumps(out, indent=2, default=float) + "\n")
