@@ -254,7 +254,7 @@ def corner_offsets(dim: int) -> np.ndarray:
 
 def corner_sides(dim: int) -> np.ndarray:
     """Each local corner's side (−1 or +1) along each axis, (d, 2^d), in the corner table's order."""
-    return 2.0 * corner_offsets(dim).T - 1.0
+    return np.ascontiguousarray(2.0 * corner_offsets(dim).T - 1.0)
 
 
 def hourglass_vectors(dim: int) -> np.ndarray:
