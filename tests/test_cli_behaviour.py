@@ -343,8 +343,10 @@ def test_each_job_of_a_sweep_logs_its_lines_and_the_sweep_its_own(tmp_path, laun
 
 # --------------------------------------------------------------------------- interrupting a sweep
 
-#: four jobs: a quick one (0.08 m cells, a fraction of a second), then three of minutes (0.01 m cells)
-SLOW_SWEEP = ["-m", "mesh.cell_size_m=0.08,0.01,0.0101,0.0102", "solver=cel2d", "mesh=coarse", "output.plots=false",
+#: four jobs: a quick one (0.08 m cells, a fraction of a second), then three of about 14 s each (0.007 m
+#: cells; at 0.01 m they took about 5 s warm, and a job started a second before the test's 4 s wait
+#: could end before the signal)
+SLOW_SWEEP = ["-m", "mesh.cell_size_m=0.08,0.007,0.0071,0.0072", "solver=cel2d", "mesh=coarse", "output.plots=false",
               "tracking=local"]
 
 
@@ -405,7 +407,7 @@ def test_interrupting_a_sweep_keeps_finished_jobs_and_closes_every_run(tmp_path,
     parent, children = _sweep_runs(tmp_path)
     assert [p.info.status for p in parent] == ["KILLED"]
     assert children["0.08"].info.status == "FINISHED" and children["0.08"].data.tags["dsmv.status"] == "ok"
-    cells = {"1": "0.01", "2": "0.0101"}
+    cells = {"1": "0.007", "2": "0.0071"}
     for job in started:
         run = children[cells[job]]
         assert run.info.status == "KILLED" and run.data.tags["dsmv.status"] == "interrupted"
