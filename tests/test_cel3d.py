@@ -355,7 +355,7 @@ def test_the_forces_beside_the_track_are_the_work_conjugate_of_the_strain(compos
     cells.q[:6] = rng.normal(size=cells.q[:6].shape) * 1e3
     v_body = -0.7
     work = np.zeros(3)
-    nodal_forces(mesh, cells, nodes, par, v_body, contact.split_parent, work)
+    nodal_forces(mesh, cells, nodes, par, v_body, contact.split_parent, None, work)
     power = float(np.sum(nodes.f * nodes.v)) + work[2] * v_body
 
     x, y, z = mesh.x, mesh.y, mesh.z
@@ -402,11 +402,19 @@ def test_the_forces_a_step_carries_ahead_are_the_forces_of_the_state_it_leaves(c
         assert body[B_FORCES_AHEAD] == 1.0
         ahead, carried = nodes.f.copy(), body[[B_HOURGLASS_W, B_BULK_W, B_BESIDE_N]].copy()
         work = np.zeros(3)
-        nodal_forces(state.mesh, state.cells, nodes, state.par, body[B_VEL], state.contact.split_parent, work)
+        nodal_forces(state.mesh, state.cells, nodes, state.par, body[B_VEL], state.contact.split_parent, state.law,
+                     work)
         assert np.array_equal(nodes.f, ahead) and np.array_equal(work, carried)
         assert np.abs(ahead).max() > 0.0 and carried[1] > 0.0
         checked += 1
     assert checked > 30 and stale > 0
+
+
+def test_the_longitudinal_view_is_refused_in_3d(compose_cfg):
+    """geometry.view names the plane a 2D model cuts: in 3D it would size the domain on the track's length
+    (about 36 times the track's cells on the coarse mesh); one line naming the key instead."""
+    with pytest.raises(ConfigError, match="geometry.view = 'longitudinal': cel3d models the whole track"):
+        build_scene(compose_cfg(["solver=cel3d", "geometry.view=longitudinal", "mesh=coarse", "tracking=disabled"]))
 
 
 def test_a_track_s_shape_carries_a_pose():

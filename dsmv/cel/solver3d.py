@@ -84,6 +84,11 @@ class Cel3DSolver(CelSolver):
         body = scene.geometry
         if body.kind not in cls.bodies:
             raise ConfigError("geometry.kind", body.kind, f"{cls.name} runs {', '.join(cls.bodies)} bodies")
+        if getattr(body, "view", "cross_section") == "longitudinal":
+            # the view names the plane a 2D model cuts; a 3D domain sized on the view's width (L) holds
+            # about 36 times the track's cells
+            raise ConfigError("geometry.view", body.view, "cel3d models the whole track, its side view included: "
+                                                          "leave geometry.view to cel2d")
         return ContactRules.of(scene, False)
 
     # ------------------------------------------------------------------ geometry

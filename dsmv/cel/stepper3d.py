@@ -34,7 +34,7 @@ def lagrange_step(mesh, cells, nodes, contact, par, body, energy, law):
     or are computed here when there are none ahead (the first step of a run, after a remap)."""
     if body[B_FORCES_AHEAD] == 0.0:
         work = np.zeros(3)
-        nodal_forces(mesh, cells, nodes, par, body[B_VEL], contact.split_parent, work)
+        nodal_forces(mesh, cells, nodes, par, body[B_VEL], contact.split_parent, law, work)
         body[B_HOURGLASS_W], body[B_BULK_W], body[B_BESIDE_N] = work[0], work[1], work[2]
     energy[E_HOURGLASS] += body[B_HOURGLASS_W] * par.dt
     energy[E_BULK] += body[B_BULK_W] * par.dt

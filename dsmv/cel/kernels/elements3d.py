@@ -240,7 +240,7 @@ def cell_forces(fn, nodes8, coeff, stress, cell, div, beside, remapped, n_grid, 
 
 
 @njit(**JIT)
-def nodal_forces(mesh, cells, nodes, par, v_body, parent, work):
+def nodal_forces(mesh, cells, nodes, par, v_body, parent, law, work):
     """Internal nodal forces (N) from the cell stresses: f_a = −V·φ·σ·∇N_a at the centre; viscous
     hourglass control on the four hourglass vectors (coefficient ``par.hourglass`` times the cell's
     ``hourglass_factor``); linear and quadratic bulk viscosity in compression; in the cells beside the
@@ -249,9 +249,11 @@ def nodal_forces(mesh, cells, nodes, par, v_body, parent, work):
     accumulates the power of hourglass [0] and bulk viscosity [1] (W) and [2] the vertical force
     those cells put on the body (N, up +). Cells without soil are skipped. Parallel over slabs
     (:func:`slabs_in_colours`). A step computes its forces here only where none are ahead of it:
-    the stress update computes the next step's (:func:`update_stress_and_forces`)."""
+    the stress update computes the next step's (:func:`update_stress_and_forces`). ``law`` is the stress
+    update's, unused here: with it both run the same compiled code, so that the forces they give are bit
+    for bit the same (compiled apart, fastmath may fuse their multiply-adds differently)."""
     all_work = np.zeros(4)
-    slabs_in_colours(mesh, cells, nodes, par, v_body, parent, None, False, all_work)
+    slabs_in_colours(mesh, cells, nodes, par, v_body, parent, law, False, all_work)
     for m in range(3):
         work[m] += all_work[m + 1]
 
