@@ -275,7 +275,7 @@ class Zigzag(Tracker):
 
 
 class Fields(Tracker):
-    """The field recorder (dsmv.fields), fed between chunks; writes its frames at the end."""
+    """The field recorder (dsmv.cel.fields), fed between chunks; writes its frames at the end."""
 
     def __init__(self, recorder, snapshot: Callable[[], tuple], run_dir):
         self.recorder, self.snapshot, self.run_dir = recorder, snapshot, run_dir
