@@ -46,6 +46,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
+from functools import lru_cache
+from pathlib import Path
 from typing import Annotated, Callable, Literal, Union
 
 import numpy as np
@@ -194,6 +196,23 @@ def sinkage(landing: Landing, factor: Callable, c: Coefficients, bearing_factor:
     if history:
         return rest, np.array([t[0] for t in trace]), np.array([t[1] for t in trace])
     return rest
+
+
+@lru_cache(maxsize=1)
+def default_config() -> AnalyticDynamicConfig:
+    """``conf/solver/analytic_dynamic.yaml``: the coefficients the model was fitted with."""
+    from omegaconf import OmegaConf
+
+    from dsmv.config.tree import CONFIG_DIR
+
+    values = OmegaConf.to_container(OmegaConf.load(Path(CONFIG_DIR) / "solver" / "analytic_dynamic.yaml"))
+    return AnalyticDynamicConfig.model_validate(values)
+
+
+def fast_landing(scene: Scene, shape_factor: str = "plane_strain") -> "AnalyticDynamicSolver":
+    """The fast landing model of a track or strip scene run by another solver, with the default
+    coefficients: ``plane_strain`` for the 2D section, ``skempton`` for the whole track in 3D."""
+    return AnalyticDynamicSolver(scene, default_config().model_copy(update={"shape_factor": shape_factor}))
 
 
 class AnalyticDynamicSolver:

@@ -27,8 +27,10 @@ from typing import Optional
 import numpy as np
 
 from dsmv import registry
+from dsmv.analytic.dynamic import fast_landing
 from dsmv.analytic.energy import energy_estimate, sinkage_from_energy
 from dsmv.cel import controller as C
+from dsmv.cel import cost as cost_model
 from dsmv.cel import ledger
 from dsmv.cel.config import CelConfig
 from dsmv.cel.contact import ContactRules, touchdown_mass
@@ -44,10 +46,6 @@ NC_SAMPLES = {"nc_at_0p02B": 0.02, "nc_at_0p05B": 0.05, "nc_at_0p1B": 0.1, "nc_a
 NC_WINDOW = 0.005
 #: an 'ok' run's energy audit must close to this (relative); worse means the numerics failed
 ENERGY_ERROR_LIMIT = 0.05
-#: the throughput the cost estimate assumes (cell updates per second, one thread): the default
-#: landing at 0.02 m cells measured 2.0e7 warm on these machines' cores; the estimate is a guard
-#: against hours, not a prediction (result.json holds estimated_wall_s beside wall_s)
-CELL_UPDATES_PER_S = 2.0e7
 #: memory per cell of the 2D state (B): the cell state (six stress, strain and depth rows and
 #: the law's), φ, strength, factors, openings, gap and merge fields, the face fluxes and apertures,
 #: the corner table, and the nodes' velocity, force, travel and mass
@@ -123,7 +121,6 @@ class CelSolver:
     config_model: type = CelConfig
     bodies: tuple[str, ...] = ()
     dim = 0  # axes of the grid, which pick the element kernels
-    cell_updates_per_s = CELL_UPDATES_PER_S  # what the cost estimate assumes
     bytes_per_cell = BYTES_PER_CELL
 
     @cached_property
@@ -294,32 +291,53 @@ class CelSolver:
         return progress == "on" or (progress == "auto" and not in_sweep())
 
     def expected_duration_s(self) -> float:
-        """How long the run is expected to last in simulated time (s)."""
+        """How long the run is expected to last in simulated time (s): a push's displacement over its
+        speed; a landing's time to rest from the fast landing model (milliseconds; within 10 % of the
+        CEL on the default track in 2D and 3D), or the energy method's for bodies that model does not
+        land; twice that when the run goes on past rest (``solver.stop_at_rest=false``)."""
         scene, landing, grav = self.scene, self.scene.landing, self.scene.landing.gravity_m_s2
         if landing.kind == "drop" and self.cone:  # from rest under gravity; without it, at its touchdown speed
             return (4.0 * math.sqrt(2.0 * self.travel / grav) if grav > 0
                     else self.travel / max(landing.velocity_m_s, 0.1))
-        if landing.kind == "drop":
-            duration = energy_estimate(scene).solve().metrics.get("time_to_rest_s", 0.0) or 0.0
-            return max(duration, self.travel / max(landing.velocity_m_s, 0.1))
-        return landing.displacement_m / landing.velocity_m_s
+        if landing.kind == "push":
+            return landing.displacement_m / landing.velocity_m_s
+        if scene.geometry.kind in ("track", "strip"):
+            model = fast_landing(scene, "skempton" if self.dim == 3 and scene.geometry.kind == "track" else "plane_strain")
+        else:
+            model = energy_estimate(scene)
+        rest = model.solve().metrics.get("time_to_rest_s", math.inf)
+        if not math.isfinite(rest):  # the soil will not stop it: it runs through the travel near its speed
+            return self.travel / max(landing.velocity_m_s, 0.1)
+        return rest if self.scene.solver.economies.stop_at_rest else 2.0 * rest
 
     def steps_per_sample(self, state: State) -> int:
         """Steps per history sample, from the run's expected duration."""
         return max(1, int(self.expected_duration_s() / state.par.dt / self.scene.solver.history_samples))
 
+    def thread_count(self, cells: int) -> int:
+        """Numba threads the kernels run on: the 2D kernels are serial."""
+        return 1
+
     def cost(self) -> dict[str, float]:
-        """What the run will take, estimated before any state is allocated: cells, steps (the expected
-        duration over the CFL step), memory (B) and wall time (s, at the solver's ``cell_updates_per_s``)."""
+        """What the run will take, estimated before any state is allocated: cells, soil cells (below
+        the mudline), steps (the expected duration over the CFL step), memory (B), field output (B)
+        and wall time (s, compile excluded; :mod:`dsmv.cel.cost`)."""
         from dsmv.cel.state import Elastic
 
         grid = self.build()
-        cells = float(np.prod([len(a) - 1 for a in grid.axes]))
+        counts = [len(a) - 1 for a in grid.axes]
+        cells = float(np.prod(counts))
+        up = grid.axes[-1]
+        soil_cells = cells / counts[-1] * float(np.count_nonzero(0.5 * (up[1:] + up[:-1]) < self.mudline))
         dt = self.scene.solver.cfl * self.h / Elastic.of(self.scene.soil).wave_speed_m_s
         steps = min(self.expected_duration_s() / dt, self.scene.solver.max_steps)
-        frames = 2 * self.scene.output.field_frames + 2 if self.scene.output.fields else 0
-        return {"cells": cells, "steps": steps, "memory_b": cells * (self.bytes_per_cell + frames * BYTES_PER_FRAME_CELL),
-                "wall_s": cells * steps / self.cell_updates_per_s}
+        output = self.scene.output
+        frames = 2 * output.field_frames + 2 if output.fields else 0
+        return {"cells": cells, "soil_cells": soil_cells, "steps": steps,
+                "memory_b": cells * (self.bytes_per_cell + frames * BYTES_PER_FRAME_CELL),
+                "fields_b": cost_model.field_output_b(self.dim, cells, output.field_frames) if output.fields else 0.0,
+                "wall_s": cost_model.measured().wall_s(self.dim, self.scene.soil.law, self.thread_count(int(cells)),
+                                                 soil_cells, steps)}
 
     def check_cost(self) -> dict[str, float]:
         """Refuse, as a config error, a run estimated to outlast ``solver.max_wall_s`` or to outgrow the
@@ -332,7 +350,7 @@ class CelSolver:
                               f"{available_memory_b() / 2**30:.1f} GiB free: coarsen the mesh")
         limit = self.scene.solver.max_wall_s
         if cost["wall_s"] > limit:
-            raise ConfigError("solver.max_wall_s", limit, f"{what} would take about {cost['wall_s']:,.0f} s; "
+            raise ConfigError("solver.max_wall_s", limit, f"{what} would take {cost_model.duration(cost['wall_s'])}; "
                               f"coarsen mesh.cell_size_m or raise solver.max_wall_s to run it")
         return cost
 
@@ -385,7 +403,11 @@ class CelSolver:
         cost = self.check_cost()
         if self.shows_progress():
             print(f"  {cost['cells']:,.0f} cells, about {cost['steps']:,.0f} steps, {cost['memory_b'] / 2**20:,.0f} MiB, "
-                  f"about {cost['wall_s']:,.0f} s", file=sys.stderr)
+                  f"{cost_model.duration(cost['wall_s'])}", file=sys.stderr)
+        if cost["fields_b"] > cost_model.FIELD_NOTICE_B:
+            print(f"  fields: about {cost['fields_b'] / 1e6:,.0f} MB on disk in up to "
+                  f"{2 * self.scene.output.field_frames + 1} frames (output.field_frames="
+                  f"{self.scene.output.field_frames})", file=sys.stderr)
         state = self.initial_state()
         trackers, zigzag = self.trackers(state, run_dir)
         run = C.Run(state, state.body, state.energy, force_scale=state.scale, start_sinkage_m=self.start().sinkage_m)

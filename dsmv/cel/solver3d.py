@@ -28,10 +28,6 @@ from dsmv.cel.solver import CelSolver, State, in_sweep
 from dsmv.errors import ConfigError
 from dsmv.config.scene import Scene
 
-#: the throughput the 3D cost estimate assumes (cell updates per second, one thread), a guard
-#: against hours, not a prediction: the quarter square plate at B/10, small strain, measured
-#: about 5e6 on these machines' cores
-CELL_UPDATES_PER_S_3D = 5.0e6
 #: memory per cell of the 3D state (B): eight state rows, φ, strength, factor, openings and the shared
 #: divergence, the cell volumes, three face apertures and fluxes, the corner table (8 × int32) and the
 #: nodes' velocity, force, travel and mass (a tenth more nodes than cells on these grids); the state's
@@ -76,7 +72,6 @@ class Cel3DSolver(CelSolver):
     dim = 3
     config_model = Cel3DConfig
     bodies = ("strip", "rectangular_plate", "circular_plate", "track")
-    cell_updates_per_s = CELL_UPDATES_PER_S_3D
     bytes_per_cell = BYTES_PER_CELL_3D
 
     @classmethod

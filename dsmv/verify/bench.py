@@ -17,7 +17,8 @@ Three parts, every timing a median of repeats and every ratio measured in the sa
 Writes ``bench.md`` (the tables), ``bench.csv`` (every run) and ``bench.png`` under
 ``--out`` (default ``runs/bench``). ``--quick`` runs a short version (coarser levels, one
 repeat) in under three minutes; ``--3d`` the 3D solver's throughput, threads, cold start and
-memory per cell instead (``bench_3d.md``); ``--sweeps`` what tracking and the launchers cost a job
+memory per cell instead (``bench_3d.md``); ``--cost`` the throughputs behind the cost estimate and
+the estimates and ETAs against runs (:mod:`dsmv.verify.bench_cost`); ``--sweeps`` what tracking and the launchers cost a job
 (:mod:`dsmv.verify.bench_sweeps`).
 """
 
@@ -43,7 +44,7 @@ from dsmv.analytic.bearing import PRANDTL_NC
 from dsmv.config.scene import OutputConfig
 from dsmv.config.tree import compose_scene
 from dsmv.convergence import richardson
-from dsmv.verify import bench_sweeps, canonical, regression
+from dsmv.verify import bench_cost, bench_sweeps, canonical, regression
 
 #: the Prandtl case: the canonical verification scene (conf/experiment/verify_prandtl.yaml: a rough
 #: strip B = 1 m on weightless Tresca soil, su 10 kPa, E = 500·su, the soil free to part from its
@@ -439,7 +440,13 @@ def main(argv: list[str] | None = None) -> None:
                         "threads, cold start and memory (bench_3d.md under --out)")
     parser.add_argument("--sweeps", action="store_true", help="instead: what MLflow tracking and the launchers "
                         "cost a job (bench_sweeps.md under --out)")
+    parser.add_argument("--cost", action="store_true", help="instead: measure the throughputs of the cost "
+                        "estimate (dsmv/cel/throughput.json) and hold estimates and ETAs against runs (cost.md "
+                        "under --out; --quick: one scene against the committed throughputs)")
     args = parser.parse_args(argv)
+    if args.cost:
+        bench_cost.main(Path(args.out), args.quick)
+        return
     if args.sweeps:
         bench_sweeps.main(Path(args.out), args.quick)
         return

@@ -38,8 +38,8 @@ except ImportError:  # without dsmv[cluster] there is no dsmv_local, and Hydra's
 
 __all__ = ["LocalLauncher", "SlurmLauncher", "time_limit_min", "worker_count"]
 
-#: a job's limit over its cost estimate: over 180 tracked runs on the 2-core machines the wall time
-#: was 0.20–2.14× the estimate (which assumes a throughput, dsmv.cel.solver.CELL_UPDATES_PER_S)
+#: a job's limit over its cost estimate (dsmv.cel.cost, from measured throughputs): the estimates in
+#: docs/verification/performance.md's cost table are within 2× of the solve; 3× leaves room for a busy node
 COST_MARGIN = 3.0
 #: what a job may take before it steps (s): the 3D kernels' cold compile took 92–107 s (dsmv-bench --3d)
 COLD_START_S = 150.0

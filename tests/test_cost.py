@@ -1,0 +1,85 @@
+"""The cost model: what a run will take, estimated from measured throughputs and the fast landing
+model's time to rest (dsmv.cel.cost; docs/verification/performance.md holds the estimates against runs)."""
+
+import pytest
+
+from dsmv import registry
+from dsmv.analytic.dynamic import fast_landing
+from dsmv.cel import cost
+from dsmv.config.tree import compose_scene
+from dsmv.verify.bench_cost import EtaProbe
+
+THROUGHPUT = cost.Throughput(
+    step_overhead_s={"2d": 1e-4, "3d": 2e-4},
+    soil_cell_updates_per_s={"2d": {"tresca": {"1": 4e7}, "einav_randolph": {"1": 1e7}},
+                             "3d": {"tresca": {"1": 5e6, "2": 9e6}, "einav_randolph": {"1": 2e6, "2": 3.5e6}}})
+
+
+def solver_of(*overrides):
+    scene = compose_scene([*overrides, "tracking=disabled"])
+    return registry.load("solvers", scene.solver.name, "solver.name")(scene)
+
+
+def test_a_step_costs_its_overhead_and_its_soil_cells_at_the_law_s_rate():
+    assert THROUGHPUT.wall_s(2, "tresca", 1, 4e4, 1000) == pytest.approx(1000 * (1e-4 + 4e4 / 4e7))
+    assert THROUGHPUT.wall_s(3, "einav_randolph", 2, 1e5, 10) == pytest.approx(10 * (2e-4 + 1e5 / 3.5e6))
+
+
+def test_a_law_or_thread_count_not_measured_takes_the_safe_side():
+    assert THROUGHPUT.rate(2, "my_plugin_law", 1) == 1e7           # the slowest law measured
+    assert THROUGHPUT.rate(3, "tresca", 8) == 9e6                   # the most threads measured
+    assert THROUGHPUT.rate(2, "tresca", 2) == 4e7                   # 2D is serial: one thread's rate
+
+
+def test_the_committed_throughputs_cover_both_dimensions_and_both_laws():
+    measured = cost.measured()
+    for dim in (2, 3):
+        for law in ("tresca", "einav_randolph"):
+            assert measured.rate(dim, law, 1) > 0
+    # a law with state and a rate effect costs more per cell than Tresca
+    assert measured.rate(2, "einav_randolph", 1) < measured.rate(2, "tresca", 1)
+
+
+def test_a_landing_is_expected_to_last_the_fast_model_s_time_to_rest():
+    solver = solver_of("solver=cel2d", "mesh=medium")
+    rest = fast_landing(solver.scene).solve().metrics["time_to_rest_s"]
+    assert solver.expected_duration_s() == rest
+    assert solver_of("solver=cel2d", "solver.economies.stop_at_rest=false").expected_duration_s() == 2 * rest
+    # the 3D track: the fast model with Skempton's shape factor
+    three = solver_of("solver=cel3d", "mesh=coarse")
+    assert three.expected_duration_s() == fast_landing(three.scene, "skempton").solve().metrics["time_to_rest_s"]
+
+
+def test_the_expected_duration_is_the_cel_s_time_to_rest_within_5_percent():
+    """The default landing at 0.04 m cells comes to rest after 0.0921 s; the fast model says 0.0913 s."""
+    solver = solver_of("solver=cel2d", "mesh=medium", "output.plots=false", "solver.progress=off")
+    result = solver.solve()
+    ran = result.history["time_s"][-1]
+    assert result.status == "ok" and solver.expected_duration_s() == pytest.approx(ran, rel=0.05)
+
+
+def test_the_void_above_the_mudline_costs_no_soil_cells():
+    """A lighter, longer track on a weaker soil gets a taller domain of void; its soil cells are the same."""
+    default = solver_of("solver=cel2d").cost()
+    tall = solver_of("solver=cel2d", "soil=sample_II", "landing.mass_kg=6500", "geometry.contact_length_m=5.2").cost()
+    assert tall["cells"] > 2 * default["cells"] and tall["soil_cells"] == default["soil_cells"]
+
+
+def test_field_output_over_50_mb_is_sized_before_the_run():
+    three = solver_of("solver=cel3d", "mesh=coarse", "output.fields=true").cost()
+    assert three["fields_b"] == pytest.approx(cost.FIELD_BYTES_PER_CELL[3] * three["cells"] * 41)
+    assert three["fields_b"] > cost.FIELD_NOTICE_B > solver_of("solver=cel2d", "output.fields=true").cost()["fields_b"]
+    assert solver_of("solver=cel3d", "mesh=coarse").cost()["fields_b"] == 0.0
+
+
+@pytest.mark.parametrize("seconds, text", [(0.2, "about 1 s"), (42.4, "about 42 s"), (720.0, "about 12 min"),
+                                           (12600.0, "about 3.5 h")])
+def test_durations_read_as_a_person_says_them(seconds, text):
+    assert cost.duration(seconds) == text
+
+
+def test_the_eta_is_the_progress_line_s_arithmetic():
+    """Halfway through the simulated time after 3 s of wall time, 3 s are left."""
+    probe = EtaProbe(expected_s=0.1)
+    probe.samples = [(1.0, 0.02), (3.0, 0.05), (6.0, 0.1)]
+    assert probe.eta_left_s(0.25) == (3.0, pytest.approx(3.0))
