@@ -58,6 +58,7 @@ from dsmv.analytic.bearing import PRANDTL_NC
 from dsmv.analytic.energy import skempton_shape_factor
 from dsmv.errors import ConfigError
 from dsmv.results import SolveResult
+from dsmv.config.location import CONFIG_DIR
 from dsmv.config.scene import Scene
 from dsmv.config.schema import Count, Number, Schema
 
@@ -202,8 +203,6 @@ def sinkage(landing: Landing, factor: Callable, c: Coefficients, bearing_factor:
 def default_config() -> AnalyticDynamicConfig:
     """``conf/solver/analytic_dynamic.yaml``: the coefficients the model was fitted with."""
     from omegaconf import OmegaConf
-
-    from dsmv.config.tree import CONFIG_DIR
 
     values = OmegaConf.to_container(OmegaConf.load(Path(CONFIG_DIR) / "solver" / "analytic_dynamic.yaml"))
     return AnalyticDynamicConfig.model_validate(values)

@@ -122,6 +122,7 @@ class CelSolver:
     bodies: tuple[str, ...] = ()
     dim = 0  # axes of the grid, which pick the element kernels
     bytes_per_cell = BYTES_PER_CELL
+    default_mesh = "standard"  # what mesh=auto runs (dsmv.config.scene.settle_mesh)
 
     @cached_property
     def kernels(self) -> DimensionKernels:

@@ -13,14 +13,16 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+from pathlib import Path
 from dataclasses import dataclass
 from typing import Annotated, Any, Literal, Optional, Union
 
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import DictConfig, OmegaConf, open_dict
 from omegaconf.errors import OmegaConfBaseException
 from pydantic import BaseModel, BeforeValidator, Field, model_validator
 
 from dsmv import registry
+from dsmv.config.location import CONFIG_DIR
 from dsmv.config.objective import objective_config
 from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError
@@ -234,6 +236,10 @@ class LandingConfig(Schema):
 # --------------------------------------------------------------------------- mesh, output
 
 
+#: the mesh option that stands for the solver's default mesh (:func:`settle_mesh`)
+AUTO_MESH = "auto"
+
+
 class MeshConfig(Schema):
     """Eulerian grid: uniform core cells, graded geometrically towards the far boundaries."""
 
@@ -330,6 +336,23 @@ def _group(container: dict, name: str) -> Any:
     return container[name]
 
 
+def settle_mesh(cfg: DictConfig | dict, mesh: Any, solver_cls) -> Any:
+    """``mesh=auto`` (the default): the solver's own default mesh (its plugin's ``default_mesh``: cel2d
+    ``standard``, cel3d ``coarse``; ``standard`` for a solver that names none), any key the user set
+    kept. A composed config gets the settled values too, so that its resolved copy, its tracked
+    params and its hash name the mesh that ran."""
+    if not isinstance(mesh, dict) or mesh.get("name") != AUTO_MESH:
+        return mesh
+    name = getattr(solver_cls, "default_mesh", "standard")
+    default = OmegaConf.to_container(OmegaConf.load(Path(CONFIG_DIR) / "mesh" / f"{name}.yaml"))
+    chosen = {key: value for key, value in mesh.items() if value is not None and key != "name"}
+    settled = default | chosen | ({"name": "custom"} if chosen else {})
+    if isinstance(cfg, DictConfig):
+        with open_dict(cfg):
+            cfg.mesh = settled
+    return settled
+
+
 def build_scene(cfg: DictConfig | dict) -> Scene:
     """Validate a composed config into a :class:`Scene` (raises ConfigError on the first bad value)."""
     container = _to_container(cfg) if isinstance(cfg, DictConfig) else dict(cfg)
@@ -344,12 +367,12 @@ def build_scene(cfg: DictConfig | dict) -> Scene:
     geometry = _validate(GEOMETRY_KINDS[kind], geometry_data, "geometry")
 
     landing = _validate(LandingConfig, _group(container, "landing"), "landing")
-    mesh = _validate(MeshConfig, _group(container, "mesh"), "mesh")
 
     solver_data = _group(container, "solver")
     solver_name = solver_data.get("name") if isinstance(solver_data, dict) else None
     solver_cls = registry.load("solvers", solver_name, "solver.name")
     solver = _validate(solver_cls.config_model, solver_data, "solver")
+    mesh = _validate(MeshConfig, settle_mesh(cfg, _group(container, "mesh"), solver_cls), "mesh")
 
     output = _validate(OutputConfig, container.get("output", {}), "output")
     study = str(container.get("study", "default"))

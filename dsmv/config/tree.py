@@ -9,6 +9,7 @@ from pathlib import Path
 
 from hydra.core.plugins import Plugins
 
+from dsmv.config.location import CONFIG_DIR, find_config_dir  # noqa: F401 (where the entry points find it)
 from dsmv.config.scene import Scene, build_scene
 from dsmv.registry import register_plugin_configs
 from hydra_plugins.dsmv_sweeper.case_sweeper import CaseSweeper
@@ -20,21 +21,6 @@ from hydra_plugins.dsmv_sweeper.case_sweeper import CaseSweeper
 Plugins.instance().register(CaseSweeper)
 
 
-def find_config_dir() -> Path:
-    """The Hydra config tree: ``dsmv/conf`` in an installed wheel, else ``conf/`` of the source checkout.
-
-    pyproject.toml maps the checkout's top-level ``conf/`` into the wheel as the package data
-    ``dsmv/conf``; an editable install or a plain checkout reads ``conf/`` beside the package.
-    """
-    package = Path(__file__).resolve().parents[1]
-    for candidate in (package / "conf", package.parent / "conf"):
-        if (candidate / "config.yaml").is_file():
-            return candidate
-    raise FileNotFoundError(f"no Hydra config tree (conf/config.yaml) in {package} or beside it")
-
-
-#: the Hydra config tree every entry point composes from
-CONFIG_DIR = str(find_config_dir())
 
 
 def compose(config_name: str, overrides: list[str]):
