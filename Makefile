@@ -15,8 +15,10 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e ".[dev]"
 	@touch $(STAMP)
 
+# the default scene as the whole track in 3D (cel3d's default mesh: about 5 s warm on two cores, the
+# first run compiles for about a minute and a half); a solver named in ARGS runs instead
 run: install
-	$(BIN)/dsmv $(ARGS)
+	$(BIN)/dsmv $(if $(filter solver=%,$(ARGS)),,solver=cel3d) $(ARGS)
 
 # the suite in TEST_WORKERS processes (pytest-xdist), a test file's tests in one of them; 0 runs it in this one
 TEST_WORKERS ?= 2

@@ -34,6 +34,8 @@ RESULT_FILE = "result.json"
 HISTORY_FILE = "history.csv"
 #: columns of the time history, with units in their names
 HISTORY_COLUMNS = ("time_s", "sinkage_m", "velocity_m_s", "force_n")
+#: columns a history holds when its run has them: a track's plates' sinkage (:func:`add_plate_sinkage`)
+OPTIONAL_HISTORY_COLUMNS = ("plate_sinkage_m",)
 
 
 @dataclass
@@ -75,13 +77,31 @@ def write_result(run_dir: Path, result: SolveResult, solver: str, soil_law: str,
     return path
 
 
+def history_columns(history: dict[str, np.ndarray]) -> tuple[str, ...]:
+    """The columns a history has: :data:`HISTORY_COLUMNS`, then those of :data:`OPTIONAL_HISTORY_COLUMNS` it holds."""
+    return HISTORY_COLUMNS + tuple(c for c in OPTIONAL_HISTORY_COLUMNS if c in history)
+
+
+def add_plate_sinkage(result: SolveResult, grouser_height_m: float) -> None:
+    """A track's second sinkage, ``plate_sinkage_m``: its plates' underside, the grouser height above
+    the body's reference (``max_sinkage_m``, the grousers' tips where the model has grousers; a model
+    without them, such as the 2D cross-section, bears on the plates: the two are equal). Negative: the
+    plates stayed that far above the mudline. Added to the metrics and the history."""
+    if "max_sinkage_m" in result.metrics:
+        result.metrics["plate_sinkage_m"] = result.metrics["max_sinkage_m"] - grouser_height_m
+        result.units["plate_sinkage_m"] = "m"
+    if result.history is not None and "sinkage_m" in result.history:
+        result.history["plate_sinkage_m"] = np.asarray(result.history["sinkage_m"], dtype=float) - grouser_height_m
+
+
 def write_history(run_dir: Path, history: dict[str, np.ndarray]) -> Path:
-    """Write the time history as CSV with a header of HISTORY_COLUMNS."""
+    """Write the time history as CSV with a header of its columns (:func:`history_columns`)."""
     path = Path(run_dir) / HISTORY_FILE
-    columns = [np.asarray(history[c], dtype=float) for c in HISTORY_COLUMNS]
+    names = history_columns(history)
+    columns = [np.asarray(history[c], dtype=float) for c in names]
     with path.open("w", newline="") as fh:
         writer = csv.writer(fh)
-        writer.writerow(HISTORY_COLUMNS)
+        writer.writerow(names)
         writer.writerows(zip(*(c.tolist() for c in columns)))
     return path
 

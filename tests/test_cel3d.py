@@ -325,6 +325,9 @@ def test_the_track_lands_in_3d_and_its_fields_open(compose_cfg, tmp_path):
     assert m["mass_error"] <= 1e-10 and m["energy_error"] <= 0.02
     assert m["phi_max"] < 1.01  # as 2D's landing: the remap packs no soil against the track (1.04 before)
     assert 0.0 < m["max_sinkage_m"] < scene.geometry.width_m
+    # two sinkages: the grousers' tips (the body's base) and the plates, the grouser height above them
+    assert m["plate_sinkage_m"] == m["max_sinkage_m"] - scene.geometry.grouser_height_m
+    assert (result.history["plate_sinkage_m"] == result.history["sinkage_m"] - 0.05).all()
     frames = fields.series(tmp_path)
     last = meshio.read(frames[-1][1])
     (block,) = last.cells

@@ -29,7 +29,8 @@ def test_single_run_writes_the_contract_and_one_finished_mlflow_run(run_cli, tmp
     assert result["status"] == "ok" and result["soil_law"] == "einav_randolph" and result["solver"] == "cel2d"
     assert result["units"]["max_sinkage_m"] == "m"
     header = (job / "history.csv").read_text().splitlines()[0]
-    assert header == ",".join(HISTORY_COLUMNS)
+    assert header == ",".join((*HISTORY_COLUMNS, "plate_sinkage_m"))  # a track's plates: its section's base
+    assert result["metrics"]["plate_sinkage_m"] == result["metrics"]["max_sinkage_m"]
     assert (job / "config_resolved.yaml").exists()
 
     (run,) = mlflow_runs(tmp_path)
@@ -37,7 +38,8 @@ def test_single_run_writes_the_contract_and_one_finished_mlflow_run(run_cli, tmp
     assert run.data.tags["dsmv.status"] == "ok" and run.data.params["status"] == "ok"
     # named from the scene, described by the summary's answer
     assert run.data.tags["mlflow.runName"] == "nodule_field soil (einav_randolph), track_pioneer_i, drop 4500 kg at 1.5 m/s"
-    assert run.data.tags["mlflow.note.content"] == "ok: max sinkage 0.0654 m"
+    assert run.data.tags["mlflow.note.content"] == "ok: max sinkage 0.0654 m of the 2D cross-section"
+    assert run.data.metrics["plate_sinkage_m"] == result["metrics"]["plate_sinkage_m"]
     # MLflow 3 opens the experiment on its runs (a classic experiment), under a description
     from mlflow.tracking import MlflowClient
 
@@ -190,9 +192,35 @@ def test_a_push_summary_reports_its_depth_and_bearing_factors(compose_cfg, capsy
     assert "push to 0.06 m at 0.1 m/s" in out and " kg" not in out
     landing = build_scene(compose_cfg([]))
     print_summary(landing, SolveResult("ok", "came to rest", {"max_sinkage_m": 0.122}), tmp_path, None, multirun=True)
-    assert capsys.readouterr().out.strip().endswith("ok: max sinkage 0.1220 m")
+    assert capsys.readouterr().out.strip().endswith("ok: max sinkage 0.1220 m of the 2D cross-section")
     print_summary(push, SolveResult("unstable", "NaN in the velocities", {}), tmp_path, None, multirun=True)
     assert capsys.readouterr().out.strip().endswith("unstable: NaN in the velocities")
+
+
+def test_a_track_s_summary_names_its_sinkages_and_a_section_its_3d_estimate(compose_cfg, capsys, tmp_path):
+    """The 3D track reports its grouser tips and its plates; the 2D cross-section never passes for the
+    track: it prints the 3D estimate (the section + the measured 3D–2D difference, with its range) and
+    the command that lands the track in 3D."""
+    from dsmv.app.runner import SECTION_TO_TRACK_M, print_summary
+    from dsmv.config.scene import build_scene
+    from dsmv.results import SolveResult, add_plate_sinkage
+
+    track = build_scene(compose_cfg(["solver=cel3d"]))
+    result = SolveResult("ok", "came to rest", {"max_sinkage_m": 0.1185})
+    add_plate_sinkage(result, track.geometry.grouser_height_m)
+    print_summary(track, result, tmp_path, None, multirun=False)
+    out = capsys.readouterr().out
+    assert "dsmv: ok — max sinkage 0.1185 m at the grouser tips, 0.0685 m at the plates" in out
+    assert "3D track:" not in out
+    section = build_scene(compose_cfg(["soil.su0_pa=6000"]))
+    print_summary(section, SolveResult("ok", "came to rest", {"max_sinkage_m": 0.0532}), tmp_path, None,
+                  multirun=False, overrides=["soil.su0_pa=6000", "mesh=fine"])
+    out = capsys.readouterr().out
+    low, high = 0.0532 + SECTION_TO_TRACK_M["least"], 0.0532 + SECTION_TO_TRACK_M["largest"]
+    assert "dsmv: ok — max sinkage 0.0532 m of the 2D cross-section" in out
+    assert (f"3D track: about {0.0532 + SECTION_TO_TRACK_M['median']:.3f} m at the grouser tips "
+            f"({low:.3f}–{high:.3f} m") in out
+    assert "the 3D answer: dsmv solver=cel3d soil.su0_pa=6000\n" in out  # the user's mesh is 2D's, not 3D's
 
 
 def test_the_slurm_launcher_composes_with_dsmv_s_defaults(compose_cfg):

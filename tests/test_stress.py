@@ -60,7 +60,7 @@ def read_run(run_dir: Path) -> Run:
     result = json.loads((run_dir / RESULT_FILE).read_text())  # json reads NaN/Infinity as floats
     with (run_dir / HISTORY_FILE).open() as fh:
         rows = list(csv.reader(fh))
-    assert tuple(rows[0]) == HISTORY_COLUMNS
+    assert tuple(rows[0])[:len(HISTORY_COLUMNS)] == HISTORY_COLUMNS
     history = {name: np.array([float(r[k]) for r in rows[1:]]) for k, name in enumerate(rows[0])}
     return Run(result, history)
 

@@ -57,7 +57,7 @@ from dsmv import registry
 from dsmv.analytic.bearing import PRANDTL_NC
 from dsmv.analytic.energy import skempton_shape_factor
 from dsmv.errors import ConfigError
-from dsmv.results import SolveResult
+from dsmv.results import SolveResult, add_plate_sinkage
 from dsmv.config.location import CONFIG_DIR
 from dsmv.config.scene import Scene
 from dsmv.config.schema import Count, Number, Schema
@@ -269,4 +269,7 @@ class AnalyticDynamicSolver:
         units |= {"max_sinkage_m": "m", "sinkage_over_width": "-", "time_to_rest_s": "s"}
         force = resistance(lb, depth_s, speed_s, self.factor, coefficients, cfg.bearing_factor, cfg.buoyancy)
         history = {"time_s": samples, "sinkage_m": depth_s, "velocity_m_s": speed_s, "force_n": np.asarray(force)}
-        return SolveResult("ok", f"came to rest at {z_max:.4g} m after {time[-1]:.3g} s", metrics, units, history)
+        result = SolveResult("ok", f"came to rest at {z_max:.4g} m after {time[-1]:.3g} s", metrics, units, history)
+        if self.scene.geometry.kind == "track":  # a flat base: the plates, as the 2D section's
+            add_plate_sinkage(result, 0.0)
+        return result

@@ -32,7 +32,7 @@ from pydantic import BeforeValidator, Field
 from dsmv import registry
 from dsmv.analytic.bearing import PRANDTL_NC
 from dsmv.errors import ConfigError
-from dsmv.results import SolveResult
+from dsmv.results import SolveResult, add_plate_sinkage
 from dsmv.config.scene import Scene
 from dsmv.config.schema import Count, Number, Schema
 
@@ -192,7 +192,10 @@ class AnalyticEnergySolver:
         }
         units |= {"max_sinkage_m": "m", "sinkage_over_width": "-", "time_to_rest_s": "s", "final_resistance_n": "N"}
         history = {"time_s": time, "sinkage_m": depth, "velocity_m_s": velocity, "force_n": self.resistance_n(depth)}
-        return SolveResult("ok", f"came to rest at {z_max:.4g} m after {t_rest:.3g} s", metrics, units, history)
+        result = SolveResult("ok", f"came to rest at {z_max:.4g} m after {t_rest:.3g} s", metrics, units, history)
+        if self.scene.geometry.kind == "track":  # a flat base: the plates, as the 2D section's
+            add_plate_sinkage(result, 0.0)
+        return result
 
     def _trajectory(self, z_max):
         """Closed-form motion z(t), v(t) of M·z̈ = W − R(z) from z = 0, v = v0 to rest at z_max."""

@@ -146,7 +146,7 @@ def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, sweep_dir: Path | None, caug
     if result.status == "interrupted" and not multirun:
         print(f"dsmv: {result.message}; result.json written in {run_dir}", file=sys.stderr)
     else:
-        print_summary(scene, result, run_dir, tracker, multirun)
+        print_summary(scene, result, run_dir, tracker, multirun, list(hydra_cfg.overrides.task))
     if error_text is not None and not multirun:
         print(f"dsmv: the run failed: {result.message}", file=sys.stderr)
     if not multirun and EXIT_CODES[result.status] != 0:
@@ -264,10 +264,13 @@ def _answer(scene: Scene, result: SolveResult) -> str:
     if result.status != "ok" or sinkage is None:  # only an 'ok' run has an answer: say what happened
         return result.message
     if scene.landing.kind != "push":
+        plates = result.metrics.get("plate_sinkage_m", sinkage)
+        where = (f" at the grouser tips, {plates:.4f} m at the plates" if plates != sinkage else
+                 " of the 2D cross-section" if is_cross_section(scene) else "")
         if "max_sinkage_error_m" in result.metrics:  # solver.error_estimate: the mesh's share of doubt
-            return (f"max sinkage {sinkage:.4f} m; extrapolated {result.metrics['max_sinkage_extrapolated_m']:.4f} m "
+            return (f"max sinkage {sinkage:.4f} m{where}; extrapolated {result.metrics['max_sinkage_extrapolated_m']:.4f} m "
                     f"± {result.metrics['max_sinkage_error_m']:.4f} m (mesh)")
-        return f"max sinkage {sinkage:.4f} m"
+        return f"max sinkage {sinkage:.4f} m{where}"
     factors = [f"{result.metrics[name]:.3f} at {label}" for name, label in
                (("nc_at_0p02B", "0.02 B"), ("nc_at_0p05B", "0.05 B"), ("nc_at_0p1B", "0.1 B"),
                 ("nc_at_1B", "1 B"), ("nc_deep", "depth (nc_deep)")) if name in result.metrics]
@@ -283,12 +286,44 @@ def scene_label(scene: Scene) -> str:
     return f"{scene.soil.name} soil ({scene.soil.law}), {scene.geometry.name}, {motion}"
 
 
+#: the 3D track's max sinkage (grouser tips, cel3d's default mesh) less the 2D cross-section's (cel2d's),
+#: over the 22 landings of docs/verification/track-3d.md ("The section and the track": the default,
+#: Tresca, and the levels of the study's eight parameters), with 0.05 m grousers: median, least and
+#: largest (m). The two differ by about the grouser height, not by a factor (1.06-5.3 over the same landings)
+SECTION_TO_TRACK_M = {"grouser_height_m": 0.05, "median": 0.0530, "least": 0.0122, "largest": 0.0685}
+
+
+def is_cross_section(scene: Scene) -> bool:
+    """A track's 2D cross-section (no grousers, no ends): what cel2d and the fast models land by default."""
+    body = scene.geometry
+    if body.kind != "track" or getattr(body, "view", "cross_section") != "cross_section":
+        return False
+    return scene.solver.name in ("cel2d", "cel2d_check") or getattr(scene.solver, "shape_factor", None) == "plane_strain"
+
+
+def track_estimate(scene: Scene, result: SolveResult, overrides: list[str] = ()) -> str | None:
+    """For a 2D cross-section's landing: the 3D track's max sinkage it implies, with its measured spread,
+    and the command that computes it; None for anything else."""
+    sinkage = result.metrics.get("max_sinkage_m")
+    if result.status != "ok" or sinkage is None or scene.landing.kind == "push" or not is_cross_section(scene):
+        return None
+    command = " ".join(["dsmv solver=cel3d", *(o for o in overrides if not o.split("=")[0].lstrip("+~").startswith(("solver", "mesh")))])
+    offset = SECTION_TO_TRACK_M
+    if scene.geometry.grouser_height_m != offset["grouser_height_m"]:
+        return (f"not estimated for {scene.geometry.grouser_height_m:g} m grousers (measured with "
+                f"{offset['grouser_height_m']:g} m); the 3D answer: {command}")
+    return (f"about {sinkage + offset['median']:.3f} m at the grouser tips ({sinkage + offset['least']:.3f}–"
+            f"{sinkage + offset['largest']:.3f} m: the section + the 3D–2D difference measured over 22 landings); "
+            f"the 3D answer: {command}")
+
+
 #: the reference study's 3D track model at 0.04 m core cells: 1,248,912 Eulerian elements (Zeng et al.
 #: 2025, Table 2, case 3)
 REFERENCE_TRACK_ELEMENTS = 1_248_912
 
 
-def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, multirun: bool) -> None:
+def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, multirun: bool,
+                  overrides: list[str] = ()) -> None:
     """A short human summary: status, what the run found (with units), where outputs and MLflow are."""
     what = _answer(scene, result)
     if multirun:
@@ -300,6 +335,8 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
     if assumed:
         print(f"  assumed : {', '.join(assumed)} (provisional: no published source)")
     print(f"  message : {result.message}")
+    if (estimate := track_estimate(scene, result, overrides)) is not None:
+        print(f"  3D track: {estimate}")
     m = result.metrics
     if "cells" in m and "cell_updates_per_s" in m:  # a CEL run: its grid and what it cost
         whole, notes = m.get("cells_whole_body", m["cells"]), []

@@ -38,7 +38,7 @@ from dsmv.cel.kernels import DimensionKernels, for_dimension
 from dsmv.cel.layout import B_INFLOW, B_TIME, B_VEL, N_BODY, CellRows, Cells, Inflow, Nodes, Params, SoilLawKernel
 from dsmv.cel.state import Elastic, geostatic_state, hourglass_factor, step_parameters
 from dsmv.errors import ConfigError
-from dsmv.results import SolveResult
+from dsmv.results import SolveResult, add_plate_sinkage
 from dsmv.config.scene import Scene
 
 #: s/B at which push curves are sampled for the bearing factor q/su0 (averaged over ±0.005·B)
@@ -459,7 +459,7 @@ class CelSolver:
         metrics |= audit
         units |= {k: ("-" if k == "energy_error" else "J") for k in audit}
         if status in ("ok", "out_of_domain", "bearing_failure"):
-            metrics["max_sinkage_m"] = run.max_sinkage_m  # a track's at its grousers' tips
+            metrics["max_sinkage_m"] = run.max_sinkage_m  # the body's base: a track's grousers' tips in 3D
             units["max_sinkage_m"] = "m"
         grav = landing.gravity_m_s2
         if drop and status == "ok" and self.cone and grav > 0:  # Hansbo's factor implied by the penetration
@@ -481,7 +481,10 @@ class CelSolver:
             metrics = {k: v for k, v in metrics.items() if math.isfinite(v)}
             finite = np.all([np.isfinite(v) for v in history.values()], axis=0)
             history = {k: v[finite] for k, v in history.items()}
-        return SolveResult(status, message, metrics, units, history)
+        result = SolveResult(status, message, metrics, units, history)
+        if self.scene.geometry.kind == "track":
+            add_plate_sinkage(result, self.scene.geometry.grouser_height_m if self.models_track_side else 0.0)
+        return result
 
     def _push_metrics(self, history, metrics, units) -> None:
         """Bearing factor q/su0 along a push: samples at fixed s/B and the curve's roughness."""

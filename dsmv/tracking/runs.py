@@ -27,7 +27,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from dsmv.config.scene import TrackingConfig, build_tracking
 from dsmv.numba_cache import source_hash
-from dsmv.results import HISTORY_COLUMNS, SolveResult
+from dsmv.results import SolveResult, history_columns
 from dsmv.tracking.run_writer import for_job, open_client, resolve_uri, serve_sweep
 
 PARENT_RUN_FILE = "mlflow_parent_run.json"
@@ -146,7 +146,7 @@ def _history_metrics(history: dict, timestamp_ms: int) -> list:
     keep = np.unique(np.linspace(0, len(time_s) - 1, min(len(time_s), MAX_HISTORY_POINTS)).round().astype(int))
     steps = np.round(time_s[keep] * 1e6).astype(np.int64)
     out = []
-    for column in HISTORY_COLUMNS[1:]:
+    for column in history_columns(history)[1:]:
         values = np.asarray(history[column], dtype=float)[keep]
         out += [(f"history.{column}", float(v), timestamp_ms, int(s)) for v, s in zip(values, steps)]
     return out
