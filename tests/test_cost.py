@@ -78,8 +78,21 @@ def test_durations_read_as_a_person_says_them(seconds, text):
     assert cost.duration(seconds) == text
 
 
-def test_the_eta_is_the_progress_line_s_arithmetic():
-    """Halfway through the simulated time after 3 s of wall time, 3 s are left."""
+def test_the_time_left_is_paced_from_the_first_chunk_on(monkeypatch):
+    """A cold start's first chunk holds the compile: the pace is taken from the chunks after it. Half
+    the simulated time after 3 s of stepping past a 10 s compile: 3 s are left."""
+    from dsmv.cel import controller
+
+    clock = iter([10.0, 13.0])
+    monkeypatch.setattr(controller.time, "perf_counter", lambda: next(clock))
+    progress = controller.Progress(expected_s=0.1, terminal=False)
+    run = type("Run", (), {"time_s": 0.02})()
+    assert progress.time_left_s(run) is None
+    run.time_s = 0.06
+    assert progress.time_left_s(run) == pytest.approx(3.0 * 0.04 / 0.04)
+
+
+def test_the_benchmark_reads_the_progress_line_s_estimate_at_a_quarter_of_the_run():
     probe = EtaProbe(expected_s=0.1)
-    probe.samples = [(1.0, 0.02), (3.0, 0.05), (6.0, 0.1)]
-    assert probe.eta_left_s(0.25) == (3.0, pytest.approx(3.0))
+    probe.samples = [(1.0, 0.02, None), (3.0, 0.05, 2.5), (6.0, 0.1, 0.0)]
+    assert probe.eta_left_s(0.25) == (3.0, 2.5)

@@ -300,6 +300,17 @@ class Progress(Tracker):
         self.expected_s, self.terminal = max(expected_s, 1e-9), terminal
         self.bar = None
         self.last = 0.0
+        self.origin: Optional[tuple[float, float]] = None  # (wall, simulated) after the first chunk
+
+    def time_left_s(self, run: Run) -> Optional[float]:
+        """Wall time left (s): the simulated time left at the pace since the first chunk, which holds a
+        cold start's compile (None until a second chunk has run)."""
+        now = time.perf_counter()
+        if self.origin is None:
+            self.origin = (now, run.time_s)
+            return None
+        simulated = run.time_s - self.origin[1]
+        return (now - self.origin[0]) * max(self.expected_s - run.time_s, 0.0) / simulated if simulated > 0 else None
 
     def start(self, run: Run) -> None:
         from tqdm import tqdm
@@ -314,6 +325,7 @@ class Progress(Tracker):
         return f"sinkage {run.sinkage_m:.4f} m, velocity {-run.body[B_VEL]:.3f} m/s, {run.steps:,} steps"
 
     def after_chunk(self, run: Run) -> None:
+        left = self.time_left_s(run)
         if self.bar is not None:
             self.bar.update(run.time_s - self.bar.n)
             self.bar.set_postfix_str(self.line(run), refresh=False)
@@ -321,10 +333,10 @@ class Progress(Tracker):
             from tqdm import tqdm
 
             self.last = time.perf_counter()
-            meter = tqdm.format_meter(run.time_s, self.expected_s, self.last - self.started, unit="s",
-                                      bar_format="{percentage:3.0f}% of the expected {total:.3f} s "
-                                                 "[{elapsed} elapsed, about {remaining} left]")
-            print(f"  t = {run.time_s:.4f} s: {self.line(run)}; {meter}", file=sys.stderr, flush=True)
+            eta = "" if left is None else f", about {tqdm.format_interval(left)} left"
+            print(f"  t = {run.time_s:.4f} s: {self.line(run)}; {run.time_s / self.expected_s:4.0%} of the expected "
+                  f"{self.expected_s:.3f} s [{tqdm.format_interval(self.last - self.started)} elapsed{eta}]",
+                  file=sys.stderr, flush=True)
 
     def finish(self, run: Run) -> None:
         if self.bar is not None:

@@ -98,21 +98,22 @@ def measure_throughput() -> dict:
 
 
 class EtaProbe(C.Progress):
-    """The progress line's arithmetic, silent: (wall time, simulated time) after every chunk."""
+    """The progress line's estimate, silent: (wall time, simulated time, time left) after every chunk."""
 
     def __init__(self, expected_s: float):
         super().__init__(expected_s, terminal=False)
-        self.samples: list[tuple[float, float]] = []
+        self.samples: list[tuple[float, float, float | None]] = []
 
     def after_chunk(self, run: C.Run) -> None:
-        self.samples.append((time.perf_counter() - self.started, run.time_s))
+        left = self.time_left_s(run)
+        self.samples.append((time.perf_counter() - self.started, run.time_s, left))
 
     def eta_left_s(self, share: float) -> tuple[float, float]:
         """At the first chunk past ``share`` of the run's wall time: (wall time then, the time the
-        progress line says is left, elapsed·(expected − t)/t)."""
+        progress line says is left)."""
         total = self.samples[-1][0]
-        elapsed, simulated = next(s for s in self.samples if s[0] >= share * total)
-        return elapsed, elapsed * max(self.expected_s - simulated, 0.0) / max(simulated, 1e-12)
+        elapsed, _, left = next(s for s in self.samples if s[0] >= share * total and s[2] is not None)
+        return elapsed, left
 
 
 @dataclass
