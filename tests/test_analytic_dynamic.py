@@ -39,6 +39,22 @@ def test_bare_model_is_the_energy_method(solve):
     assert result.metrics["max_sinkage_m"] == pytest.approx(exact, rel=REL)
 
 
+def test_grousers_cut_in_first_then_the_base_bears(solve):
+    """The 3D track's landing (``solver.grousers=true``): the tips start gh deep at the speed gained falling
+    gh, carrying the soil they trap; on a constant strength the base then goes p further, where
+    ½·M'·v'² + W'·p = Nc·A·su0·p (exact), and the plates end gh above the tips."""
+    scene, result = solve("soil.ks_pa_per_m=0", "solver.grousers=true")
+    landing, soil, body = scene.landing, scene.soil, scene.geometry
+    gh, area = body.grouser_height_m, body.contact_area_m2
+    trapped = soil.density_kg_m3 * area * gh
+    weight, inertia = landing.weight_per_track_n, landing.inertia_per_track_kg
+    speed2 = landing.velocity_m_s**2 + 2.0 * weight / inertia * gh
+    p = 0.5 * (inertia + trapped) * speed2 / (PRANDTL_NC * area * soil.su0_pa - weight - trapped * landing.gravity_m_s2)
+    assert result.metrics["max_sinkage_m"] == pytest.approx(gh + p, rel=REL)
+    assert result.metrics["plate_sinkage_m"] == pytest.approx(p, rel=REL)
+    assert result.history["sinkage_m"][0] == gh and result.history["velocity_m_s"][0] == pytest.approx(speed2**0.5)
+
+
 def test_strength_gradient_and_buoyancy(solve):
     """su = su0 + ks·z under the bearing factor Nc·G(ks·B/su(z)) plus ρ'·g·z: integrated by quadrature."""
     scene, result = solve("solver.buoyancy=true")

@@ -45,7 +45,7 @@ Richardson, M. D., Randolph, M. F. & Gaudin, C. (2013), Géotechnique 63(11), 90
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from functools import lru_cache
 from pathlib import Path
 from typing import Annotated, Callable, Literal, Union
@@ -117,6 +117,9 @@ class AnalyticDynamicConfig(Schema):
                                         description="c_e in z_e = c_e·Nc·B·su0/E (-); 0: rigid-plastic")
     drag_coefficient: Number = Field(ge=0, description="Cd of ½·Cd·ρ'·v² (-)")
     buoyancy: bool = Field(True, description="the embedded body's buoyancy ρ'·g·z·A")
+    grousers: bool = Field(False, description=(
+        "a track's grousers cut in first, as the 3D CEL lands them (its tips start gh deep, carrying the soil "
+        "they trap; the sinkage is the tips'); false: a flat base, the 2D cross-section's"))
     history_points: Count = Field(200, ge=2, description="samples in the time history (-)")
 
     def coefficients(self) -> Coefficients:
@@ -138,22 +141,35 @@ class Landing:
     youngs_modulus_pa: np.ndarray  # E (Pa)
     gravity_m_s2: np.ndarray      # g (m/s²)
     shape_factor: np.ndarray      # sc (-)
+    grouser_height_m: np.ndarray | float = 0.0  # gh: grousers cut in first (the 3D track), 0: a flat base
 
 
 def resistance(landing: Landing, depth_m, speed_m_s, factor: Callable, c: Coefficients,
                bearing_factor: float = PRANDTL_NC, buoyancy: bool = True):
     """R(z, v) (N) per track: the module's formula at depth z (m) and speed v (m/s)."""
     b, z, v = landing.width_m, np.asarray(depth_m, dtype=float), np.asarray(speed_m_s, dtype=float)
+    bearing_on = z - landing.grouser_height_m  # how far the base has gone since it began to bear (m)
     su = landing.su0_pa + landing.ks_pa_per_m * z
     bearing = bearing_factor * landing.shape_factor * gradient_factor(landing.ks_pa_per_m * b / su)
     bearing = bearing * (1.0 + c.depth_coefficient * np.sqrt(z / b))
     elastic_depth = c.elastic_coefficient * bearing_factor * b * landing.su0_pa / landing.youngs_modulus_pa
-    mobilised = -np.expm1(-z / elastic_depth) if c.elastic_coefficient > 0.0 else 1.0
-    strength = factor(c.strain_coefficient * z / b, c.rate_coefficient * v / b)
+    mobilised = -np.expm1(-bearing_on / elastic_depth) if c.elastic_coefficient > 0.0 else 1.0
+    strength = factor(c.strain_coefficient * bearing_on / b, c.rate_coefficient * v / b)
     pressure = mobilised * bearing * strength * su + 0.5 * c.drag_coefficient * landing.density_kg_m3 * v * v
     if buoyancy:
         pressure = pressure + landing.density_kg_m3 * landing.gravity_m_s2 * z
     return landing.area_m2 * pressure
+
+
+def cut_in(landing: Landing) -> Landing:
+    """A track whose grousers cut in first, as the 3D CEL lands it (``dsmv.cel.solver.CelSolver.start``):
+    its tips gh deep at the speed gained falling gh under its wet weight (the blades' own resistance
+    neglected), carrying the soil trapped between the grousers (its buoyant weight and mass)."""
+    gh = landing.grouser_height_m
+    trapped_kg = landing.density_kg_m3 * landing.area_m2 * gh
+    speed = np.sqrt(landing.velocity_m_s**2 + 2.0 * landing.weight_n / landing.inertia_kg * gh)
+    return replace(landing, velocity_m_s=speed, inertia_kg=landing.inertia_kg + trapped_kg,
+                   weight_n=landing.weight_n + trapped_kg * landing.gravity_m_s2)
 
 
 def sinkage(landing: Landing, factor: Callable, c: Coefficients, bearing_factor: float = PRANDTL_NC,
@@ -165,11 +181,11 @@ def sinkage(landing: Landing, factor: Callable, c: Coefficients, bearing_factor:
     every step (2D arrays, steps × landings; speed 0 after rest)."""
     fields_ = {f.name: np.asarray(getattr(landing, f.name), dtype=float) for f in fields(Landing)}
     shape = np.broadcast_shapes(*(a.shape for a in fields_.values()))
-    lb = Landing(**{k: np.broadcast_to(a, shape) for k, a in fields_.items()})
+    lb = cut_in(Landing(**{k: np.broadcast_to(a, shape) for k, a in fields_.items()}))
     step = lb.width_m / STEPS_PER_WIDTH
     kinetic = 0.5 * lb.inertia_kg * lb.velocity_m_s**2
     at_rest = REST_SPEED_FRACTION**2 * kinetic
-    depth = np.zeros(shape)
+    depth = np.array(lb.grouser_height_m, dtype=float)
     rest = np.full(shape, np.inf)
     moving = np.ones(shape, dtype=bool)
     trace = [(depth.copy(), lb.velocity_m_s.copy())] if history else None
@@ -244,7 +260,8 @@ class AnalyticDynamicSolver:
             weight_n=landing.weight_per_track_n, inertia_kg=landing.inertia_per_track_kg,
             velocity_m_s=landing.velocity_m_s, width_m=body.width_m, area_m2=body.contact_area_m2,
             su0_pa=soil.su0_pa, ks_pa_per_m=soil.ks_pa_per_m, density_kg_m3=soil.density_kg_m3,
-            youngs_modulus_pa=soil.youngs_modulus_pa, gravity_m_s2=landing.gravity_m_s2, shape_factor=shape)
+            youngs_modulus_pa=soil.youngs_modulus_pa, gravity_m_s2=landing.gravity_m_s2, shape_factor=shape,
+            grouser_height_m=body.grouser_height_m if cfg.grousers and body.kind == "track" else 0.0)
         law = registry.load("soil_laws", soil.law, "soil.law")(soil)
         state = law.initial_state()
         self.factor = lambda xi, rate: law.strength_factor(xi, rate, *(np.full(np.shape(xi), s) for s in state))
@@ -270,6 +287,6 @@ class AnalyticDynamicSolver:
         force = resistance(lb, depth_s, speed_s, self.factor, coefficients, cfg.bearing_factor, cfg.buoyancy)
         history = {"time_s": samples, "sinkage_m": depth_s, "velocity_m_s": speed_s, "force_n": np.asarray(force)}
         result = SolveResult("ok", f"came to rest at {z_max:.4g} m after {time[-1]:.3g} s", metrics, units, history)
-        if self.scene.geometry.kind == "track":  # a flat base: the plates, as the 2D section's
-            add_plate_sinkage(result, 0.0)
+        if self.scene.geometry.kind == "track":  # the plates: the tips, or a flat base's (the 2D section's)
+            add_plate_sinkage(result, float(lb.grouser_height_m))
         return result

@@ -298,7 +298,8 @@ def is_cross_section(scene: Scene) -> bool:
     body = scene.geometry
     if body.kind != "track" or getattr(body, "view", "cross_section") != "cross_section":
         return False
-    return scene.solver.name in ("cel2d", "cel2d_check") or getattr(scene.solver, "shape_factor", None) == "plane_strain"
+    flat_section = getattr(scene.solver, "shape_factor", None) == "plane_strain" and not getattr(scene.solver, "grousers", False)
+    return scene.solver.name in ("cel2d", "cel2d_check") or flat_section
 
 
 def track_estimate(scene: Scene, result: SolveResult, overrides: list[str] = ()) -> str | None:
