@@ -8,6 +8,7 @@ Write your own::
 
     class MySurrogate(Surrogate):
         name = "my_model"
+        label = "my regressor"  # in words, for figures
         registered_model = "dsmv-sinkage-my_model"
 
         def make(self, **params):
@@ -40,6 +41,8 @@ class Surrogate:
     """Base class of surrogate plugins."""
 
     name: ClassVar[str] = ""
+    #: what the model is, in words ("random forest"): figures name it beside ``name``
+    label: ClassVar[str] = ""
     #: MLflow flavour module used by :meth:`log_model` (``mlflow.sklearn``, ``mlflow.xgboost``)
     flavor: ClassVar[str] = "mlflow.sklearn"
     #: extra keyword arguments of the flavour's ``log_model``

@@ -316,7 +316,8 @@ def exceedance_answer(cfg: DictConfig, settings: PredictSettings, predictor: Pre
            "sinkage_limit_m": limit, "uncertain": sorted(uncertainty.distributions)}
     if settings.plot and run_dir is not None:
         run_dir.mkdir(parents=True, exist_ok=True)
-        out["plot"] = str(plot_exceedance(mid, lower, upper, limit, answer, c, run_dir / "exceedance.png"))
+        out["plot"] = str(plot_exceedance(mid, lower, upper, limit, answer, c, run_dir / "exceedance.png",
+                                          predictor.describe()))
         print(f"  plot     : {out['plot']}")
     if settings.verify:
         key = next(iter(uncertainty.distributions))
@@ -336,8 +337,10 @@ def exceedance_answer(cfg: DictConfig, settings: PredictSettings, predictor: Pre
     return out
 
 
-def plot_exceedance(mid, lower, upper, limit: float, answer, confidence: float, path: Path) -> Path:
-    """The predicted sinkage's distribution over the samples, the interval bounds' beside it, the limit."""
+def plot_exceedance(mid, lower, upper, limit: float, answer, confidence: float, path: Path,
+                    model: tuple[str, ...] = ()) -> Path:
+    """The predicted sinkage's distribution over the samples, the interval bounds' beside it, the limit;
+    the title names the model that predicted it (``model``: :meth:`Predictor.describe`'s lines)."""
     plt = pyplot()
 
     fig, ax = plt.subplots(figsize=(6.5, 4.2), constrained_layout=True)
@@ -346,11 +349,11 @@ def plot_exceedance(mid, lower, upper, limit: float, answer, confidence: float, 
     ax.hist(lower, bins=bins, histtype="step", color="tab:green", label=f"lower bound ({confidence:.0%})")
     ax.hist(upper, bins=bins, histtype="step", color="tab:red", label=f"upper bound ({confidence:.0%})")
     ax.axvline(limit, color="k", linestyle="--", label=f"limit {limit:g} m")
-    ax.set(xlabel="max sinkage (m)", ylabel=f"samples (of {answer.samples})",
-           title=f"P(z > {limit:g} m) = {answer.probability:.3f} ± {answer.monte_carlo_error:.3f}, "
-                 f"{answer.model_low:.3f} to {answer.model_high:.3f} on the bounds")
+    ax.set(xlabel="max sinkage (m)", ylabel=f"samples (of {answer.samples})")
+    ax.set_title("\n".join([*model, f"P(z > {limit:g} m) = {answer.probability:.3f} ± {answer.monte_carlo_error:.3f}, "
+                                     f"{answer.model_low:.3f} to {answer.model_high:.3f} on the bounds"]), fontsize=9)
     ax.legend()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, bbox_inches="tight")  # the title's lines whole
     plt.close(fig)
     return path
 
@@ -445,7 +448,8 @@ def run_predict(cfg: DictConfig, run_dir: Path | None = None) -> dict:
             trained = meta.get("ranges", {}).get(column)
             png = plot_band(answer.grid, g_mid, g_low, g_up, parameter, c, run_dir / "inverse.png",
                             settings.sinkage_limit_m, answer.value, tuple(trained) if trained else None,
-                            f"{name} v{predictor.version}: {settings.task}, limit {settings.sinkage_limit_m:g} m")
+                            "\n".join([*predictor.describe(),
+                                       f"{settings.task}, limit {settings.sinkage_limit_m:g} m"]))
             print(f"  plot     : {png}")
     return write_answer(out, run_dir)
 
