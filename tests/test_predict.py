@@ -279,12 +279,16 @@ def test_user_mistakes_are_one_line_with_exit_2(store, overrides, message, capsy
     (["landing.mas_kg=5000"], "dsmv-predict: error: landing.mas_kg = 5000: no such config key; did you mean "
                               "landing.mass_kg?"),
     (["landing.mass_kg=-5"], "dsmv-predict: error: landing.mass_kg = -5: must be greater than 0"),
+    (["task=exceedance", "sinkage_limit_m=0.1", "uncertainty.soil.su0_pa.dist=beta"],
+     "dsmv-predict: error: uncertainty.soil.su0_pa.dist = 'beta': must be"),
+    (["tracking.uri=sqlite:///nowhere/mlflow.db"], "dsmv-predict: error: no MLflow store at sqlite:///nowhere/mlflow.db"),
 ])
 def test_cli_mistakes_are_one_line_with_exit_2(tmp_path, args, message):
     done = cli(tmp_path, *args)
     assert done.returncode == 2, done.stderr
     assert done.stderr.strip().startswith(message), done.stderr
     assert len(done.stderr.strip().splitlines()) == 1 and "Traceback" not in done.stderr
+    assert not (tmp_path / "runs" / "predict").exists()  # refused before it ran or when it started: no run dir left
 
 
 def test_a_scene_the_soil_cannot_stop_is_a_bearing_failure_answer(store, tmp_path, capsys):

@@ -48,7 +48,7 @@ from omegaconf import DictConfig, OmegaConf
 from pydantic import Field
 
 from dsmv.analytic.dynamic import LARGEST_SINKAGE_WIDTHS
-from dsmv.config.scene import build_scene, build_tracking
+from dsmv.config.scene import _resolve, build_scene, build_tracking
 from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError, DsmvError
 from dsmv.surrogate.dataset import COLUMNS, PARAMETERS
@@ -358,13 +358,24 @@ def plot_exceedance(mid, lower, upper, limit: float, answer, confidence: float, 
     return path
 
 
-def run_predict(cfg: DictConfig, run_dir: Path | None = None) -> dict:
-    """Validate, load, predict (one scene, a CSV, or the inverse question), print; return the answer."""
+def check_config(cfg: DictConfig) -> tuple[PredictSettings, object]:
+    """Everything a prediction can know is wrong before it loads the model, each mistake a one-line
+    ConfigError: the prediction's keys (:func:`settings_from`), tracking on, the scene (as ``dsmv`` builds
+    it) and, for ``task=exceedance``, the ``uncertainty`` group. ``dsmv-predict``'s command line runs it
+    before Hydra creates the run dir (dsmv.app.command_line.APPS). Returns the settings and the scene."""
     settings = settings_from(cfg)
-    tracking = build_tracking(cfg)
-    if not tracking.enabled:
+    if not build_tracking(cfg).enabled:
         raise ConfigError("tracking.enabled", False, "dsmv-predict reads the registered model: use tracking=local or server")
     scene = build_scene(cfg)
+    if settings.task == "exceedance":
+        uncertainty_from({"uncertainty": _resolve(cfg.get("uncertainty"))})
+    return settings, scene
+
+
+def run_predict(cfg: DictConfig, run_dir: Path | None = None) -> dict:
+    """Validate, load, predict (one scene, a CSV, or the inverse question), print; return the answer."""
+    settings, scene = check_config(cfg)
+    tracking = build_tracking(cfg)
     base = scene_table([scene])
     name = str(cfg.surrogate.registered_model)
 
@@ -483,4 +494,4 @@ def predict(cfg: DictConfig) -> dict | None:
 
 
 
-__all__ = ["predict", "run_predict", "plot_band", "PredictSettings"]
+__all__ = ["predict", "run_predict", "check_config", "plot_band", "PredictSettings"]
