@@ -8,6 +8,7 @@ from dsmv.surrogate.base import Surrogate
 
 class RandomForestSurrogate(Surrogate):
     name = "rf"
+    label = "random forest"
     flavor = "mlflow.sklearn"
     # MLflow 3 saves scikit-learn models with skops, which refuses types it cannot vouch for.
     # The trees are ours (fitted in this process), so their node storage is trusted.

@@ -9,6 +9,7 @@ from dsmv.surrogate.base import Surrogate
 
 class XGBoostSurrogate(Surrogate):
     name = "xgboost"
+    label = "gradient-boosted trees"
     flavor = "mlflow.xgboost"
     requirements = (("xgboost-cpu", "xgboost"), ("scikit-learn",))
 

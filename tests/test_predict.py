@@ -279,12 +279,16 @@ def test_user_mistakes_are_one_line_with_exit_2(store, overrides, message, capsy
     (["landing.mas_kg=5000"], "dsmv-predict: error: landing.mas_kg = 5000: no such config key; did you mean "
                               "landing.mass_kg?"),
     (["landing.mass_kg=-5"], "dsmv-predict: error: landing.mass_kg = -5: must be greater than 0"),
+    (["task=exceedance", "sinkage_limit_m=0.1", "uncertainty.soil.su0_pa.dist=beta"],
+     "dsmv-predict: error: uncertainty.soil.su0_pa.dist = 'beta': must be"),
+    (["tracking.uri=sqlite:///nowhere/mlflow.db"], "dsmv-predict: error: no MLflow store at sqlite:///nowhere/mlflow.db"),
 ])
 def test_cli_mistakes_are_one_line_with_exit_2(tmp_path, args, message):
     done = cli(tmp_path, *args)
     assert done.returncode == 2, done.stderr
     assert done.stderr.strip().startswith(message), done.stderr
     assert len(done.stderr.strip().splitlines()) == 1 and "Traceback" not in done.stderr
+    assert not (tmp_path / "runs" / "predict").exists()  # refused before it ran or when it started: no run dir left
 
 
 def test_a_scene_the_soil_cannot_stop_is_a_bearing_failure_answer(store, tmp_path, capsys):
@@ -355,6 +359,36 @@ def test_exceedance_is_the_share_of_sampled_scenes_over_the_limit(store, tmp_pat
     assert (tmp_path / "exceedance.png").stat().st_size > 10_000
     assert run_predict(config(store, *args, "sinkage_limit_m=100"))["exceedance_probability"] == 0.0
     assert run_predict(config(store, *args, "sinkage_limit_m=1e-9"))["exceedance_probability"] == 1.0
+
+
+def test_the_exceedance_histogram_names_the_model_that_drew_it(store, tmp_path, monkeypatch):
+    """The title of exceedance.png, read back from the drawn figure: the surrogate in words and by name,
+    the registered model and version, and what it was trained on (the metadata dsmv-train records)."""
+    from dsmv.surrogate.evaluate import pyplot
+    from dsmv.surrogate.predict import run_predict
+
+    plt = pyplot()
+    close = plt.close
+    monkeypatch.setattr(plt, "close", lambda *args, **kwargs: None)  # keep the figure to read it back
+    try:
+        run_predict(config(store, "task=exceedance", "verify=false", "uncertainty.samples=500",
+                           "sinkage_limit_m=0.3"), tmp_path)
+        title = plt.figure(plt.get_fignums()[-1]).axes[0].get_title()
+    finally:
+        close("all")
+    model, trained, answer = title.splitlines()
+    assert model == "random forest (rf), dsmv-sinkage-rf v1"
+    assert trained == "leak_free features, trained on study synthetic (dataset test)"
+    assert answer.startswith("P(z > 0.3 m) = ")
+
+
+def test_a_model_whose_plugin_is_not_installed_is_named_by_its_name():
+    from dsmv.surrogate.model import TrainedSurrogate
+    from dsmv.surrogate.predictor import Predictor
+
+    metadata = {"surrogate": "svm", "run_settings": {"solver": "cel2d", "soil.law": "tresca"}, "study": "s"}
+    predictor = Predictor("dsmv-sinkage-svm", "2", "-", TrainedSurrogate(None, LeakFreeFeatures(), metadata), None)
+    assert predictor.describe() == ("svm, dsmv-sinkage-svm v2", "trained on study s (cel2d, tresca)")
 
 
 @pytest.mark.parametrize("override, message", [

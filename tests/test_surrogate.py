@@ -58,16 +58,18 @@ def synthetic_rows(n: int, seed: int = 1) -> list[dict]:
     return rows
 
 
-def write_store(store: Path, rows: list[dict], extra_statuses=("bearing_failure", "unstable"), duplicate=True) -> str:
-    """Track ``rows`` as finished jobs of STUDY, like dsmv jobs do; plus non-ok runs and a duplicate."""
+def write_store(store: Path, rows: list[dict], extra_statuses=("bearing_failure", "unstable"), duplicate=True,
+                ok=True) -> str:
+    """Track ``rows`` as finished jobs of STUDY, like dsmv jobs do; plus non-ok runs and a duplicate
+    (``ok=False``: the non-ok runs alone)."""
     from mlflow.entities import Metric, Param, RunTag
     from mlflow.tracking import MlflowClient
 
     uri = f"sqlite:///{store / 'mlflow.db'}"
     client = MlflowClient(uri)
     experiment = client.create_experiment(f"dsmv-{STUDY}", artifact_location=(store / "art").as_uri())
-    jobs = [(row, "ok") for row in rows] + [(rows[0], status) for status in extra_statuses]
-    if duplicate:
+    jobs = [(row, "ok") for row in rows if ok] + [(rows[0], status) for status in extra_statuses]
+    if duplicate and ok:
         jobs.append((rows[1], "ok"))
     for i, (row, status) in enumerate(jobs):
         params = {key: str(row[col]) if not math.isnan(row[col]) else "None" for col, key in PARAMETERS.items()}
@@ -450,7 +452,7 @@ def test_mlflow_models_serve_answers_a_scene_over_rest(run_cli, tmp_path_factory
     np.testing.assert_allclose(predictions.to_numpy(), expected.to_numpy(), rtol=1e-12)
 
 
-def test_train_cli_user_mistakes_are_one_line(run_cli, store):
+def test_train_cli_user_mistakes_are_one_line(run_cli, store, tmp_path):
     _, uri, _ = store
     proc = run_cli("dsmv-train", "surrogate=nope")
     assert proc.returncode == 2 and proc.stderr.strip().count("\n") == 0
@@ -458,6 +460,58 @@ def test_train_cli_user_mistakes_are_one_line(run_cli, store):
     proc = run_cli("dsmv-train", "train.study=nothing_here", f"tracking.uri={uri}")
     assert proc.returncode == 2 and proc.stderr.strip().count("\n") == 0, proc.stderr
     assert "no tracked runs of study 'nothing_here'" in proc.stderr
+    assert not (tmp_path / "runs" / "train").exists()  # a refused training leaves no run dir behind
+
+
+@pytest.mark.parametrize("args, message", [
+    (["surrogate.n_estimator=5"], "surrogate.n_estimator = 5: no such config key; did you mean surrogate.grid.n_estimators?"),
+    (["train.cv_fold=5"], "train.cv_fold = 5: no such config key; did you mean train.cv_folds?"),
+    (["surrogate.name=svm"], "surrogate.name = 'svm': not an installed surrogate; available: rf, xgboost"),
+    (["surrogate=svm"], "surrogate = 'svm': not a surrogate option; available: rf, xgboost"),
+    (["train.mc_splits=-1"], "train.mc_splits = -1: must be greater than or equal to 1"),
+    (["surrogate.grid_cv_folds=1"], "surrogate.grid_cv_folds = 1: must be greater than or equal to 2"),
+    (["surrogate.grid.n_estimators=[50,-5]"], "surrogate.grid.n_estimators = [50, -5]: The 'n_estimators' parameter of "
+                                              "RandomForestRegressor must be an int in the range [1, inf). Got -5"),
+    (["+surrogate.params.min_samples_leaf=0"], "surrogate.params.min_samples_leaf = 0: The 'min_samples_leaf' "
+                                               "parameter of RandomForestRegressor must be"),
+    (["+surrogate.params.n_trees=100"], "surrogate.params.n_trees = 100: RandomForestRegressor.__init__() got an "
+                                        "unexpected keyword argument 'n_trees'"),
+    (["tracking=disabled"], "tracking.enabled = False: dsmv-train reads tracked runs"),
+])
+def test_train_command_line_mistakes_are_one_line_before_any_run_dir(args, message, tmp_path, monkeypatch, capsys):
+    """dsmv-train's command line is checked as dsmv's is, its settings and hyper-parameters as the training
+    checks them (dsmv.surrogate.train.check_config), before Hydra creates anything."""
+    from dsmv.app.command_line import check_app_command_line
+
+    monkeypatch.chdir(tmp_path)
+    registry.register_plugin_configs()
+    with pytest.raises(SystemExit) as stop:
+        check_app_command_line("dsmv-train", args)
+    err = capsys.readouterr().err
+    assert stop.value.code == 2 and err.startswith(f"dsmv-train: error: {message}"), err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "runs").exists()
+
+
+def test_train_on_a_study_without_an_ok_run_says_what_to_run_first(run_cli, tmp_path):
+    folder = tmp_path / "failed_store"
+    folder.mkdir()
+    uri = write_store(folder, synthetic_rows(1), extra_statuses=("bearing_failure", "unstable", "failed"), ok=False)
+    proc = run_cli("dsmv-train", f"train.study={STUDY}", f"tracking.uri={uri}")
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.strip() == (f"dsmv-train: error: study '{STUDY}' has no ok run to train on (3 runs: 1 "
+                                   "bearing_failure, 1 failed, 1 unstable): a surrogate learns from ok runs only; run "
+                                   f"`dsmv -m study={STUDY} …` first (each run's dsmv.message in MLflow says why it "
+                                   "did not end ok)")
+    assert not (tmp_path / "runs" / "train").exists()
+
+
+def test_a_missing_store_is_not_created_and_its_message_names_the_study_s_experiment(tmp_path):
+    from dsmv.surrogate.dataset import DatasetError
+
+    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
+    with pytest.raises(DatasetError, match=r"^no MLflow store at .*: run `dsmv experiment=dataset_table3` first"):
+        load_dataset(uri, "dataset_table3")
+    assert not (tmp_path / "mlflow.db").exists()
 
 
 @pytest.mark.slow

@@ -59,11 +59,11 @@ def simulate() -> None:
         # first of all: MLflow's import (2-3 s) runs on the other core while the command line is
         # checked, Hydra composes and the job solves; a command line refused below closes it unused
         writer()
-    from dsmv.app.command_line import check_command_line
+    from dsmv.app.command_line import check_app_command_line
 
     registry.register_plugin_configs()
     try:
-        check_command_line(args, "dsmv", "config", scene=True)
+        check_app_command_line("dsmv", args)
         _hydra_main(_simulate_job, "config")()
     except KeyboardInterrupt as exc:  # before a job started, or a sweep aborted by a second signal
         from dsmv.app.sweep import abort_sweep
@@ -74,8 +74,20 @@ def simulate() -> None:
         sys.exit(EXIT_CODES["interrupted"])
 
 
+def _remove_refused_run_dir(cfg: DictConfig) -> None:
+    """The run dir Hydra made for a job refused before it wrote anything goes (as ``dsmv``'s does)."""
+    from hydra.core.hydra_config import HydraConfig
+
+    from dsmv.app.runner import remove_unstarted_run_dir
+
+    if HydraConfig.initialized():
+        hydra_cfg = HydraConfig.get()
+        run_dir = Path(hydra_cfg.runtime.output_dir)
+        remove_unstarted_run_dir(run_dir, hydra_cfg, str(cfg.get("paths", {}).get("runs_dir", run_dir.parent)))
+
+
 def _train_job(cfg: DictConfig) -> None:
-    """One training; a user mistake ends in one line and exit status 2."""
+    """One training; a user mistake ends in one line and exit status 2, and leaves no run dir behind."""
     from hydra.core.hydra_config import HydraConfig
 
     from dsmv.app.runner import fail_user_error
@@ -84,27 +96,39 @@ def _train_job(cfg: DictConfig) -> None:
     try:
         run_training(cfg, Path(HydraConfig.get().runtime.output_dir))
     except DsmvError as error:
+        _remove_refused_run_dir(cfg)
         fail_user_error(error, "dsmv-train")
+
+
+def _predict_job(cfg: DictConfig):
+    """One prediction (:func:`dsmv.surrogate.predict.predict`); a refused one leaves no run dir behind."""
+    from dsmv.surrogate.predict import predict as predict_job
+
+    try:
+        return predict_job(cfg)
+    except SystemExit as stop:
+        if stop.code == 2:  # a user mistake, told in one line
+            _remove_refused_run_dir(cfg)
+        raise
 
 
 def train() -> None:
     """``dsmv-train``: train and evaluate a surrogate on a study's tracked runs."""
-    registry.register_plugin_configs()
-    from dsmv.app.command_line import check_command_line
+    from dsmv.app.command_line import check_app_command_line
 
-    check_command_line(sys.argv[1:], "dsmv-train", "train")
+    registry.register_plugin_configs()
+    check_app_command_line("dsmv-train", sys.argv[1:])
     _hydra_main(_train_job, "train")()
 
 
 def predict() -> None:
     """``dsmv-predict``: sinkage of a scene from a registered surrogate with its interval, and the
     inverse questions (:mod:`dsmv.surrogate.predict`)."""
-    from dsmv.app.command_line import check_command_line
-    from dsmv.surrogate.predict import PROG, predict as predict_job
+    from dsmv.app.command_line import check_app_command_line
 
     registry.register_plugin_configs()
-    check_command_line(sys.argv[1:], PROG, "predict")
-    _hydra_main(predict_job, "predict")()
+    check_app_command_line("dsmv-predict", sys.argv[1:])
+    _hydra_main(_predict_job, "predict")()
 
 
 def list_plugins(argv: list[str] | None = None) -> None:

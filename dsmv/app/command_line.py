@@ -8,6 +8,7 @@ from __future__ import annotations
 import difflib
 import sys
 from pathlib import Path
+from typing import Callable
 
 from hydra.core.plugins import Plugins
 from omegaconf import DictConfig, OmegaConf
@@ -15,7 +16,6 @@ from omegaconf import DictConfig, OmegaConf
 from dsmv import registry
 from dsmv.app.joblog import keep_early_output
 from dsmv.app.runner import fail_user_error
-from dsmv.config.scene import build_scene
 from dsmv.config.tree import CONFIG_DIR  # (with dsmv's case sweeper registered, and conf/'s resolvers)
 from dsmv.errors import ConfigError, DsmvError
 from hydra_plugins.dsmv_launcher import submitit_launchers
@@ -75,17 +75,41 @@ HYDRA_ONLY_FLAGS = ("help", "hydra_help", "cfg", "info", "shell_completion", "co
                     "config_dir", "experimental_rerun")
 
 
-def check_command_line(argv: list[str], program: str, config_name: str = "config", scene: bool = False,
-                       config_dir: str = CONFIG_DIR) -> None:
+#: the Hydra apps: their primary config, and the check each one's job makes of its config before it
+#: starts (``module:function``, raising a DsmvError), which the command line makes first, before Hydra
+#: creates anything; imported only when a single run's config is there to check
+APPS = {
+    "dsmv": ("config", "dsmv.config.scene:build_scene"),  # the whole scene, the solver's cost guard included
+    "dsmv-train": ("train", "dsmv.surrogate.train:check_config"),
+    "dsmv-predict": ("predict", "dsmv.surrogate.predict:check_config"),
+}
+
+
+def check_app_command_line(program: str, argv: list[str], config_dir: str = CONFIG_DIR) -> None:
+    """:func:`check_command_line` for one of the :data:`APPS`, with its primary config and its job's check."""
+    import importlib
+
+    config_name, target = APPS[program]
+    module, _, name = target.partition(":")
+
+    def validate(cfg: DictConfig) -> None:
+        getattr(importlib.import_module(module), name)(cfg)
+
+    check_command_line(argv, program, config_name, validate, config_dir)
+
+
+def check_command_line(argv: list[str], program: str, config_name: str = "config",
+                       validate: Callable[[DictConfig], object] | None = None, config_dir: str = CONFIG_DIR) -> None:
     """Catch a mistyped command line before Hydra composes it or creates any directory: one line, exit 2.
 
     On top of :func:`check_group_choices`: an override Hydra cannot parse; an unknown key, with or
-    without ``+`` (the closest valid key is suggested); a sweep (``a,b``) without ``-m``; for ``dsmv``
-    (``scene=True``) a single run's whole scene, validated as the job would (dsmv.config.scene.build_scene,
-    the solver's cost guard included); and ``paths.runs_dir`` and the run or sweep dir Hydra is about
-    to create, which must be creatable. Flags that only show something (``--help``, ``--cfg``,
-    ``--info`` ...) and other config dirs or names are left to Hydra. Warnings and log records raised
-    meanwhile are kept for the job's log (:func:`dsmv.app.joblog.keep_early_output`), not printed.
+    without ``+`` (the closest valid key is suggested); a sweep (``a,b``) without ``-m``; a single
+    run's config, checked by ``validate`` as the job would check it (:data:`APPS`: ``dsmv``'s whole
+    scene, ``dsmv-train``'s and ``dsmv-predict``'s settings); and ``paths.runs_dir`` and the run or
+    sweep dir Hydra is about to create, which must be creatable. Flags that only show something
+    (``--help``, ``--cfg``, ``--info`` ...) and other config dirs or names are left to Hydra. Warnings
+    and log records raised meanwhile are kept for the job's log (:func:`dsmv.app.joblog.keep_early_output`),
+    not printed.
     """
     check_group_choices(argv, program, config_dir)
     if "--version" in argv:
@@ -100,7 +124,7 @@ def check_command_line(argv: list[str], program: str, config_name: str = "config
         return
     with keep_early_output():
         try:
-            _check_overrides(args, program, config_name, scene, config_dir)
+            _check_overrides(args, program, config_name, validate, config_dir)
         except Exception:  # not a mistake of the command line (a plugin's bug): the job meets and reports it
             pass
 
@@ -121,7 +145,7 @@ def _fail(program: str, message: str) -> None:
     sys.exit(2)
 
 
-def _check_overrides(args, program: str, config_name: str, scene: bool, config_dir: str) -> None:
+def _check_overrides(args, program: str, config_name: str, validate, config_dir: str) -> None:
     from hydra import compose, initialize_config_dir
     from hydra.core.global_hydra import GlobalHydra
     from hydra.core.override_parser.overrides_parser import OverridesParser
@@ -168,7 +192,7 @@ def _check_overrides(args, program: str, config_name: str, scene: bool, config_d
             for tree in trees:
                 known |= set(_paths(OmegaConf.to_container(tree, resolve=False)))
             for o in keys:
-                _check_key(o, trees[0], known, scene, program)
+                _check_key(o, trees[0], known, program)
 
             base = trees[0]
             mode = OmegaConf.select(base, "hydra.mode")
@@ -182,9 +206,9 @@ def _check_overrides(args, program: str, config_name: str, scene: bool, config_d
                                                     "a string 'a,b'"), program)
             # one job's config: every override, the first choice of each sweep
             cfg = cfg if cfg is not None else composed(variants[0] + one_job)
-            if scene and not multirun:
+            if validate is not None and not multirun:
                 try:
-                    build_scene(cfg)
+                    validate(cfg)
                 except DsmvError as error:
                     fail_user_error(error, program)
             _check_output_dirs(cfg, multirun, program)
@@ -256,12 +280,12 @@ def _node(tree, key: str):
     return node
 
 
-def _check_key(o, tree, known: set[str], scene: bool, program: str) -> None:
+def _check_key(o, tree, known: set[str], program: str) -> None:
     """An override of a key the config does not have fails in one line, with or without ``+``.
 
     Exceptions, where a new key is legal: ``+``/``++`` under ``hydra.`` (Hydra's own, e.g.
     ``hydra.job.env_set``); a new key in a mapping the config leaves empty for them (``soil.params``,
-    ``surrogate.params``); for ``dsmv``, a key of a solver plugin whose config model allows extra keys.
+    ``surrogate.params``); a key of a solver plugin whose config model allows extra keys.
     """
     key = o.key_or_group
     if key in known:
@@ -273,7 +297,7 @@ def _check_key(o, tree, known: set[str], scene: bool, program: str) -> None:
     parent = _node(tree, parent_key) if parent_key else None
     if added and isinstance(parent, DictConfig) and len(parent) == 0:
         return
-    if added and scene and key.startswith("solver.") and _solver_allows_extra(tree):
+    if added and key.startswith("solver.") and _solver_allows_extra(tree):
         return
     value = _value_text(o) if o.is_sweep_override() or o.is_delete() else o.value()
     # the closest key: a sibling first (same parent), else any key of the config but the key's own parents

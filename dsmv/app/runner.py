@@ -91,7 +91,7 @@ def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, sweep_dir: Path | None, caug
     if multirun and (reason := interrupts.interrupted(sweep_dir)):
         result = SolveResult("interrupted", f"not started: the sweep was interrupted ({reason})")
         write_result(run_dir, result, *names, "")
-        print(f"[{run_dir.name}] interrupted: {result.message}")
+        print(f"[{run_dir.name}] interrupted: {result.message}{runs.sweep_progress(run_dir.parent, run_dir.name)}")
         return {"status": result.status, "metrics": {}}
     try:
         scene = build_scene(cfg)
@@ -109,6 +109,7 @@ def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, sweep_dir: Path | None, caug
         # in a sweep, one wrong job is recorded and counted; the others still run
         print(f"dsmv: error: {error}", file=sys.stderr)
         write_result(run_dir, SolveResult("failed", str(error)), *names, "")
+        runs.job_done(run_dir.parent, run_dir.name)
         return {"status": "failed", "metrics": {}}
 
     error_text, end_status = None, "FAILED"
@@ -162,7 +163,7 @@ def _reuse(run, scene: Scene, run_dir: Path, names: tuple[str, str]) -> dict:
     result = SolveResult(status, f"reused run {run.info.run_id} (resume=true): {message}", metrics)
     write_result(run_dir, result, *names, scene.config_hash)
     runs.record_job_run(run_dir, run.info.run_id, reused=True)
-    print(f"[{run_dir.name}] {status}: reused run {run.info.run_id}{runs.sweep_progress(run_dir.parent)}")
+    print(f"[{run_dir.name}] {status}: reused run {run.info.run_id}{runs.sweep_progress(run_dir.parent, run_dir.name)}")
     return {"status": status, "metrics": metrics}
 
 
@@ -328,7 +329,7 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
     """A short human summary: status, what the run found (with units), where outputs and MLflow are."""
     what = _answer(scene, result)
     if multirun:
-        print(f"[{run_dir.name}] {result.status}: {what}{runs.sweep_progress(run_dir.parent)}")
+        print(f"[{run_dir.name}] {result.status}: {what}{runs.sweep_progress(run_dir.parent, run_dir.name)}")
         return
     print(f"\ndsmv: {result.status} — {what}")
     print(f"  scene   : {scene_label(scene)}, solver {scene.solver.name}")

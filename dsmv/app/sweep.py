@@ -15,10 +15,13 @@ from collections import Counter
 from pathlib import Path
 
 from hydra.experimental.callback import Callback
-from omegaconf import DictConfig
+from omegaconf import DictConfig, OmegaConf
 
 from dsmv.app.interrupts import SweepSignals, interrupted, mark
 from dsmv.app.joblog import log_sweep_to, replay_early_output
+from dsmv.config.objective import ObjectiveConfig, objective_config
+from dsmv.errors import DsmvError
+from dsmv.post.optimum import optimum_summary
 from dsmv.post.plots import SWEEP_PLOT_MAKERS
 from dsmv.post.studies import sweep_jobs
 from dsmv.results import EXIT_CODES, EXIT_SEVERITY
@@ -76,10 +79,30 @@ class MlflowSweepCallback(Callback):
                 runs.finish_sweep_run(parent, metrics, files, status)
         tally, code = sweep_exit_code([r["status"] for r in rows])
         line = f"dsmv: sweep done: {tally} — see {sweep_dir / SWEEP_SUMMARY_FILE}"
-        print(line)
-        logging.getLogger("dsmv.sweep").info(line)
+        for line in [line, *optimum_lines(config, sweep_dir)]:
+            print(line)
+            logging.getLogger("dsmv.sweep").info(line)
         if code != 0:
             sys.exit(code)
+
+
+def optimum_lines(config: DictConfig, sweep_dir: Path) -> list[str]:
+    """An optimising sweep's answer in words and units (:func:`dsmv.post.optimum.optimum_summary`): the
+    best trial's figures, the trials by status, the results file. [] for any other sweeper."""
+    if "optuna" not in str(config.hydra.sweeper.get("_target_", "")).lower():
+        return []
+    try:
+        try:
+            objective = objective_config({"objective": OmegaConf.to_container(config.objective, resolve=True)
+                                          if config.get("objective") is not None else None})
+        except DsmvError:
+            objective = ObjectiveConfig()
+        trials = config.hydra.sweeper.get("n_trials")
+        return optimum_summary(sweep_dir, objective, int(trials) if trials is not None else None,
+                               str(config.get("study") or "optimum")) or []
+    except Exception as error:  # the sweep's results stand without their summary
+        logging.getLogger("dsmv.sweep").warning("no summary of the optimum: %s: %s", type(error).__name__, error)
+        return []
 
 
 def _sweep_log(sweep_dir: Path | None, config: DictConfig | None = None) -> None:

@@ -161,6 +161,7 @@ from dsmv.surrogate.base import Surrogate
 
 class {cls}(Surrogate):
     name = "{name}"
+    label = "extremely randomised trees"  # what the model is, in words: figures name it
     flavor = "mlflow.sklearn"
     # MLflow saves scikit-learn models with skops, which refuses types it cannot vouch for: the trees
     # are fitted in this process, so their node storage is trusted

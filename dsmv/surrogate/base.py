@@ -8,6 +8,7 @@ Write your own::
 
     class MySurrogate(Surrogate):
         name = "my_model"
+        label = "my regressor"  # in words, for figures
         registered_model = "dsmv-sinkage-my_model"
 
         def make(self, **params):
@@ -40,6 +41,8 @@ class Surrogate:
     """Base class of surrogate plugins."""
 
     name: ClassVar[str] = ""
+    #: what the model is, in words ("random forest"): figures name it beside ``name``
+    label: ClassVar[str] = ""
     #: MLflow flavour module used by :meth:`log_model` (``mlflow.sklearn``, ``mlflow.xgboost``)
     flavor: ClassVar[str] = "mlflow.sklearn"
     #: extra keyword arguments of the flavour's ``log_model``
@@ -55,6 +58,24 @@ class Surrogate:
     def make(self, **params):
         """An unfitted regressor with ``params`` (fit(X, y), predict(X), feature_importances_)."""
         raise NotImplementedError
+
+    def check_params(self, params: dict[str, Any]) -> str | None:
+        """Why ``make(**params)`` gives no regressor to fit, in one line, or None; no fit. By default the
+        regressor's constructor (an unknown name) and, for a scikit-learn regressor, its declared
+        parameter constraints (a negative count, a wrong type); a plugin may check more."""
+        try:
+            estimator = self.make(**params)
+        except (TypeError, ValueError) as error:
+            return _first_line(error)
+        if getattr(estimator, "_parameter_constraints", None) is None:  # not a scikit-learn estimator's
+            return None
+        try:
+            estimator._validate_params()  # scikit-learn >= 1.2: what fit would check first
+        except (TypeError, ValueError) as error:
+            return _first_line(error)
+        except Exception:  # another scikit-learn's private API: its fit will check
+            return None
+        return None
 
     def save_model(self, estimator, path) -> None:
         """Save ``estimator`` in its MLflow flavour to the folder ``path``."""
@@ -79,6 +100,10 @@ class Surrogate:
             self.save_model(estimator, folder)
             return log_scene_model(folder, name, registered_model, metadata, input_example,
                                    pinned_requirements((("mlflow",), *self.requirements)))
+
+
+def _first_line(error: Exception) -> str:
+    return next((line.strip() for line in str(error).splitlines() if line.strip()), type(error).__name__)
 
 
 def pinned_requirements(requirements: tuple[tuple[str, ...], ...]) -> list[str]:

@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 from dsmv.errors import DsmvError
-from dsmv.tracking.run_writer import resolve_uri
+from dsmv.tracking.run_writer import resolve_uri, store_missing
 
 #: table column → the config key it is read from (MLflow param), units in the column name
 PARAMETERS: dict[str, str] = {
@@ -122,12 +122,36 @@ def search_study_runs(tracking_uri: str, study: str) -> list:
             return runs
 
 
+def study_command(study: str) -> str:
+    """The ``dsmv`` command whose runs make up ``study``: ``dsmv experiment=<name>`` for the experiment
+    of conf/ (or of a plugin package's config tree) that sets ``study: <study>``, else a sweep tagged
+    with it (``dsmv -m study=<study> …``)."""
+    import yaml
+
+    from dsmv import registry
+    from dsmv.config.tree import CONFIG_DIR
+
+    for root in (CONFIG_DIR, *registry.config_dirs()):
+        for path in sorted((Path(root) / "experiment").glob("*.yaml")):
+            try:
+                text = yaml.safe_load(path.read_text())
+            except (OSError, yaml.YAMLError):
+                continue
+            if isinstance(text, dict) and text.get("study") == study:
+                return f"dsmv experiment={path.stem}"
+    return f"dsmv -m study={study} …"
+
+
 def load_dataset(tracking_uri: str, study: str) -> Dataset:
-    """The dataset of ``study`` from the store at ``tracking_uri``; DatasetError if it has no ok run."""
+    """The dataset of ``study`` from the store at ``tracking_uri``; DatasetError, saying what to run
+    first, if the store does not exist, holds no run of the study or no ok run."""
+    if store_missing(tracking_uri):  # (opening it would create an empty store)
+        raise DatasetError(f"no MLflow store at {tracking_uri}: run `{study_command(study)}` first, whose runs "
+                           f"train the surrogate, or point tracking.uri at the store that holds study '{study}'")
     runs = search_study_runs(tracking_uri, study)
     if not runs:
         raise DatasetError(f"no tracked runs of study '{study}' in {tracking_uri}: run "
-                           f"`dsmv experiment=dataset_table3` first, or set train.study / tracking.uri")
+                           f"`{study_command(study)}` first, or set train.study / tracking.uri")
     return build_dataset(study, runs)
 
 
@@ -163,9 +187,11 @@ def build_dataset(study: str, runs: list) -> Dataset:
         rows.append(row)
         settings.append({override: run.data.params.get(param) for param, override in SETTING_GROUPS.items()})
     if not rows:
-        counts = pd.Series([e[1] for e in excluded]).value_counts().to_dict()
+        counts = dict(sorted(pd.Series([e[1] for e in excluded]).value_counts().items(), key=lambda c: (-c[1], c[0])))
         raise DatasetError(f"study '{study}' has no ok run to train on ({len(runs)} runs: "
-                           + ", ".join(f"{n} {s}" for s, n in counts.items()) + ")")
+                           + ", ".join(f"{n} {s}" for s, n in counts.items())
+                           + f"): a surrogate learns from ok runs only; run `{study_command(study)}` first "
+                             "(each run's dsmv.message in MLflow says why it did not end ok)")
     table = pd.DataFrame(rows, columns=["run_id", *PARAMETERS, TARGET_METRIC])
     table = table.astype({c: np.float64 for c in [*PARAMETERS, TARGET_METRIC]})
     # canonical order (by content, not by run id): the same runs give the same splits and scores

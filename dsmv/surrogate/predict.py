@@ -48,7 +48,7 @@ from omegaconf import DictConfig, OmegaConf
 from pydantic import Field
 
 from dsmv.analytic.dynamic import LARGEST_SINKAGE_WIDTHS
-from dsmv.config.scene import build_scene, build_tracking
+from dsmv.config.scene import _resolve, build_scene, build_tracking
 from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError, DsmvError
 from dsmv.surrogate.dataset import COLUMNS, PARAMETERS
@@ -316,7 +316,8 @@ def exceedance_answer(cfg: DictConfig, settings: PredictSettings, predictor: Pre
            "sinkage_limit_m": limit, "uncertain": sorted(uncertainty.distributions)}
     if settings.plot and run_dir is not None:
         run_dir.mkdir(parents=True, exist_ok=True)
-        out["plot"] = str(plot_exceedance(mid, lower, upper, limit, answer, c, run_dir / "exceedance.png"))
+        out["plot"] = str(plot_exceedance(mid, lower, upper, limit, answer, c, run_dir / "exceedance.png",
+                                          predictor.describe()))
         print(f"  plot     : {out['plot']}")
     if settings.verify:
         key = next(iter(uncertainty.distributions))
@@ -336,8 +337,10 @@ def exceedance_answer(cfg: DictConfig, settings: PredictSettings, predictor: Pre
     return out
 
 
-def plot_exceedance(mid, lower, upper, limit: float, answer, confidence: float, path: Path) -> Path:
-    """The predicted sinkage's distribution over the samples, the interval bounds' beside it, the limit."""
+def plot_exceedance(mid, lower, upper, limit: float, answer, confidence: float, path: Path,
+                    model: tuple[str, ...] = ()) -> Path:
+    """The predicted sinkage's distribution over the samples, the interval bounds' beside it, the limit;
+    the title names the model that predicted it (``model``: :meth:`Predictor.describe`'s lines)."""
     plt = pyplot()
 
     fig, ax = plt.subplots(figsize=(6.5, 4.2), constrained_layout=True)
@@ -346,22 +349,33 @@ def plot_exceedance(mid, lower, upper, limit: float, answer, confidence: float, 
     ax.hist(lower, bins=bins, histtype="step", color="tab:green", label=f"lower bound ({confidence:.0%})")
     ax.hist(upper, bins=bins, histtype="step", color="tab:red", label=f"upper bound ({confidence:.0%})")
     ax.axvline(limit, color="k", linestyle="--", label=f"limit {limit:g} m")
-    ax.set(xlabel="max sinkage (m)", ylabel=f"samples (of {answer.samples})",
-           title=f"P(z > {limit:g} m) = {answer.probability:.3f} ± {answer.monte_carlo_error:.3f}, "
-                 f"{answer.model_low:.3f} to {answer.model_high:.3f} on the bounds")
+    ax.set(xlabel="max sinkage (m)", ylabel=f"samples (of {answer.samples})")
+    ax.set_title("\n".join([*model, f"P(z > {limit:g} m) = {answer.probability:.3f} ± {answer.monte_carlo_error:.3f}, "
+                                     f"{answer.model_low:.3f} to {answer.model_high:.3f} on the bounds"]), fontsize=9)
     ax.legend()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, bbox_inches="tight")  # the title's lines whole
     plt.close(fig)
     return path
 
 
-def run_predict(cfg: DictConfig, run_dir: Path | None = None) -> dict:
-    """Validate, load, predict (one scene, a CSV, or the inverse question), print; return the answer."""
+def check_config(cfg: DictConfig) -> tuple[PredictSettings, object]:
+    """Everything a prediction can know is wrong before it loads the model, each mistake a one-line
+    ConfigError: the prediction's keys (:func:`settings_from`), tracking on, the scene (as ``dsmv`` builds
+    it) and, for ``task=exceedance``, the ``uncertainty`` group. ``dsmv-predict``'s command line runs it
+    before Hydra creates the run dir (dsmv.app.command_line.APPS). Returns the settings and the scene."""
     settings = settings_from(cfg)
-    tracking = build_tracking(cfg)
-    if not tracking.enabled:
+    if not build_tracking(cfg).enabled:
         raise ConfigError("tracking.enabled", False, "dsmv-predict reads the registered model: use tracking=local or server")
     scene = build_scene(cfg)
+    if settings.task == "exceedance":
+        uncertainty_from({"uncertainty": _resolve(cfg.get("uncertainty"))})
+    return settings, scene
+
+
+def run_predict(cfg: DictConfig, run_dir: Path | None = None) -> dict:
+    """Validate, load, predict (one scene, a CSV, or the inverse question), print; return the answer."""
+    settings, scene = check_config(cfg)
+    tracking = build_tracking(cfg)
     base = scene_table([scene])
     name = str(cfg.surrogate.registered_model)
 
@@ -445,7 +459,8 @@ def run_predict(cfg: DictConfig, run_dir: Path | None = None) -> dict:
             trained = meta.get("ranges", {}).get(column)
             png = plot_band(answer.grid, g_mid, g_low, g_up, parameter, c, run_dir / "inverse.png",
                             settings.sinkage_limit_m, answer.value, tuple(trained) if trained else None,
-                            f"{name} v{predictor.version}: {settings.task}, limit {settings.sinkage_limit_m:g} m")
+                            "\n".join([*predictor.describe(),
+                                       f"{settings.task}, limit {settings.sinkage_limit_m:g} m"]))
             print(f"  plot     : {png}")
     return write_answer(out, run_dir)
 
@@ -479,4 +494,4 @@ def predict(cfg: DictConfig) -> dict | None:
 
 
 
-__all__ = ["predict", "run_predict", "plot_band", "PredictSettings"]
+__all__ = ["predict", "run_predict", "check_config", "plot_band", "PredictSettings"]

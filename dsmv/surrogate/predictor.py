@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from dsmv import registry
 from dsmv.errors import DsmvError
 from dsmv.surrogate.intervals import CALIBRATION_FILE, SCORES, BinnedScale, ScoreScale, residual_quantile
 from dsmv.surrogate.model import TrainedSurrogate, load_registered
@@ -98,6 +99,32 @@ class Predictor:
     def upper(self, confidence: float):
         """``table -> upper bound of z (m)`` for :func:`dsmv.surrogate.inverse.solve_inverse`."""
         return lambda table: self.interval(table, confidence)[2]
+
+    def describe(self) -> tuple[str, str]:
+        """The model in words, for figures: what it is (``random forest (rf), dsmv-sinkage-rf v3``) and
+        what it learnt from (``physics features, trained on study dataset_table3 (cel2d, einav_randolph,
+        dataset 9c1e…)``), from the metadata dsmv-train recorded."""
+        meta = self.model.metadata
+        what = f"{surrogate_label(str(meta.get('surrogate') or '?'))}, {self.name} v{self.version}"
+        recorded = [str(value) for value in (meta.get("run_settings") or {}).values() if value]
+        if meta.get("dataset_hash"):
+            recorded.append(f"dataset {meta['dataset_hash']}")
+        learnt = f"trained on study {meta['study']}" if meta.get("study") else "training data not recorded"
+        if recorded:
+            learnt += f" ({', '.join(recorded)})"
+        if meta.get("feature_set"):
+            learnt = f"{meta['feature_set']} features, {learnt}"
+        return what, learnt
+
+
+def surrogate_label(name: str) -> str:
+    """``random forest (rf)``: the surrogate plugin's ``label`` and its name; the name alone when the
+    plugin gives no label or is not installed here."""
+    try:
+        label = getattr(registry.load("surrogates", name, "surrogate.name"), "label", "")
+    except DsmvError:
+        label = ""
+    return f"{label} ({name})" if label else name
 
 
 def _calibration(model: TrainedSurrogate, client, run_id: str) -> Calibration | None:

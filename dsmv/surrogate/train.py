@@ -31,7 +31,7 @@ from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError
 from dsmv.surrogate import evaluate
 from dsmv.surrogate.base import Surrogate, SurrogateConfig
-from dsmv.surrogate.dataset import PARAMETERS, TARGET_METRIC, Dataset, DatasetError, load_dataset
+from dsmv.surrogate.dataset import PARAMETERS, TARGET_METRIC, Dataset, DatasetError, load_dataset, study_command
 from dsmv.surrogate.fast_model import default_settings
 from dsmv.surrogate.features import TARGET, FeatureSet, StudyFeatures, target
 from dsmv.surrogate.intervals import CALIBRATION_FILE, ConformalRegressor, calibration_record, coverage_over_resplits
@@ -125,13 +125,41 @@ def settings_from(cfg: DictConfig) -> tuple[TrainSettings, SurrogateConfig]:
     return settings, surrogate
 
 
+def check_config(cfg: DictConfig) -> tuple[TrainSettings, SurrogateConfig, Surrogate]:
+    """Everything a training can know is wrong before it reads a run, each mistake a one-line
+    ConfigError: ``train`` and ``surrogate`` (:func:`settings_from`), tracking on, and each fixed and
+    grid-searched hyper-parameter as the surrogate's regressor takes it (:meth:`Surrogate.check_params`).
+    ``dsmv-train``'s command line runs it before Hydra creates the run dir (dsmv.app.command_line.APPS).
+    Returns the settings and the surrogate plugin."""
+    settings, config = settings_from(cfg)
+    if not build_tracking(cfg).enabled:
+        raise ConfigError("tracking.enabled", False, "dsmv-train reads tracked runs: use tracking=local or server")
+    plugin = registry.load("surrogates", config.name, "surrogate.name")(seed=settings.seed, n_jobs=1)
+    for key, value in config.params.items():
+        problem = plugin.check_params({key: value})
+        if problem:
+            raise ConfigError(f"surrogate.params.{key}", value, problem)
+    problem = plugin.check_params(config.params)
+    if problem:
+        raise ConfigError("surrogate.params", config.params, problem)
+    for key, values in config.grid.items():
+        if not values:
+            raise ConfigError(f"surrogate.grid.{key}", values, "needs at least one value to search")
+        for value in values:
+            problem = plugin.check_params(config.params | {key: value})
+            if problem:
+                raise ConfigError(f"surrogate.grid.{key}", values, problem)
+    return settings, config, plugin
+
+
 def fit_and_evaluate(surrogate: Surrogate, config: SurrogateConfig, settings: TrainSettings,
                      dataset: Dataset) -> Training:
     """Grid search, fit, score (split, CV, Monte Carlo), importance and Kendall τ; no I/O."""
     table = dataset.table
     n = len(table)
     if n < MIN_RUNS:
-        raise DatasetError(f"study '{dataset.study}' has {n} ok runs; dsmv-train needs at least {MIN_RUNS}")
+        raise DatasetError(f"study '{dataset.study}' has {n} ok runs; dsmv-train needs at least {MIN_RUNS}: "
+                           f"add runs with `{study_command(dataset.study)}` first")
     features = feature_set(settings.features, dataset_metadata(dataset))
     X, y = features.transform(table), target(table)
     train_idx, test_idx = evaluate.split(n, settings.test_fraction, settings.seed)
@@ -291,12 +319,8 @@ def log_to_mlflow(result: Training, cfg: DictConfig, files: list[Path]) -> dict[
 def run_training(cfg: DictConfig, run_dir: Path) -> Training:
     """``dsmv-train``: validate, load, fit and evaluate, write, log, print the summary."""
     started = time.perf_counter()
-    settings, config = settings_from(cfg)
-    tracking_settings = build_tracking(cfg)
-    if not tracking_settings.enabled:
-        raise ConfigError("tracking.enabled", False, "dsmv-train reads tracked runs: use tracking=local or server")
-    plugin = registry.load("surrogates", config.name, "surrogate.name")(seed=settings.seed, n_jobs=1)
-    dataset = load_dataset(tracking_settings.uri, settings.study)
+    settings, config, plugin = check_config(cfg)
+    dataset = load_dataset(build_tracking(cfg).uri, settings.study)
     result = fit_and_evaluate(plugin, config, settings, dataset)
     result.metrics["train_wall_s"] = time.perf_counter() - started
     files = write_outputs(result, run_dir)
@@ -325,4 +349,4 @@ def print_summary(result: Training, run_dir: Path, logged: dict, wall_s: float) 
           f"model {logged['model']})")
 
 
-__all__ = ["run_training", "fit_and_evaluate", "Training", "TrainSettings", "METRICS_FILE"]
+__all__ = ["run_training", "check_config", "fit_and_evaluate", "Training", "TrainSettings", "METRICS_FILE"]

@@ -33,6 +33,8 @@ from dsmv.tracking.run_writer import for_job, open_client, resolve_uri, serve_sw
 PARENT_RUN_FILE = "mlflow_parent_run.json"
 #: how many jobs a sweep has, in its sweep dir (written before they start), for the jobs' progress
 SWEEP_SIZE_FILE = "sweep_size.json"
+#: the sweep's finished jobs, numbered in the order they finished (:func:`job_done`), in its sweep dir
+JOBS_DONE_DIR = ".jobs_done"
 #: a job's MLflow run id, in its job dir (``reused``: a run of an earlier sweep, resume=true)
 JOB_RUN_FILE = "mlflow_run.json"
 #: statuses that are the solver's answer: a finished run with one of these is not run again on resume
@@ -202,13 +204,36 @@ def basic_sweep_size(overrides: list[str]) -> int | None:
         return None
 
 
-def sweep_progress(sweep_dir: Path) -> str:
-    """`` (5 of 8 jobs done)``: the jobs that wrote result.json so far, of the sweep's size ('' if unknown)."""
+def sweep_progress(sweep_dir: Path, job: str) -> str:
+    """`` (5 of 8 jobs done)``: where the finished ``job`` stands among the sweep's finished jobs, of the
+    sweep's size ('' if unknown). Each finished job takes the next number of the sweep's
+    :data:`JOBS_DONE_DIR` (:func:`job_done`), so two jobs that end together never print the same count."""
+    done = job_done(sweep_dir, job)
     path = Path(sweep_dir) / SWEEP_SIZE_FILE
     if not path.exists():
         return ""
-    done = sum(1 for _ in Path(sweep_dir).glob("*/result.json"))
     return f" ({done} of {json.loads(path.read_text())['jobs']} jobs done)"
+
+
+def job_done(sweep_dir: Path, job: str) -> int:
+    """Count ``job`` as finished: its number among the sweep's finished jobs (1, 2, ...), unique.
+
+    The number is a file of :data:`JOBS_DONE_DIR` created exclusively, which no two processes can both
+    create (on one machine or on a shared file system), holding the job's name. Counting the jobs that
+    wrote result.json instead gave two jobs ending together the same count: both had written theirs
+    before either counted."""
+    folder = Path(sweep_dir) / JOBS_DONE_DIR
+    folder.mkdir(parents=True, exist_ok=True)
+    number = sum(1 for _ in folder.iterdir())  # the numbers below are taken
+    while True:
+        number += 1
+        try:
+            handle = os.open(folder / str(number), os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+        except FileExistsError:
+            continue
+        with os.fdopen(handle, "w") as fh:
+            fh.write(job)
+        return number
 
 
 def record_job_run(run_dir: Path, run_id: str, reused: bool) -> None:
