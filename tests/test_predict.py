@@ -291,6 +291,34 @@ def test_cli_mistakes_are_one_line_with_exit_2(tmp_path, args, message):
     assert not (tmp_path / "runs" / "predict").exists()  # refused before it ran or when it started: no run dir left
 
 
+@pytest.mark.parametrize("override, message", [
+    ("solver=cel3d", "solver = 'cel3d': the model predicts 2D cross-section, cel2d, soil law not recorded runs"),
+    ("soil.law=tresca", "soil.law = 'tresca': the model predicts"),
+    ("mesh=fine", "mesh = 'fine': the model predicts"),
+    ("landing.mass_kg=5000", "landing.mass_kg = '5000': the model was trained on landing.mass_kg = 4500 only"),
+    ("geometry.grouser_height_m=0.03", "geometry.grouser_height_m = '0.03': not an input of the model, which "
+                                       "varies landing.velocity_m_s, geometry.contact_length_m, soil.su0_pa"),
+])
+def test_an_override_the_model_cannot_honour_is_refused(store, override, message):
+    """The model answers for the runs it learnt: another solver, law or mesh, a key it never saw, or a
+    value of an input it was trained on one value of, is one line, not an answer of another kind."""
+    from dsmv.surrogate.predict import run_predict
+
+    with pytest.raises(ConfigError) as error:
+        run_predict(config(store, override), None, [override])
+    assert str(error.value).startswith(message), str(error.value)
+
+
+def test_the_overrides_a_model_honours_pass(store, capsys):
+    from dsmv.surrogate.predict import describe_runs, run_predict
+
+    kept = ["landing.velocity_m_s=1.2", "landing.mass_kg=4500", "solver=cel2d", "soil=nodule_field", "confidence=0.8"]
+    assert "sinkage_m" in run_predict(config(store, *kept), None, kept)
+    assert "  predicts : 2D cross-section, cel2d, soil law not recorded" in capsys.readouterr().out
+    assert describe_runs({"solver": "cel3d", "mesh": "coarse", "soil.law": "einav_randolph"}) == \
+        "3D track, grouser tips, cel3d coarse, einav_randolph"
+
+
 def test_a_scene_the_soil_cannot_stop_is_a_bearing_failure_answer(store, tmp_path, capsys):
     """50 t on one track: the fast landing model (solver=analytic_dynamic, which answers the same scene
     bearing_failure) finds no depth where the soil stops it; dsmv-predict says so instead of predicting."""

@@ -190,6 +190,30 @@ def test_dataset_errors_are_user_errors(store, tmp_path):
         build_dataset(STUDY, [])  # nothing to train on
 
 
+def test_a_study_of_two_solvers_trains_on_the_one_named(store):
+    """The same scenes run in 2D and 3D answer different questions: the named solver's runs train, and
+    a study that holds both refuses to guess."""
+    from types import SimpleNamespace
+
+    from dsmv.surrogate.dataset import DatasetError
+
+    def run(k, solver, sinkage):
+        params = {key: "1.0" for key in PARAMETERS.values()} | {"solver.name": solver, "soil.su0_pa": str(4000 + k)}
+        return SimpleNamespace(info=SimpleNamespace(run_id=f"{solver}-{k}", status="FINISHED", start_time=k),
+                               data=SimpleNamespace(params=params, tags={"dsmv.status": "ok"},
+                                                    metrics={TARGET_METRIC: sinkage}))
+
+    runs = [run(k, "cel2d", 0.06) for k in range(3)] + [run(k, "cel3d", 0.12) for k in range(2)]
+    three = build_dataset(STUDY, runs, "cel3d")
+    assert len(three.table) == 2 and (three.table[TARGET_METRIC] == 0.12).all()
+    assert three.settings["solver"] == "cel3d"
+    assert len(build_dataset(STUDY, runs, "cel2d").table) == 3
+    with pytest.raises(DatasetError, match="3 ok of cel2d, 2 ok of cel3d.*train.solver"):
+        build_dataset(STUDY, runs)
+    with pytest.raises(DatasetError, match="no run of solver analytic_dynamic"):
+        build_dataset(STUDY, runs, "analytic_dynamic")
+
+
 # ----------------------------------------------------------------------------- features
 
 

@@ -142,7 +142,7 @@ def study_command(study: str) -> str:
     return f"dsmv -m study={study} …"
 
 
-def load_dataset(tracking_uri: str, study: str) -> Dataset:
+def load_dataset(tracking_uri: str, study: str, solver: str | None = None) -> Dataset:
     """The dataset of ``study`` from the store at ``tracking_uri``; DatasetError, saying what to run
     first, if the store does not exist, holds no run of the study or no ok run."""
     if store_missing(tracking_uri):  # (opening it would create an empty store)
@@ -152,11 +152,29 @@ def load_dataset(tracking_uri: str, study: str) -> Dataset:
     if not runs:
         raise DatasetError(f"no tracked runs of study '{study}' in {tracking_uri}: run "
                            f"`{study_command(study)}` first, or set train.study / tracking.uri")
-    return build_dataset(study, runs)
+    return build_dataset(study, runs, solver)
 
 
-def build_dataset(study: str, runs: list) -> Dataset:
-    """Split MLflow runs into the typed ``ok`` table and the excluded runs with their reasons."""
+def solver_of(run) -> str:
+    return str(run.data.params.get("solver.name", "unknown"))
+
+
+def build_dataset(study: str, runs: list, solver: str | None = None) -> Dataset:
+    """Split MLflow runs into the typed ``ok`` table and the excluded runs with their reasons. The runs
+    of one solver train (``solver``, else the one the study's runs share): a study may hold the same
+    scenes in 2D and 3D, which answer different questions; DatasetError when it holds several and
+    none is named."""
+    solvers = pd.Series([solver_of(r) for r in runs if r.data.tags.get("dsmv.status") == "ok"]).value_counts()
+    if solver is None and len(solvers) > 1:
+        raise DatasetError(f"study '{study}' holds runs of several solvers ("
+                           + ", ".join(f"{n} ok of {name}" for name, n in solvers.items())
+                           + "): name the one to train on with train.solver")
+    if solver is not None:
+        runs = [r for r in runs if solver_of(r) == solver]
+        if not runs:
+            raise DatasetError(f"study '{study}' has no run of solver {solver} (its solvers: "
+                               f"{', '.join(solvers.index) or 'none ok'}): run `{study_command(study)} solver={solver}` "
+                               f"first, or set train.solver")
     rows, excluded, seen, settings = [], [], {}, []
     for run in sorted(runs, key=lambda r: r.info.start_time or 0, reverse=True):  # latest first
         tags, info = run.data.tags, run.info

@@ -194,12 +194,64 @@ def _search_range(settings: PredictSettings, predictor: Predictor, parameter: st
     return float(low), float(high)
 
 
+#: dsmv-predict's own settings and the stores it reads: any value
+PREDICT_KEYS = ("task", "sinkage_limit_m", "confidence", "csv", "model_version", "search", "plot", "verify",
+                "refine_tolerance", "spot_checks", "surrogate", "tracking", "paths", "uncertainty", "study", "hydra")
+#: groups chosen whole (a soil profile, a landing, a body): their values are read as the model's inputs
+SCENE_GROUPS = ("soil", "landing", "geometry")
+
+
+def run_settings(predictor: Predictor) -> dict:
+    """What the model's training runs computed: their shared solver, soil law and mesh (a model trained
+    before they were recorded: the 2D section's)."""
+    return predictor.model.metadata.get("run_settings") or {"solver": "cel2d"}
+
+
+def describe_runs(settings: dict) -> str:
+    """What a model predicts, in words: '3D track, grouser tips, cel3d coarse, einav_randolph'."""
+    solver = settings.get("solver", "?")
+    what = {"cel3d": "3D track, grouser tips", "cel2d": "2D cross-section"}.get(solver, "track")
+    mesh = f" {settings['mesh']}" if settings.get("mesh") else ""
+    return f"{what}, {solver}{mesh}, {settings.get('soil.law', 'soil law not recorded')}"
+
+
+def check_overrides(predictor: Predictor, overrides: list[str]) -> None:
+    """Refuse, as a ConfigError, an override the model cannot honour: another solver, soil law or mesh
+    than its runs', a scene key that is not one of its inputs, or an input it was trained on one value of."""
+    settings, ranges = run_settings(predictor), predictor.model.metadata.get("ranges", {})
+    fixed = {"solver": "solver", "solver.name": "solver", "soil.law": "soil.law", "mesh": "mesh", "mesh.name": "mesh"}
+    varied = [PARAMETERS[c] for c in PARAMETERS if c in ranges and ranges[c][0] < ranges[c][1]]
+    for override in overrides:
+        key, _, value = override.lstrip("+~").partition("=")
+        if key.split(".")[0] in PREDICT_KEYS or key in SCENE_GROUPS:
+            continue
+        if key in fixed:
+            if value == str(settings.get(fixed[key])):
+                continue
+            raise ConfigError(key, value, f"the model predicts {describe_runs(settings)} runs; for {key}={value} "
+                                          f"train one on such runs (dsmv-train train.solver=…)")
+        column = COLUMNS.get(key)
+        if column is not None and column in ranges:
+            low, high = ranges[column]
+            if low < high or _same(value, low):
+                continue
+            raise ConfigError(key, value, f"the model was trained on {key} = {low:g} only, so it cannot say what "
+                                          f"another value does")
+        raise ConfigError(key, value, f"not an input of the model, which varies {', '.join(varied)}")
+
+
+def _same(text: str, number: float) -> bool:
+    try:
+        return float(text) == number
+    except ValueError:
+        return False
+
+
 def check_command(predictor: Predictor, base: pd.DataFrame, key: str, value: float) -> str:
     """The ``dsmv`` command of a CEL run of the scene with ``key = value``, of the kind the model
     was trained on: its runs' shared solver, soil law and mesh, and every scene parameter the
     training data vary, written out (what the surrogate saw is what CEL gets)."""
-    settings = predictor.model.metadata.get("run_settings") or {"solver": "cel2d"}
-    ranges = predictor.model.metadata.get("ranges", {})
+    settings, ranges = run_settings(predictor), predictor.model.metadata.get("ranges", {})
     parts = [f"{k}={v}" for k, v in settings.items()]
     for column, config_key in PARAMETERS.items():
         varied = column in ranges and ranges[column][0] < ranges[column][1]
@@ -372,8 +424,9 @@ def check_config(cfg: DictConfig) -> tuple[PredictSettings, object]:
     return settings, scene
 
 
-def run_predict(cfg: DictConfig, run_dir: Path | None = None) -> dict:
-    """Validate, load, predict (one scene, a CSV, or the inverse question), print; return the answer."""
+def run_predict(cfg: DictConfig, run_dir: Path | None = None, overrides: list[str] = ()) -> dict:
+    """Validate, load, predict (one scene, a CSV, or the inverse question), print; return the answer.
+    ``overrides`` (the command line's) are held against what the model can honour (:func:`check_overrides`)."""
     settings, scene = check_config(cfg)
     tracking = build_tracking(cfg)
     base = scene_table([scene])
@@ -386,6 +439,8 @@ def run_predict(cfg: DictConfig, run_dir: Path | None = None) -> dict:
     c = settings.confidence
     print(f"{PROG}: {name} v{predictor.version} ({meta.get('feature_set')} features, "
           f"dataset {meta.get('dataset_hash')}), loaded in {load_s:.2f} s")
+    print(f"  predicts : {describe_runs(run_settings(predictor))}")
+    check_overrides(predictor, list(overrides))
     if predictor.calibration is None:
         message = (f"model run {predictor.run_id} has no interval calibration ({CALIBRATION_FILE} or metadata "
                    f"'{CALIBRATION_KEY}'): retrain it with a dsmv-train that logs one")
@@ -487,8 +542,9 @@ def predict(cfg: DictConfig) -> dict | None:
     # MLflow draws a progress bar on stderr for every artifact it downloads (the model, its
     # calibration): a user mistake found after that would no longer be one line
     os.environ.setdefault("MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR", "false")
+    overrides = list(HydraConfig.get().overrides.task) if HydraConfig.initialized() else []
     try:
-        return run_predict(cfg, run_dir)
+        return run_predict(cfg, run_dir, overrides)
     except DsmvError as error:
         fail(error)
 

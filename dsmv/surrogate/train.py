@@ -18,7 +18,7 @@ import json
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any, Callable, Literal
+from typing import Annotated, Any, Callable, Literal, Optional
 
 import numpy as np
 import pandas as pd
@@ -49,6 +49,9 @@ class TrainSettings(Schema):
     """The ``train`` block of ``conf/train.yaml``."""
 
     study: str = Field(description="study whose tracked runs train the surrogate (tag dsmv.study)")
+    solver: Optional[str] = Field(None, description=(
+        "the solver whose runs train (cel2d: the 2D section, cel3d: the 3D track, …); null: the one the "
+        "study's runs share"))
     features: Literal["physics", "leak_free", "study"] = Field(description="feature set (dsmv.surrogate.features)")
     seed: Count = Field(ge=0, description="seed of the split, the folds and the estimator (-)")
     test_fraction: Number = Field(gt=0, lt=1, description="test share of the split (-), the study's 0.1")
@@ -320,7 +323,7 @@ def run_training(cfg: DictConfig, run_dir: Path) -> Training:
     """``dsmv-train``: validate, load, fit and evaluate, write, log, print the summary."""
     started = time.perf_counter()
     settings, config, plugin = check_config(cfg)
-    dataset = load_dataset(build_tracking(cfg).uri, settings.study)
+    dataset = load_dataset(build_tracking(cfg).uri, settings.study, settings.solver)
     result = fit_and_evaluate(plugin, config, settings, dataset)
     result.metrics["train_wall_s"] = time.perf_counter() - started
     files = write_outputs(result, run_dir)
