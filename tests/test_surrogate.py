@@ -600,3 +600,29 @@ def test_every_installed_surrogate_keeps_the_plugin_contract(name):
     from dsmv.testing import check_surrogate
 
     check_surrogate(name, n_estimators=20)
+
+
+# ----------------------------------------------------------------------------- multi-fidelity
+
+
+def test_a_low_fidelity_that_is_exact_makes_a_few_3d_runs_enough():
+    """3D 'runs' that are the 3D fast model itself: the forest with the fast model's z/B (its
+    coefficients refitted on the draw) predicts held-out runs almost exactly from 16 runs, while the
+    forest on the inputs alone does not."""
+    from dsmv.surrogate.fast_model import default_settings, fast_sinkage
+    from dsmv.surrogate.multifidelity import learning_curve
+
+    rng = np.random.default_rng(1)
+    n = 80
+    table = pd.DataFrame({"mass_kg": rng.uniform(3000, 6500, n), "inertial_mass_kg": np.nan,
+                          "velocity_m_s": rng.uniform(0.5, 3.0, n), "n_tracks": 1.0, "gravity_m_s2": 9.81,
+                          "width_m": 0.6, "contact_length_m": rng.uniform(3.1, 5.2, n),
+                          "su0_pa": rng.uniform(3000, 10000, n), "ks_pa_per_m": rng.uniform(500, 3000, n),
+                          "sensitivity": rng.uniform(2, 5, n), "xi95": rng.uniform(10, 40, n),
+                          "eta": rng.uniform(0.02, 0.15, n)})
+    table[TARGET_METRIC] = fast_sinkage(table, settings=default_settings("cel3d"))
+    table = table[np.isfinite(table[TARGET_METRIC])].reset_index(drop=True)  # the landings the soil stops
+    curve = learning_curve(table, repeats=1)
+    at16 = curve[curve.n_3d_runs == 16].set_index("model")["r2"]
+    assert at16["+ fast model"] > 0.999 and at16["3D only"] < 0.99
+    assert set(curve.n_3d_runs) == {16, 32, round(0.75 * len(table))}  # the sizes below the pool, then it all

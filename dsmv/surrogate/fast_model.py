@@ -31,23 +31,31 @@ from dsmv.surrogate.features import LeakFreeFeatures, physics, target
 FITTED = ("depth_coefficient", "strain_coefficient", "drag_coefficient")
 
 
-@lru_cache(maxsize=1)
-def _default_scene():
+#: the fast model of what each CEL solver lands: the 2D cross-section, or the 3D track (its grousers
+#: cut in first, Skempton's shape factor; coefficients fitted to the 3D CEL)
+FAST_MODEL_CONFIG = {"cel2d": "analytic_dynamic", "cel3d": "analytic_dynamic_3d"}
+
+
+@lru_cache(maxsize=2)
+def _default_scene(option: str = "analytic_dynamic"):
     from dsmv.config.tree import compose_scene
 
-    return compose_scene(["tracking=disabled", "solver=analytic_dynamic"])
+    return compose_scene(["tracking=disabled", f"solver={option}"])
 
 
-def default_settings() -> dict:
+def default_settings(solver: str = "cel2d") -> dict:
     """What the model takes that a table does not hold, from the default config: the coefficients of
-    ``conf/solver/analytic_dynamic.yaml`` and the default soil's other values. A surrogate records
-    them, so that its features stay what they were trained on if the defaults change."""
-    scene = _default_scene()
-    soil, rate = scene.soil, scene.soil.rate
-    return {"coefficients": asdict(scene.solver.coefficients()), "law": "einav_randolph",
+    ``conf/solver/analytic_dynamic.yaml`` (``_3d.yaml`` for the 3D track, ``solver="cel3d"``), its
+    form (grousers, shape factor) and the default soil's and track's other values. A surrogate
+    records them, so that its features stay what they were trained on if the defaults change."""
+    scene = _default_scene(FAST_MODEL_CONFIG.get(solver, "analytic_dynamic"))
+    soil, rate, model = scene.soil, scene.soil.rate, scene.solver
+    return {"coefficients": asdict(model.coefficients()), "law": "einav_randolph",
             "density_kg_m3": soil.density_kg_m3,
             "youngs_modulus_over_su0": soil.youngs_modulus_pa / soil.su0_pa,
-            "rate": {"law": rate.law, "n": rate.n, "gamma_dot_ref": rate.gamma_dot_ref, "mu": rate.mu}}
+            "rate": {"law": rate.law, "n": rate.n, "gamma_dot_ref": rate.gamma_dot_ref, "mu": rate.mu},
+            "shape_factor": model.shape_factor,
+            "grouser_height_m": scene.geometry.grouser_height_m if model.grousers else 0.0}
 
 
 def table_landing(table: pd.DataFrame, settings: dict | None = None) -> Landing:
@@ -58,7 +66,18 @@ def table_landing(table: pd.DataFrame, settings: dict | None = None) -> Landing:
         weight_n=p["weight_n"], inertia_kg=p["inertia_kg"], velocity_m_s=table["velocity_m_s"].to_numpy(float),
         width_m=p["width_m"], area_m2=p["area_m2"], su0_pa=su0, ks_pa_per_m=table["ks_pa_per_m"].to_numpy(float),
         density_kg_m3=fill["density_kg_m3"], youngs_modulus_pa=fill["youngs_modulus_over_su0"] * su0,
-        gravity_m_s2=table["gravity_m_s2"].to_numpy(float), shape_factor=1.0)
+        gravity_m_s2=table["gravity_m_s2"].to_numpy(float), shape_factor=table_shape_factor(table, fill),
+        grouser_height_m=fill.get("grouser_height_m", 0.0))
+
+
+def table_shape_factor(table: pd.DataFrame, settings: dict):
+    """sc of each row: 1 in plane strain, Skempton's 1 + 0.2·B/L for the 3D track, or the number given."""
+    form = settings.get("shape_factor", "plane_strain")
+    if form == "plane_strain":
+        return 1.0
+    if form == "skempton":
+        return 1.0 + 0.2 * table["width_m"].to_numpy(float) / table["contact_length_m"].to_numpy(float)
+    return float(form)
 
 
 def table_factor(table: pd.DataFrame, settings: dict | None = None):
@@ -111,12 +130,14 @@ def errors(model_m, cel_m) -> dict[str, float]:
             "rms_log_error": float(np.sqrt(np.mean(np.log1p(relative) ** 2)))}
 
 
-def calibrate(table: pd.DataFrame, start: Coefficients | None = None) -> Coefficients:
-    """The :data:`FITTED` coefficients that minimise Σ log²(model/CEL) over the rows."""
+def calibrate(table: pd.DataFrame, start: Coefficients | None = None, settings: dict | None = None) -> Coefficients:
+    """The :data:`FITTED` coefficients that minimise Σ log²(model/CEL) over the rows (the model's form
+    and fill: ``settings``, by default the 2D cross-section's)."""
     from scipy.optimize import least_squares
 
-    start = start or Coefficients(**default_settings()["coefficients"])
-    landing, factor = table_landing(table), table_factor(table)
+    settings = settings or default_settings()
+    start = start or Coefficients(**settings["coefficients"])
+    landing, factor = table_landing(table, settings), table_factor(table, settings)
     cel = table[TARGET_METRIC].to_numpy(float)
 
     def residual(values):
@@ -127,17 +148,17 @@ def calibrate(table: pd.DataFrame, start: Coefficients | None = None) -> Coeffic
     return replace(start, **dict(zip(FITTED, fit.x)))
 
 
-def held_out(table: pd.DataFrame, folds: int = 5, seed: int = 0) -> np.ndarray:
+def held_out(table: pd.DataFrame, folds: int = 5, seed: int = 0, settings: dict | None = None) -> np.ndarray:
     """Each row's sinkage (m) from coefficients calibrated on the other folds."""
     fold = np.random.default_rng(seed).permutation(len(table)) % folds
     out = np.empty(len(table))
     for k in range(folds):
-        fitted = calibrate(table[fold != k].reset_index(drop=True))
-        out[fold == k] = fast_sinkage(table[fold == k].reset_index(drop=True), fitted)
+        fitted = calibrate(table[fold != k].reset_index(drop=True), settings=settings)
+        out[fold == k] = fast_sinkage(table[fold == k].reset_index(drop=True), fitted, settings)
     return out
 
 
-def nested_r2(table: pd.DataFrame, folds: int = 10, seed: int = 0) -> dict[str, float]:
+def nested_r2(table: pd.DataFrame, folds: int = 10, seed: int = 0, settings: dict | None = None) -> dict[str, float]:
     """k-fold R² on z/B with the coefficients refitted on the training folds only: the fast model
     alone, and a random forest and XGBoost on the physics features (the hyper-parameters
     ``dsmv-train``'s grid picks on the Table 3 dataset)."""
@@ -152,8 +173,8 @@ def nested_r2(table: pd.DataFrame, folds: int = 10, seed: int = 0) -> dict[str, 
                                               min_child_weight=3, random_state=seed)}
     predicted = {name: np.empty(len(y)) for name in ["fast model", *models]}
     for train, test in KFold(folds, shuffle=True, random_state=seed).split(inputs):
-        fitted = calibrate(table.iloc[train].reset_index(drop=True))
-        fast = fast_sinkage(table, fitted) / table["width_m"].to_numpy(float)
+        fitted = calibrate(table.iloc[train].reset_index(drop=True), settings=settings)
+        fast = fast_sinkage(table, fitted, settings) / table["width_m"].to_numpy(float)
         X = inputs.assign(fast_model_z_over_b=fast)
         predicted["fast model"][test] = fast[test]
         for name, make in models.items():
@@ -171,16 +192,20 @@ def main(argv=None) -> None:
     parser.add_argument("dataset", help="a dataset.csv (dsmv-train writes one beside its models)")
     parser.add_argument("--nested", action="store_true",
                         help="also the 10-fold R² on z/B with the coefficients refitted inside each fold")
+    parser.add_argument("--solver", default="cel2d", choices=sorted(FAST_MODEL_CONFIG),
+                        help="what the dataset's runs landed: cel2d, the 2D section (solver=analytic_dynamic); "
+                             "cel3d, the 3D track (solver=analytic_dynamic_3d)")
     args = parser.parse_args(argv)
     table = pd.read_csv(args.dataset)
     cel = table[TARGET_METRIC].to_numpy(float)
-    fitted = calibrate(table)
+    settings = default_settings(args.solver)
+    fitted = calibrate(table, settings=settings)
     print(f"{len(table)} CEL landings; fitted " + ", ".join(f"{n} = {getattr(fitted, n):.3f}" for n in FITTED))
-    print(_describe("defaults", errors(fast_sinkage(table), cel)))
-    print(_describe("fitted, in sample", errors(fast_sinkage(table, fitted), cel)))
-    print(_describe("fitted, 5-fold held out", errors(held_out(table), cel)))
+    print(_describe("defaults", errors(fast_sinkage(table, settings=settings), cel)))
+    print(_describe("fitted, in sample", errors(fast_sinkage(table, fitted, settings), cel)))
+    print(_describe("fitted, 5-fold held out", errors(held_out(table, settings=settings), cel)))
     if args.nested:
-        scores = nested_r2(table)
+        scores = nested_r2(table, settings=settings)
         print("10-fold R² on z/B, coefficients refitted in each fold: "
               + ", ".join(f"{name} {r2:.4f}" for name, r2 in scores.items()))
 

@@ -117,7 +117,7 @@ def dataset_metadata(dataset: Dataset) -> dict:
     """What the feature sets take from the dataset: the physics set's fast model runs the law the
     dataset's runs shared."""
     law = dataset.settings.get("soil.law") or "einav_randolph"
-    return {"fast_model": default_settings() | {"law": law}}
+    return {"fast_model": default_settings(dataset.settings.get("solver", "cel2d")) | {"law": law}}
 
 
 def settings_from(cfg: DictConfig) -> tuple[TrainSettings, SurrogateConfig]:
