@@ -338,7 +338,7 @@ class Coverage:
     n_distinct: int  # rows that were in at least one test set (-): the band's n
     by_tercile: tuple[float, float, float] = (math.nan,) * 3  # coverage where ŷ is in the low/middle/high third of y (-)
 
-    def __iter__(self):  # (mean, per_split, band), as the API reads
+    def __iter__(self):  # (mean, per_split, band): unpacks as a tuple
         return iter((self.mean, self.per_split, self.band))
 
 

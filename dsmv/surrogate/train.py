@@ -224,7 +224,7 @@ def interval_method(result: "Training", settings: TrainSettings) -> str:
 
 def _intervals(result: "Training", X, y, settings: TrainSettings) -> dict[str, float]:
     """Calibrate the registered model's intervals on the training split, and measure their
-    coverage over the same Monte Carlo re-splits as ``mc_r2`` (issue #7)."""
+    coverage over the same Monte Carlo re-splits as ``mc_r2``."""
     method = interval_method(result, settings)
     c = settings.interval_confidence
     train = result.train_idx
