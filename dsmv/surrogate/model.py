@@ -2,7 +2,7 @@
 
 ``dsmv-train`` saves each model in its MLflow flavour with metadata (feature set, target, the
 study's implicit-solve range, the training ranges of every parameter, the dataset hash). This
-module reads it back for prediction (``dsmv-predict``, issue #7):
+module reads it back for prediction (``dsmv-predict``):
 
     model = load_registered("dsmv-sinkage-rf", tracking_uri="sqlite:///runs/mlflow.db")
     z_m = model.predict_sinkage(scene_table([scene]))

@@ -74,7 +74,7 @@ class TrainSettings(Schema):
 
 @dataclass
 class Training:
-    """Everything one training produced; :func:`log_to_mlflow` and later issues read it."""
+    """Everything one training produced; :func:`log_to_mlflow` and the summary read it."""
 
     surrogate: Surrogate
     config: SurrogateConfig
