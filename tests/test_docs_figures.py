@@ -60,13 +60,14 @@ class Quantity:
     reference: Callable[[], float] | None = None
 
 
-#: the default scene: the sample output's scene line, the same in the README and the guide
-DEFAULT_SCENE = (r"scene\s+: nodule_field soil \(einav_randolph\), track_pioneer_i, "
-                 r"drop 4500 kg at 1\.5 m/s, solver cel2d\n")
+#: the default scene's line in a sample output (the README's and the guide's), in 2D and in 3D
+SCENE = (r"scene\s+: nodule_field soil \(einav_randolph\), track_pioneer_i, "
+         r"drop 4500 kg at 1\.5 m/s, solver {solver}\n")
+DEFAULT_SCENE, DEFAULT_SCENE_3D = SCENE.format(solver="cel2d"), SCENE.format(solver="cel3d")
 
 QUANTITIES = (
     Quantity("the default landing's max sinkage on the standard mesh (m)", "the report, landing_default at 0.02 m",
-             (r"max sinkage (?P<v>[\d.]+) m\n\s+" + DEFAULT_SCENE,
+             (r"max sinkage (?P<v>[\d.]+) m(?: of the 2D cross-section)?\n\s+" + DEFAULT_SCENE,
               DEFAULT_SCENE + r"(?:.*\n)?\s+message : came to rest at (?P<v>[\d.]+) m",
               r'"message": "came to rest at (?P<v>[\d.]+) m after',
               r'"max_sinkage_m": (?P<v>[\d.]+),',
@@ -75,7 +76,8 @@ QUANTITIES = (
               r"\(the CEL: (?P<v>[\d.]+) m\)",
               r"the 2D CEL \((?P<v>[\d.]+) m on the standard mesh\)",
               r"the default track (?:\([^)]*\) )?is [\d.]+ m² and\s+sinks (?P<v>[\d.]+) m",
-              r"the default track \([^)]*\) sinks (?P<v>[\d.]+) m"),
+              r"the default track \([^)]*\) sinks (?P<v>[\d.]+) m",
+              r"^\| default \| (?P<v>[\d.]+) m \| [\d.]+ m \| [\d.]+ m \|$"),
              from_report("landing_default", "value", 0.02)),
     Quantity("the default landing's mesh error on the standard mesh (%)", "the report, landing_default at 0.02 m",
              (r"the default landing\s+reads (?P<v>[\d.]+) % below its extrapolated",
@@ -92,11 +94,40 @@ QUANTITIES = (
               r"every scene of the mesh study is within\s+(?P<v>[\d.]+) % on it",
               r"every scene of the study is within (?P<v>[\d.]+) % of its extrapolated",
               r"Every scene is within (?P<v>[\d.]+) % of its extrapolated value at 0\.02 m")),
-    Quantity("the default landing's cells on the standard mesh (half section)", "the sample output of `make run`",
+    Quantity("the default landing's cells on the standard mesh (half section)", "the sample output of `dsmv`",
              (r"(?P<v>[\d,]+) cells \([\d,]+ for the whole section\), [\d,]+ steps",
               r"^\s+(?P<v>[\d,]+) cells, about [\d,]+ steps, 1 MiB")),
-    Quantity("the default landing's steps on the standard mesh", "the sample output of `make run`",
-             (r"[\d,]+ cells \([\d,]+ for the whole section\), (?P<v>[\d,]+) steps",)),
+    Quantity("the 3D track's max sinkage (the grousers' tips) on its default mesh, 0.075 m (m)",
+             "the report, track_3d at 0.075 m",
+             (r"max sinkage (?P<v>[\d.]+) m at the grouser tips",
+              DEFAULT_SCENE_3D + r"(?:.*\n)?\s+message : came to rest at (?P<v>[\d.]+) m",
+              r"^\| 0\.05 m \| (?P<v>[\d.]+) m \| [\d.]+ m \|$",
+              r"^\| default \| [\d.]+ m \| (?P<v>[\d.]+) m \| [\d.]+ m \|$"),
+             from_report("track_3d", "value", 0.075)),
+    Quantity("the 3D track's plate sinkage on its default mesh (m)", "docs/verification/track-3d.md, Two sinkages",
+             (r"(?P<v>[\d.]+) m at the plates",
+              r"^\| 0\.05 m \| [\d.]+ m \| (?P<v>[\d.]+) m \|$",
+              r"against (?P<v>[\d.]+) m for the plates behind")),
+    Quantity("the 3D track's cells on its default mesh (quarter model)", "the sample output of `make run`",
+             (DEFAULT_SCENE_3D + r"(?:.*\n){0,2}\s+model\s+: (?P<v>[\d,]+) cells",
+              r"^\s+(?P<v>[\d,]+) cells, about [\d,]+ steps, 13 MiB",
+              r"B/8 across the track, (?P<v>[\d,]+) cells in the quarter model",
+              r"0\.075 m core cells, (?P<v>[\d,]+) cells in the quarter model")),
+    Quantity("the 3D track's steps on its default mesh", "the sample output of `make run`",
+             (DEFAULT_SCENE_3D + r"(?:.*\n){0,2}\s+model\s+: [\d,]+ cells \([^)]*\), (?P<v>[\d,]+) steps",)),
+    Quantity("field output on disk per cell and frame, 3D (B)", "dsmv.cel.cost.FIELD_BYTES_PER_CELL",
+             (r"(?P<v>\d+) B per cell and frame in 3D",),
+             lambda: __import__("dsmv.cel.cost", fromlist=["x"]).FIELD_BYTES_PER_CELL[3]),
+    Quantity("field output on disk per cell and frame, 2D (B)", "dsmv.cel.cost.FIELD_BYTES_PER_CELL",
+             (r"frame in 3D, (?P<v>\d+) B in 2D",),
+             lambda: __import__("dsmv.cel.cost", fromlist=["x"]).FIELD_BYTES_PER_CELL[2]),
+    Quantity("the 3D track's field output on its default mesh (MB)", "dsmv/cel/cost.py, FIELD_BYTES_PER_CELL",
+             (r"3D coarse landing writes about (?P<v>\d+) MB",
+              r"cells: (?P<v>\d+) MB in \d+ frames",
+              r"frames\) writes (?P<v>\d+) MB")),
+    Quantity("the 2D default landing's field output (MB)", "dsmv/cel/cost.py, FIELD_BYTES_PER_CELL",
+             (r"cells: (?P<v>\d+\.\d+) MB in \d+ frames",
+              r"frames\) writes (?P<v>\d+\.\d+) MB")),
     Quantity("the 3D track's max sinkage on B/16 cells (m)", "the report, track_3d at 0.0375 m",
              (r"dsmv: ok — max sinkage (?P<v>[\d.]+) m; extrapolated",
               r"max sinkage [\d.]+ m; extrapolated .*\n\s+message : came to rest at (?P<v>[\d.]+) m"),
