@@ -40,8 +40,8 @@ The rough lower bound forbids tension on the faces, the rough upper bound bonds 
 the bracket holds for bonded rough faces (a no-tension stress field is admissible there too),
 not for rough faces that can open a gap.
 
-A pushed strip whose soil cannot pull on its walls leaves a wedge-shaped gap beside them (README,
-"The pushed strip opens a wedge-shaped gap"): `notch` (see :func:`strip_mesh`) bounds that
+A pushed strip whose soil cannot pull on its walls leaves a wedge-shaped gap beside them (docs:
+Verification > Strip footing, "The notch in the fields"): `notch` (see :func:`strip_mesh`) bounds that
 geometry, its sloping face a free surface, σ·n = 0.
 
 Units: lengths in B (the strip's width), stresses in su; the factor is independent of both.

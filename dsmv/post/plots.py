@@ -132,6 +132,10 @@ SOIL_LEVEL = 0.5
 CONTOUR_BANDS = 12
 #: velocity arrows across the window's width
 ARROWS_ACROSS = 24
+#: the strength panel's note: at the deepest frame the body is at rest but the soil around it still
+#: shears, and a law with a rate effect (Einav–Randolph's R(γ̇) = 1 + η·(γ̇/γ̇ref)^n) keeps su above
+#: the intact strength there; Tresca's su is su_intact
+SU_NOTE = "su above su_intact = su0 + ks·z is the rate effect: Einav–Randolph's R(γ̇) > 1 where the soil shears"
 
 
 def _mirrored_view(frame, window):
@@ -207,7 +211,8 @@ def plot_field_contours(frame_path: Path, path: Path, title: str, flow_frame_pat
     Like the reference study's Figures 3 and 10 (strength), 8 (accumulated plastic shear
     strain) and 12 (velocity). The half model is mirrored to show the whole section; only
     soil is coloured (volume fraction ≥ SOIL_LEVEL), the body is grey, the window is the
-    grid's uniform core. Velocity: the mean of a cell's four nodal velocities, with arrows.
+    grid's uniform core. Velocity: the mean of a cell's four nodal velocities, with arrows. The
+    strength panel notes (:data:`SU_NOTE`) that su above the intact strength is the rate effect.
     ``flow_frame_path``: a frame whose velocity field is shown too, in the same window (at
     the deepest point a landing body is at rest and the soil's velocity is what rings on;
     the mechanism shows while it still moves). Reads VTU frames written by :mod:`dsmv.cel.fields`.
@@ -248,7 +253,7 @@ def _plot_section(frame, flow: list, path: Path, title: str) -> Path:
     view = _mirrored_view(frame, window)
     when = f"t = {frame.time_s:.4f} s, sinkage {frame.sinkage_m:.4f} m"
     _contour_panel(fig, axes[0], view, view["cells"]["su_pa"] / 1e3, "su (kPa)", "viridis",
-                   f"undrained strength su, {when}", window)
+                   f"undrained strength su, {when}\n{SU_NOTE}", window)
     _contour_panel(fig, axes[1], view, view["cells"]["plastic_shear_strain"], "ξ (-)", "inferno",
                    f"accumulated plastic shear strain ξ, {when}", window)
     # the strain rate spans decades (the study's rate law reads its logarithm): log10, floored at 10⁻³ 1/s;
