@@ -38,7 +38,7 @@ def test_every_experiment_composes(compose_cfg, experiment):
     assert sweeper.params or sweeper.get("vary") or sweeper.get("cases") or sweeper.get("cases_from")
 
 
-def test_default_scene_is_the_issue_contract(compose_cfg):
+def test_the_default_scene_is_the_documented_one(compose_cfg):
     scene = build_scene(compose_cfg())
     soil, body, landing = scene.soil, scene.geometry, scene.landing
     assert (soil.name, soil.law, soil.su0_pa, soil.ks_pa_per_m) == ("nodule_field", "einav_randolph", 5000.0, 1500.0)

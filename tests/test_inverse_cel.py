@@ -1,4 +1,4 @@
-"""The inverse answer of dsmv-predict checked by the CEL solver itself (issue #7).
+"""The inverse answer of dsmv-predict checked by the CEL solver itself
 
 A small dataset: ten CEL landings of the default scene on the coarse mesh, touchdown velocity
 0.5–5 m/s. A random forest with scaled conformal intervals (dsmv-train's choices) is trained on

@@ -1,4 +1,4 @@
-"""The parametric studies (issue #5): the case sweeper, the study summaries, and the study's trends.
+"""The parametric studies: the case sweeper, the study summaries, and the study's trends.
 
 The trend test runs the three parameter studies on the coarse mesh and asserts that max
 sinkage moves strictly in the reference study's direction (Figures 7, 9, 11) for each of

@@ -1,4 +1,4 @@
-"""The two 2D views of the Pioneering-I track (issue #5): cross-section and longitudinal section."""
+"""The two 2D views of the Pioneering-I track: cross-section and longitudinal section."""
 
 from __future__ import annotations
 
