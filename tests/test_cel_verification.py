@@ -347,15 +347,15 @@ def test_contact_separation_lets_the_soil_part_from_the_wall(compose_cfg, roughn
     go where the soil pulls away, and the strip opens a notch beside its wall: limit analysis
     brackets that strip's factor in [5.207, 5.270] (rough) and [5.206, 5.264] (smooth), flat surface
     beyond the notch, against at least 5.357 and 5.296 with the soil against the walls (README, "The
-    pushed strip opens a wedge-shaped gap"). The factor must drop well below the tied one's and come
-    within 1.5 % above the notched bracket (rough 5.280, 5.255, 5.249 at B/20 to B/80: inside it
-    from B/40 on), with the energy audit still closed and the mass kept."""
+    pushed strip opens a wedge-shaped gap"). The factor must drop well below the tied one's and read
+    inside the notched bracket (measured at B/40: rough 5.227, smooth 5.228), with the energy audit
+    still closed and the mass kept."""
     push = STRIP + [f"geometry.roughness={roughness}", "mesh.cell_size_m=0.025", "landing.displacement_m=0.06"]
     tied = solve(compose_cfg, Cel2DSolver, push)
     parted = solve(compose_cfg, Cel2DSolver, push + ["solver.contact_separation=true"])
     lower, upper = NOTCHED_STRIP_LOWER_BOUND_AT_0P05B[roughness], NOTCHED_STRIP_UPPER_BOUND_AT_0P05B[roughness]
     assert parted.metrics["nc_at_0p05B"] < tied.metrics["nc_at_0p05B"] - 0.08
-    assert lower < parted.metrics["nc_at_0p05B"] < 1.015 * upper
+    assert lower < parted.metrics["nc_at_0p05B"] < upper
     # the gap cells' released elastic energy is a term of its own: nil without separation
     assert tied.metrics["energy_gap_release_j"] == 0.0 < parted.metrics["energy_gap_release_j"]
     assert parted.metrics["energy_error"] < 0.01
