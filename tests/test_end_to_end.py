@@ -36,8 +36,9 @@ def test_single_run_writes_the_contract_and_one_finished_mlflow_run(run_cli, tmp
     (run,) = mlflow_runs(tmp_path)
     assert run.info.status == "FINISHED"
     assert run.data.tags["dsmv.status"] == "ok" and run.data.params["status"] == "ok"
-    # named from the scene, described by the summary's answer
-    assert run.data.tags["mlflow.runName"] == "nodule_field soil (einav_randolph), track_pioneer_i, drop 4500 kg at 1.5 m/s"
+    # named by its solver and soil law (and overrides, none here), the scene in words a tag, described by the answer
+    assert run.data.tags["mlflow.runName"] == "cel2d einav_randolph"
+    assert run.data.tags["dsmv.scene"] == "nodule_field soil (einav_randolph), track_pioneer_i, drop 4500 kg at 1.5 m/s"
     assert run.data.tags["mlflow.note.content"] == "ok: max sinkage 0.0654 m of the 2D cross-section"
     assert run.data.metrics["plate_sinkage_m"] == result["metrics"]["plate_sinkage_m"]
     # MLflow 3 opens the experiment on its runs (a classic experiment), under a description
@@ -93,12 +94,11 @@ def test_2x2_multirun_leaves_one_parent_and_four_finished_children(run_cli, tmp_
     got = sorted((c.data.params["landing.velocity_m_s"], c.data.params["soil.su0_pa"]) for c in children)
     assert got == [("0.5", "4000"), ("0.5", "6000"), ("1.0", "4000"), ("1.0", "6000")]
     assert all("max_sinkage_m" in c.data.metrics for c in children)
-    # named by what they compute: the sweep by its overrides, a job by its scene and its values;
+    # named by what they compute: the sweep by its overrides, a job by its solver, soil law and values;
     # where results go and how they are kept (output, hydra, paths, tracking) name nothing
-    assert parent.info.run_name == "sweep default_scene: landing.velocity_m_s=0.5,1.0 soil.su0_pa=4000,6000"
+    assert parent.info.run_name == "sweep velocity_m_s=0.5,1.0 su0_pa=4000,6000"
     names = {c.info.run_name for c in children}
-    assert "nodule_field soil (einav_randolph), track_pioneer_i, drop 4500 kg at 1 m/s " \
-           "[landing.velocity_m_s=1.0 soil.su0_pa=6000]" in names and len(names) == 4
+    assert "cel2d einav_randolph velocity_m_s=1.0 su0_pa=6000" in names and len(names) == 4
     sweep_dir = jobs[0].parent
     assert (sweep_dir / "sweep_summary.csv").read_text().count("\n") == 5
 

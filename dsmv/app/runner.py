@@ -97,10 +97,7 @@ def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, sweep_dir: Path | None, caug
         scene = build_scene(cfg)
         if multirun and cfg.get("resume") and (earlier := runs.finished_run(cfg, scene)) is not None:
             return _reuse(earlier, scene, run_dir, names)
-        # named from the scene; a sweep's job adds what it varies, so that no two of its runs read alike
-        swept = runs.scene_overrides(hydra_cfg.overrides.task) if multirun else ""
-        run_name = scene_label(scene) + (f" [{swept}]" if swept else "")
-        tracker = runs.start_job(cfg, scene, run_dir, run_name, sweep_dir)
+        tracker = runs.start_job(cfg, scene, run_dir, runs.run_name(scene, hydra_cfg.overrides.task), sweep_dir)
     except DsmvError as error:
         if not multirun:  # (dsmv.app.command_line.check_command_line refuses most before Hydra makes the run dir)
             print(f"dsmv: error: {error}", file=sys.stderr)
@@ -245,7 +242,7 @@ def write_outputs(scene: Scene, result: SolveResult, run_dir: Path) -> list[Path
     if result.history is not None:
         files.append(write_history(run_dir, result.history))
         if scene.output.plots and len(result.history["time_s"]) > 1:
-            title = f"{scene_label(scene)} — {scene.solver.name}: {result.status}"
+            title = f"{scene.label} — {scene.solver.name}: {result.status}"
             files.append(plot_history(result.history, run_dir / HISTORY_PLOT_FILE, title))
     if scene.output.fields:  # written by a solver that keeps fields (CEL); the others write none
         field_files = fields.written_files(run_dir)
@@ -276,15 +273,6 @@ def _answer(scene: Scene, result: SolveResult) -> str:
                (("nc_at_0p02B", "0.02 B"), ("nc_at_0p05B", "0.05 B"), ("nc_at_0p1B", "0.1 B"),
                 ("nc_at_1B", "1 B"), ("nc_deep", "depth (nc_deep)")) if name in result.metrics]
     return f"pushed to {sinkage:.4f} m" + (f"; q/su {', '.join(factors)}" if factors else "")
-
-
-def scene_label(scene: Scene) -> str:
-    """The scene in one phrase, with units: soil, law, body and landing (the summary, the history
-    plot's title and the MLflow run's name, so that two jobs of a sweep never read alike)."""
-    landing = scene.landing
-    motion = (f"push to {landing.displacement_m:g} m at {landing.velocity_m_s:g} m/s" if landing.kind == "push" else
-              f"{landing.kind} {landing.mass_kg:g} kg at {landing.velocity_m_s:g} m/s")
-    return f"{scene.soil.name} soil ({scene.soil.law}), {scene.geometry.name}, {motion}"
 
 
 #: the 3D track's max sinkage (grouser tips, cel3d's default mesh) less the 2D cross-section's (cel2d's),
@@ -332,7 +320,7 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
         print(f"[{run_dir.name}] {result.status}: {what}{runs.sweep_progress(run_dir.parent, run_dir.name)}")
         return
     print(f"\ndsmv: {result.status} — {what}")
-    print(f"  scene   : {scene_label(scene)}, solver {scene.solver.name}")
+    print(f"  scene   : {scene.label}, solver {scene.solver.name}")
     assumed = registry.load("soil_laws", scene.soil.law, "soil.law")(scene.soil).assumptions()
     if assumed:
         print(f"  assumed : {', '.join(assumed)} (provisional: no published source)")

@@ -309,6 +309,15 @@ class Scene:
         text = json.dumps(self.physics_dict(), sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
+    @property
+    def label(self) -> str:
+        """The scene in one phrase, with units: soil, law, body and landing (the run's summary, its history
+        plot's title and its MLflow tag ``dsmv.scene``)."""
+        landing = self.landing
+        motion = (f"push to {landing.displacement_m:g} m at {landing.velocity_m_s:g} m/s" if landing.kind == "push"
+                  else f"{landing.kind} {landing.mass_kg:g} kg at {landing.velocity_m_s:g} m/s")
+        return f"{self.soil.name} soil ({self.soil.law}), {self.geometry.name}, {motion}"
+
     def physics_dict(self) -> dict[str, Any]:
         """What decides a result (what the hash covers), as plain data: display settings excluded."""
         return {

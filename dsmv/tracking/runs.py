@@ -25,7 +25,7 @@ from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
 
-from dsmv.config.scene import TrackingConfig, build_tracking
+from dsmv.config.scene import RESULT_NEUTRAL_SOLVER_KEYS, TrackingConfig, build_tracking
 from dsmv.numba_cache import source_hash
 from dsmv.results import SolveResult, history_columns
 from dsmv.tracking.run_writer import for_job, open_client, resolve_uri, serve_sweep
@@ -48,14 +48,50 @@ def experiment_name(study: str) -> str:
 
 #: command-line overrides that say where and how a run is kept, not what it computes: left out of run names
 BOOKKEEPING_KEYS = ("paths", "tracking", "hydra", "output", "resume")
+#: overrides a job's run name leaves out because it names them otherwise: the solver and the soil law lead
+#: it, and the study is the MLflow experiment the run is in
+NAMED_OTHERWISE = ("solver", "solver.name", "soil.law", "experiment")
+#: the longest run name MLflow's database store keeps (its runs table's name column)
+RUN_NAME_CHARS = 250
 
 
-def scene_overrides(overrides) -> str:
-    """The overrides that change what a run computes, as typed (``landing.mass_kg=6500 mesh=coarse``)."""
-    def key(override: str) -> str:
-        return override.split("=", 1)[0].lstrip("+~").split(".", 1)[0].split("/", 1)[0]
+def _key(override: str) -> str:
+    """An override's key as typed, without ``+``, ``++`` or ``~`` (``landing.mass_kg``, ``hydra/launcher``)."""
+    return override.split("=", 1)[0].lstrip("+~")
 
-    return " ".join(o for o in overrides if key(o) not in BOOKKEEPING_KEYS)
+
+def _computing(overrides) -> list[str]:
+    """The overrides that change what a run computes, as typed."""
+    return [o for o in overrides if _key(o).split(".", 1)[0].split("/", 1)[0] not in BOOKKEEPING_KEYS]
+
+
+def short_overrides(overrides) -> list[str]:
+    """Overrides as a run's name shows them: each key by its last part unless two would read alike
+    (``landing.mass_kg=6500`` as ``mass_kg=6500``, ``soil=sample_II`` as typed)."""
+    last = [_key(o).rsplit(".", 1)[-1] for o in overrides]
+    return [f"{'~' if o.startswith('~') else ''}{short if last.count(short) == 1 else _key(o)}"
+            f"{'=' + o.split('=', 1)[1] if '=' in o else ''}" for o, short in zip(overrides, last)]
+
+
+def run_name(scene, overrides) -> str:
+    """A job's MLflow run name: its solver, its soil law and the overrides it was given that change what it
+    computes (a sweep's job: what the sweep varies), keys shortened (:func:`short_overrides`):
+    ``cel3d einav_randolph mass_kg=5000 velocity_m_s=1.0``. Settings that change no result
+    (``solver.max_wall_s`` …) are left out; the scene in words is the run's tag ``dsmv.scene``."""
+    def shown(override: str) -> bool:
+        key = _key(override)
+        neutral = key.startswith("solver.") and key.split(".", 1)[1] in RESULT_NEUTRAL_SOLVER_KEYS
+        return key not in NAMED_OTHERWISE and not neutral
+
+    words = short_overrides([o for o in _computing(overrides) if shown(o)])
+    return " ".join([scene.solver.name, scene.soil.law, *words])[:RUN_NAME_CHARS]
+
+
+def sweep_name(study: str, overrides, sweep_dir: Path) -> str:
+    """A sweep's parent run name: what it varies, keys shortened (``sweep mass_kg=4500,6500 mesh=coarse``);
+    a study that varies nothing on the command line: ``sweep <study> <sweep dir's name>``."""
+    varied = short_overrides([o for o in _computing(overrides) if _key(o) != "experiment"])
+    return (f"sweep {' '.join(varied)}" if varied else f"sweep {study} {Path(sweep_dir).name}")[:RUN_NAME_CHARS]
 
 
 def _client(tracking: TrackingConfig):
@@ -255,6 +291,7 @@ def start_job(cfg: DictConfig, scene, run_dir: Path, run_name: str, sweep_dir: P
         "dsmv.soil_law": scene.soil.law,
         "dsmv.solver": scene.solver.name,
         "dsmv.geometry": scene.geometry.name,
+        "dsmv.scene": scene.label,
         "dsmv.config_hash": scene.config_hash,
         "dsmv.code_hash": code_hash(),
         "dsmv.identity": identity(scene),
@@ -286,13 +323,12 @@ def open_sweep_run(config: DictConfig, sweep_dir: Path) -> None:
     sha = _git_sha()
     if sha:
         tags["mlflow.source.git.commit"] = sha
-    varied = scene_overrides(config.hydra.overrides.task)
-    name = f"sweep {study}: {varied}" if varied else f"sweep {study} {sweep_dir.name}"
+    name = sweep_name(study, config.hydra.overrides.task, sweep_dir)
     overrides = list(config.hydra.overrides.task)
     params = {"sweep.overrides": " ".join(overrides)[:6000]} if overrides else {}
     uri = resolve_uri(tracking.uri)
-    ticket = writer.ask("open", uri, tracking.artifact_location, experiment_name(study), name[:250], params, tags,
-                        None, str(sweep_dir / PARENT_RUN_FILE))
+    ticket = writer.ask("open", uri, tracking.artifact_location, experiment_name(study), name, params, tags, None,
+                        str(sweep_dir / PARENT_RUN_FILE))
     _parent_runs[str(sweep_dir)] = (writer, ticket, uri)  # (not on the callback: Hydra pickles its callbacks)
 
 
