@@ -81,37 +81,13 @@ def install_plugin(tmp_path, monkeypatch):
 @contextmanager
 def mlflow_server(backend_uri: str, folder: Path, workers: int = 1):
     """An MLflow server on a free loopback port over ``backend_uri``, its artifacts in ``folder``; yields its
-    URI once it answers, stops it at the end. A fresh virtualenv compiles the server's modules on first
-    start: it gets 240 s."""
-    import subprocess
-    import sys
-    import time
-    import urllib.request
+    URI once it answers, stops it at the end (:func:`dsmv.tracking.ui.serve`). A fresh virtualenv compiles
+    the server's modules on first start: it gets 240 s."""
+    from dsmv.tracking.ui import ServerError, free_port, serve
 
-    from dsmv.tracking.mlflow_check import free_port
-
-    port = free_port()
-    env = dict(os.environ, MLFLOW_SERVER_ENABLE_JOB_EXECUTION="false")
-    log = (folder / "server.log").open("w")
-    server = subprocess.Popen(
-        [str(Path(sys.executable).parent / "mlflow"), "server", "--host", "127.0.0.1", "--port", str(port),
-         "--workers", str(workers), "--backend-store-uri", backend_uri, "--artifacts-destination",
-         str(folder / "server_artifacts")],
-        cwd=folder, env=env, stdout=subprocess.DEVNULL, stderr=log,
-    )
-    uri = f"http://127.0.0.1:{port}"
-    try:
-        deadline = time.time() + 240
-        while True:
-            try:
-                urllib.request.urlopen(f"{uri}/health", timeout=1)
-                break
-            except OSError:
-                if time.time() > deadline or server.poll() is not None:
-                    pytest.fail("the MLflow server did not start: " + (folder / "server.log").read_text()[-2000:])
-                time.sleep(0.5)
-        yield uri
-    finally:
-        server.terminate()
-        server.wait(timeout=30)
-        log.close()
+    with (folder / "server.log").open("w") as log:
+        try:
+            with serve(backend_uri, free_port(), folder / "server_artifacts", workers, log=log, cwd=folder) as (uri, _):
+                yield uri
+        except ServerError as error:
+            pytest.fail(f"the MLflow server did not start: {error}: " + (folder / "server.log").read_text()[-2000:])

@@ -109,6 +109,8 @@ def as_hydra_app(line: str) -> tuple[str, list[str]] | None:
     while words and re.match(r"^[A-Z_]+=", words[0]):  # environment assignments
         words = words[1:]
     program = Path(words[0]).name if words else ""
+    if program == "dsmv" and words[1:2] == ["ui"]:  # taken before Hydra (dsmv.app.ui)
+        return None
     return (program, words[1:]) if program in HYDRA_APPS else None
 
 
@@ -162,6 +164,10 @@ def test_every_other_documented_command_names_what_exists():
             assert importlib.util.find_spec(words[2]) is not None, f"{where}: {line}"
         elif program.startswith(".venv/bin/"):
             assert (bin_dir / Path(program).name).exists(), f"{where}: {line}"
+            if words[:2] == [".venv/bin/dsmv", "ui"]:  # its options parse
+                from dsmv.app.ui import parser
+
+                parser().parse_args(words[2:])
         else:
             assert program == "curl", f"{where}: {line}"
     assert len(OTHER_COMMANDS) >= 10

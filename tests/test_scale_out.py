@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from dsmv.tracking.mlflow_check import free_port
+from dsmv.tracking.ui import free_port
 from tests.conftest import mlflow_runs, mlflow_server
 
 pytestmark = pytest.mark.server

@@ -47,9 +47,14 @@ INFO_FLAGS = {"--help", "-h", "--hydra-help", "--cfg", "-c", "--info", "-i", "--
 
 
 def simulate() -> None:
-    """``dsmv``: run one scene, or a sweep with ``-m``."""
+    """``dsmv``: run one scene, or a sweep with ``-m``; ``dsmv ui``: the MLflow UI on its store
+    (:mod:`dsmv.app.ui`, taken before Hydra reads the command line)."""
     import os
 
+    if sys.argv[1:2] == ["ui"]:
+        from dsmv.app.ui import main as ui_main
+
+        sys.exit(ui_main(sys.argv[2:]))
     # MLflow's messages go to the job's log (dsmv.app.joblog), not to a console handler of MLflow's own
     os.environ.setdefault("MLFLOW_CONFIGURE_LOGGING", "false")
     args = sys.argv[1:]

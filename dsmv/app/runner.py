@@ -22,7 +22,7 @@ from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
 from dsmv import registry
-from dsmv.app import interrupts
+from dsmv.app import interrupts, ui
 from dsmv.app.joblog import job_output
 from dsmv.config.scene import Scene, build_scene
 from dsmv.errors import DsmvError
@@ -344,4 +344,4 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
         if uri.startswith("http"):
             print(f"  browse  : {uri}")
         else:
-            print(f"  browse  : .venv/bin/mlflow ui --backend-store-uri {uri} --host 127.0.0.1")
+            print(f"  browse  : {ui.command_for(HydraConfig.get().overrides.task)}")

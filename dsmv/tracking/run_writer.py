@@ -61,6 +61,11 @@ def store_missing(uri: str) -> bool:
     return uri.startswith(prefix) and not Path(uri[len(prefix):]).exists()
 
 
+def artifact_uri(artifact_location: str) -> str:
+    """An artifact location as a URI: a folder (``runs/mlartifacts``) as an absolute ``file://`` URI."""
+    return artifact_location if "://" in artifact_location else Path(artifact_location).resolve().as_uri()
+
+
 def open_client(uri: str):
     from mlflow.tracking import MlflowClient
 
@@ -80,9 +85,7 @@ def experiment_id(client, name: str, artifact_location: str | None) -> str:
     found = client.get_experiment_by_name(name)
     if found is not None:
         return found.experiment_id
-    location = None
-    if artifact_location:
-        location = Path(artifact_location).resolve().as_uri() if "://" not in artifact_location else artifact_location
+    location = artifact_uri(artifact_location) if artifact_location else None
     tags = EXPERIMENT_KIND | {"mlflow.note.content": experiment_description(name)}
     try:
         return client.create_experiment(name, artifact_location=location, tags=tags)
