@@ -1,2 +1,3 @@
 """MLflow: a job's and a sweep's runs (:mod:`~dsmv.tracking.runs`), the writer process that writes them
-(:mod:`~dsmv.tracking.run_writer`) and the store's check (:mod:`~dsmv.tracking.mlflow_check`)."""
+(:mod:`~dsmv.tracking.run_writer`), the UI's server and links (:mod:`~dsmv.tracking.ui`) and the UI's
+check (:mod:`~dsmv.tracking.mlflow_check`)."""
