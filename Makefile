@@ -40,7 +40,7 @@ $(DOCS_STAMP): pyproject.toml
 report: install
 	$(BIN)/dsmv-report $(REPORT_ARGS)
 
-# The MLflow UI as a user sees it: a two-job sweep, the UI on loopback, three screenshots in
+# The MLflow UI as a user sees it: a two-job sweep, dsmv ui over its store, four screenshots in
 # headless Chromium (Debian's chromium package) into runs/mlflow_screenshots.
 mlflow-screenshots: install
 	$(BIN)/python -m dsmv.tracking.mlflow_check runs/mlflow_screenshots
