@@ -344,4 +344,4 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
         if uri.startswith("http"):
             print(f"  browse  : {uri}")
         else:
-            print(f"  browse  : {ui.command_for(HydraConfig.get().overrides.task)}")
+            print(f"  browse  : {ui.command_for(overrides)}")
