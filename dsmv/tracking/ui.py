@@ -49,8 +49,10 @@ def free_port() -> int:
 
 
 def port_in_use(port: int) -> bool:
-    """Whether ``port`` at the loopback address cannot be bound (something listens on it)."""
+    """Whether a server cannot listen on ``port`` at the loopback address (something listens on it). Bound as
+    the server binds it, with SO_REUSEADDR: the connections a stopped server leaves waiting do not count."""
     with socket.socket() as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
             s.bind((LOOPBACK, port))
         except OSError:
