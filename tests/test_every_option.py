@@ -82,9 +82,10 @@ def refused_key(geometry: str, landing: str, solver: str) -> str | None:
         return "landing.velocity_m_s"  # the fall cone is released from rest: a push needs a speed
     if solver == "analytic_energy" and geometry in ("tbar", "fall_cone_30deg"):
         return "geometry.kind"  # the energy method models tracks, strips and plates
-    if solver == "analytic_dynamic" and geometry not in ("track_pioneer_i", "strip"):
+    fast_model = solver in ("analytic_dynamic", "analytic_dynamic_3d")  # the section's and the 3D track's
+    if fast_model and geometry not in ("track_pioneer_i", "strip"):
         return "geometry.kind"  # the fast landing model was measured on tracks and strips
-    if solver == "analytic_dynamic" and landing == "push":
+    if fast_model and landing == "push":
         return "landing.kind"  # it lands bodies; a push is the energy method's
     if solver == "cel2d" and geometry == "rectangular_plate":
         return "geometry.kind"  # a rectangle is a 3D body (a circle is axisymmetric in 2D)
