@@ -94,11 +94,11 @@ def test_2x2_multirun_leaves_one_parent_and_four_finished_children(run_cli, tmp_
     got = sorted((c.data.params["landing.velocity_m_s"], c.data.params["soil.su0_pa"]) for c in children)
     assert got == [("0.5", "4000"), ("0.5", "6000"), ("1.0", "4000"), ("1.0", "6000")]
     assert all("max_sinkage_m" in c.data.metrics for c in children)
-    # named by what they compute: the sweep by its overrides, a job by its solver, soil law and values;
+    # named by what they compute: the sweep by its overrides, a job by its values, solver and soil law;
     # where results go and how they are kept (output, hydra, paths, tracking) name nothing
     assert parent.info.run_name == "sweep velocity_m_s=0.5,1.0 su0_pa=4000,6000"
     names = {c.info.run_name for c in children}
-    assert "cel2d einav_randolph velocity_m_s=1.0 su0_pa=6000" in names and len(names) == 4
+    assert "velocity_m_s=1.0 su0_pa=6000 cel2d einav_randolph" in names and len(names) == 4
     sweep_dir = jobs[0].parent
     assert (sweep_dir / "sweep_summary.csv").read_text().count("\n") == 5
 

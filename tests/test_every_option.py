@@ -120,7 +120,7 @@ MESHES = [pytest.param(m, marks=[pytest.mark.slow] if m == "fine" else []) for m
 def test_every_mesh(compose_cfg, mesh):
     outcome, what = run_or_refuse(_compose(compose_cfg, [f"mesh={mesh}"], quick_mesh=False))
     assert outcome == "ran", what
-    assert what.metrics["core_cell_size_m"] <= compose_cfg([f"mesh={mesh}"]).mesh.cell_size_m
+    assert what.metrics["core_cell_size_m"] <= build_scene(compose_cfg([f"mesh={mesh}"])).mesh.cell_size_m
 
 
 @pytest.mark.parametrize("tracking", group_options("tracking"))

@@ -33,15 +33,15 @@ def test_the_link_opens_the_experiments_runs_in_the_classic_view():
         "http://h:1/#/experiments/7/runs?workflowType=machine_learning&searchFilter=metrics.max_sinkage_m%20%3E%200"
 
 
-def test_a_3d_and_a_2d_run_are_named_by_solver_soil_law_and_overrides():
+def test_a_3d_and_a_2d_run_are_named_by_overrides_solver_and_soil_law():
     plate = ["solver=cel3d", "geometry=rectangular_plate", "landing.mass_kg=5000", "landing.velocity_m_s=1.0"]
     # where and how a run is kept, settings that change no result and the study name nothing
     kept = ["paths.runs_dir=/tmp/r", "hydra/launcher=joblib", "tracking=disabled", "solver.max_wall_s=7200",
             "experiment=study_mesh_3d", "output.plots=false"]
     assert run_name(compose_scene(plate), plate + kept) == \
-        "cel3d einav_randolph geometry=rectangular_plate mass_kg=5000 velocity_m_s=1.0"
+        "geometry=rectangular_plate mass_kg=5000 velocity_m_s=1.0 cel3d einav_randolph"
     track = ["soil=sample_II", "soil.law=tresca", "landing.mass_kg=6500", "geometry.contact_length_m=5.2"]
-    assert run_name(compose_scene(track), track) == "cel2d tresca soil=sample_II mass_kg=6500 contact_length_m=5.2"
+    assert run_name(compose_scene(track), track) == "soil=sample_II mass_kg=6500 contact_length_m=5.2 cel2d tresca"
     assert run_name(compose_scene([]), []) == "cel2d einav_randolph"
 
 

@@ -291,11 +291,12 @@ class CelSolver:
         progress = self.scene.solver.progress
         return progress == "on" or (progress == "auto" and not in_sweep())
 
-    def expected_duration_s(self) -> float:
+    def expected_duration_s(self, until_rest: bool = False) -> float:
         """How long the run is expected to last in simulated time (s): a push's displacement over its
         speed; a landing's time to rest from the fast landing model (milliseconds; within 10 % of the
         CEL on the default track in 2D and 3D), or the energy method's for bodies that model does not
-        land; twice that when the run goes on past rest (``solver.stop_at_rest=false``)."""
+        land; twice that when the run goes on past rest (``solver.economies.stop_at_rest=false``),
+        unless ``until_rest``."""
         scene, landing, grav = self.scene, self.scene.landing, self.scene.landing.gravity_m_s2
         if landing.kind == "drop" and self.cone:  # from rest under gravity; without it, at its touchdown speed
             return (4.0 * math.sqrt(2.0 * self.travel / grav) if grav > 0
@@ -309,11 +310,12 @@ class CelSolver:
         rest = model.solve().metrics.get("time_to_rest_s", math.inf)
         if not math.isfinite(rest):  # the soil will not stop it: it runs through the travel near its speed
             return self.travel / max(landing.velocity_m_s, 0.1)
-        return rest if self.scene.solver.economies.stop_at_rest else 2.0 * rest
+        return rest if until_rest or self.scene.solver.economies.stop_at_rest else 2.0 * rest
 
     def steps_per_sample(self, state: State) -> int:
-        """Steps per history sample, from the run's expected duration."""
-        return max(1, int(self.expected_duration_s() / state.par.dt / self.scene.solver.history_samples))
+        """Steps per history sample, from the run's expected duration until rest (the same samples
+        whether the run stops there or goes on)."""
+        return max(1, int(self.expected_duration_s(until_rest=True) / state.par.dt / self.scene.solver.history_samples))
 
     def thread_count(self, cells: int) -> int:
         """Numba threads the kernels run on: the 2D kernels are serial."""

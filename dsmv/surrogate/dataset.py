@@ -126,7 +126,8 @@ def study_command(study: str) -> str:
     """The ``dsmv`` command whose runs make up ``study``: ``dsmv experiment=<name>`` for the experiment
     of conf/ (or of a plugin package's config tree) that sets ``study: <study>``, else a sweep tagged
     with it (``dsmv -m study=<study> …``)."""
-    import yaml
+    from omegaconf import OmegaConf
+    from omegaconf.errors import OmegaConfBaseException
 
     from dsmv import registry
     from dsmv.config.tree import CONFIG_DIR
@@ -134,8 +135,8 @@ def study_command(study: str) -> str:
     for root in (CONFIG_DIR, *registry.config_dirs()):
         for path in sorted((Path(root) / "experiment").glob("*.yaml")):
             try:
-                text = yaml.safe_load(path.read_text())
-            except (OSError, yaml.YAMLError):
+                text = OmegaConf.to_container(OmegaConf.load(path))
+            except (OSError, ValueError, OmegaConfBaseException):
                 continue
             if isinstance(text, dict) and text.get("study") == study:
                 return f"dsmv experiment={path.stem}"

@@ -74,9 +74,10 @@ def short_overrides(overrides) -> list[str]:
 
 
 def run_name(scene, overrides) -> str:
-    """A job's MLflow run name: its solver, its soil law and the overrides it was given that change what it
-    computes (a sweep's job: what the sweep varies), keys shortened (:func:`short_overrides`):
-    ``cel3d einav_randolph mass_kg=5000 velocity_m_s=1.0``. Settings that change no result
+    """A job's MLflow run name: the overrides it was given that change what it computes (a sweep's job:
+    what the sweep varies), keys shortened (:func:`short_overrides`), then its solver and soil law:
+    ``mass_kg=5000 velocity_m_s=1.0 cel3d einav_randolph``. What differs between the jobs of a sweep
+    comes first, as MLflow's runs list shows a name's first 20 characters or so. Settings that change no result
     (``solver.max_wall_s`` …) are left out; the scene in words is the run's tag ``dsmv.scene``."""
     def shown(override: str) -> bool:
         key = _key(override)
@@ -84,7 +85,7 @@ def run_name(scene, overrides) -> str:
         return key not in NAMED_OTHERWISE and not neutral
 
     words = short_overrides([o for o in _computing(overrides) if shown(o)])
-    return " ".join([scene.solver.name, scene.soil.law, *words])[:RUN_NAME_CHARS]
+    return " ".join([*words, scene.solver.name, scene.soil.law])[:RUN_NAME_CHARS]
 
 
 def sweep_name(study: str, overrides, sweep_dir: Path) -> str:
