@@ -139,7 +139,11 @@ def test_scene_outside_the_training_range_warns(store, capsys):
     out = run_predict(config(store, "soil.su0_pa=9000", "confidence=0.8"))
     assert out["outside_training_range"] == ["soil.su0_pa"]
     assert out["upper_m"] - out["sinkage_m"] == pytest.approx(B * residual_quantile(RESIDUALS, 0.8))
-    assert "warning: the scene lies outside the training data: soil.su0_pa = 9000 not in" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "warning: the scene lies outside the training data: soil.su0_pa = 9000 not in" in printed
+    # beside it, what the physics says and the CEL run that answers it
+    assert f"the fast landing model says {out['fast_model_sinkage_m']:.4f} m" in printed
+    assert "the CEL: dsmv solver=cel2d" in printed and "soil.su0_pa=9000" in printed
 
 
 @pytest.mark.parametrize("task, parameter, column", [("max_velocity", "landing.velocity_m_s", "velocity_m_s"),

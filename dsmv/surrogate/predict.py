@@ -483,7 +483,13 @@ def run_predict(cfg: DictConfig, run_dir: Path | None = None, overrides: list[st
     print(f"  sinkage  : {mid[0]:.4f} m{interval}  ({predict_s * 1e3:.1f} ms)")
     outside = predictor.model.out_of_range(base)
     if outside:
-        print(f"warning: the scene lies outside the training data: {_outside_text(predictor.model, outside, base)}")
+        # a forest does not extrapolate: beyond its data its answer and interval are its edge's
+        column = next(iter(outside))
+        fast = float(fast_sinkage(base, settings=meta.get("fast_model"))[0])
+        print(f"warning: the scene lies outside the training data: {_outside_text(predictor.model, outside, base)}; "
+              f"the surrogate's answer and interval do not hold there. The fast landing model says {fast:.4f} m; "
+              f"the CEL: {check_command(predictor, base, PARAMETERS[column], float(base[column].iloc[0]))}")
+        out["fast_model_sinkage_m"] = fast
     out |= {"sinkage_m": float(mid[0]), "lower_m": float(lower[0]), "upper_m": float(upper[0]),
             "outside_training_range": sorted(PARAMETERS[k] for k in outside)}
 
