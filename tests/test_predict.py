@@ -142,7 +142,7 @@ def test_scene_outside_the_training_range_warns(store, capsys):
     printed = capsys.readouterr().out
     assert "warning: the scene lies outside the training data: soil.su0_pa = 9000 not in" in printed
     # beside it, what the physics says and the CEL run that answers it
-    assert f"the fast landing model says {out['fast_model_sinkage_m']:.4f} m" in printed
+    assert f"The fast landing model says {out['fast_model_sinkage_m']:.4f} m" in printed
     assert "the CEL: dsmv solver=cel2d" in printed and "soil.su0_pa=9000" in printed
 
 
