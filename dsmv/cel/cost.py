@@ -4,8 +4,8 @@ A step costs a fixed overhead (the parallel regions, the trackers between chunks
 cell that holds soil: the kernels skip void cells, so the grid's void above the mudline costs
 almost nothing, and counting it made the old estimate 0.5–2× off between scenes of one solver.
 The rates differ by dimension, by soil law (a law with state and a rate effect costs 2–3× Tresca)
-and, in 3D, by thread count. ``dsmv-bench --cost`` measures them (two meshes per case, the two
-unknowns solved exactly) and writes :data:`THROUGHPUT_FILE` with the machine it ran on; it then
+and, in 3D, by thread count. ``dsmv-bench --cost`` measures them (two meshes per case, the overhead
+and the rates of a dimension by least squares) and writes :data:`THROUGHPUT_FILE` with the machine it ran on; it then
 runs the scenes of ``docs/verification/performance.md``'s cost table, estimate against actual.
 """
 

@@ -13,8 +13,8 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from pathlib import Path
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Annotated, Any, Literal, Optional, Union
 
 from omegaconf import DictConfig, OmegaConf, open_dict

@@ -5,11 +5,9 @@ the plugin packages' config groups on the search path."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from hydra.core.plugins import Plugins
 
-from dsmv.config.location import CONFIG_DIR, find_config_dir  # noqa: F401 (where the entry points find it)
+from dsmv.config.location import CONFIG_DIR  # noqa: F401 (where the entry points find it)
 from dsmv.config.scene import Scene, build_scene
 from dsmv.registry import register_plugin_configs
 from hydra_plugins.dsmv_sweeper.case_sweeper import CaseSweeper

@@ -74,18 +74,18 @@ def learning_curve(table: pd.DataFrame, section: pd.DataFrame | None = None, rep
             train = pool.iloc[rng.permutation(len(pool))[:n]].reset_index(drop=True)
             y = target(train)
             inputs, inputs_test = LeakFreeFeatures().transform(train), LeakFreeFeatures().transform(test)
-            models = {"3D only": (inputs, inputs_test)}
             fitted = calibrate(train, settings=settings)
-            fast = {name: fast_sinkage(t, fitted, settings) / t["width_m"].to_numpy(float)
-                    for name, t in (("train", train), ("test", test))}
-            models["+ fast model"] = (inputs.assign(fast=fast["train"]), inputs_test.assign(fast=fast["test"]))
+            fast, fast_test = (fast_sinkage(t, fitted, settings) / t["width_m"].to_numpy(float) for t in (train, test))
+            # name: (train features, test features, the low fidelity corrected on train and test, or None)
+            models = {"3D only": (inputs, inputs_test, None),
+                      "+ fast model": (inputs.assign(fast=fast), inputs_test.assign(fast=fast_test), (fast, fast_test))}
             if low is not None:
-                models["+ 2D section"] = (inputs.assign(fast=fast["train"], section=low(train)),
-                                          inputs_test.assign(fast=fast["test"], section=low(test)))
-            for name, (X, X_test) in models.items():
-                score = r2_score(y_test, fit_predict(X, y, X_test, seed + repeat, base={
-                    "+ fast model": (fast["train"], fast["test"])}.get(name) or (
-                    (X["section"].to_numpy(), X_test["section"].to_numpy()) if "section" in X else None)))
+                section, section_test = low(train), low(test)
+                models["+ 2D section"] = (inputs.assign(fast=fast, section=section),
+                                          inputs_test.assign(fast=fast_test, section=section_test),
+                                          (section, section_test))
+            for name, (X, X_test, base) in models.items():
+                score = r2_score(y_test, fit_predict(X, y, X_test, seed + repeat, base))
                 rows.append({"model": name, "n_3d_runs": n, "repeat": repeat, "r2": score})
             print(f"  n = {n:3d}, draw {repeat}: " + ", ".join(f"{r['model']} {r['r2']:.3f}" for r in rows[-len(models):]),
                   flush=True)
