@@ -17,7 +17,9 @@ from dsmv.cel import controller as C
 from dsmv.cel.body import nodes_touching, solid_cells
 from dsmv.cel.contact import fixed_velocities, touchdown_mass
 from dsmv.cel.kernels.nodes import apply_fixed, apply_ties, gather_travel, nodal_mass, tie_reactions, update_velocities
-from dsmv.cel.layout import B_TIME, B_VEL, N_BODY, Cells, Contact, Mesh2D, Nodes, corner_offsets, structured_corners
+from dsmv.cel.layout import (
+    B_TIME, B_VEL, B_VX, B_VY, B_WX, B_WY, B_WZ, N_BODY, Cells, Contact, Mesh2D, Nodes, corner_offsets, structured_corners,
+)
 
 NX, NY, NZ = 4, 1, 3  # a slab one cell thick across y
 AXES = (np.linspace(0.0, 2.0, NX + 1), np.linspace(0.0, 0.5, NY + 1), np.linspace(-1.5, 0.0, NZ + 1))
@@ -108,12 +110,23 @@ def test_the_node_stages_in_blocks_match_the_serial_ones_on_any_thread_count():
         numba.set_num_threads(previous)
 
 
-def _contact(fixed_node, fixed_axis, tied=(), full=(), normal=np.zeros((0, 3))):
+def _contact(fixed_node, fixed_axis, tied=(), full=(), normal=np.zeros((0, 3)), arm=None):
     tied = np.asarray(tied, dtype=np.int64)
     none = np.zeros(0, dtype=np.int64)
+    arm = np.zeros((len(tied), 3)) if arm is None else np.asarray(arm, dtype=float)
     return Contact(tied, np.asarray(full, dtype=bool), np.asarray(normal, dtype=float), np.zeros(len(tied)),
                    np.zeros(len(tied) + 1, dtype=np.int64), np.zeros((0, 2), dtype=np.int64),
-                   np.ones(len(tied), dtype=bool), none, none, fixed_node, fixed_axis, np.zeros((0, 4), dtype=np.int64))
+                   np.ones(len(tied), dtype=bool), none, none, fixed_node, fixed_axis, np.zeros((0, 4), dtype=np.int64),
+                   arm)
+
+
+def _body(**velocities):
+    """The body's state array with the velocities named (vz, vx, vy, wx, wy, wz)."""
+    body = np.zeros(N_BODY)
+    slots = {"vz": B_VEL, "vx": B_VX, "vy": B_VY, "wx": B_WX, "wy": B_WY, "wz": B_WZ}
+    for name, value in velocities.items():
+        body[slots[name]] = value
+    return body
 
 
 def test_ties_move_nodes_with_the_body_in_three_axes(slab):
@@ -124,15 +137,45 @@ def test_ties_move_nodes_with_the_body_in_three_axes(slab):
                        [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
     nodes.v[:, a] = (0.3, -0.2, 0.1)
     nodes.v[:, b] = (0.3, -0.2, 0.1)
-    apply_ties(contact, nodes, -1.5)
+    apply_ties(contact, nodes, _body(vz=-1.5))
     assert tuple(nodes.v[:, a]) == (0.0, 0.0, -1.5)
     assert tuple(nodes.v[:, b]) == (0.0, -0.2, 0.1)  # only the normal part is the body's (0 along x)
     nodes.f[2, a], nodes.f[0, b] = 5.0, 7.0
-    force, added = tie_reactions(contact, nodes, 9.81)
-    assert force == pytest.approx(5.0 - nodes.mass[a] * 9.81) and added == nodes.mass[a]  # a wall takes no weight
+    force, inertia = np.zeros(6), np.zeros((6, 6))
+    tie_reactions(contact, nodes, 9.81, force, inertia)
+    assert force[2] == pytest.approx(5.0 - nodes.mass[a] * 9.81)  # a wall takes no weight
+    assert force[0] == 7.0  # but pushes the body sideways
+    assert inertia[2, 2] == nodes.mass[a] and inertia[0, 0] == nodes.mass[a] + nodes.mass[b]
     assert touchdown_mass(contact, nodes.mass) == nodes.mass[a]
     assert gather_travel(nodes, -1.5, 0.01) == pytest.approx((0.1 + 1.5) * 0.01)  # b rises through the grid
     assert tuple(nodes.travel[:, a]) == (0.0, 0.0, 0.0)  # the fully tied node keeps pace with the grid
+
+
+def test_a_turning_body_moves_its_ties_with_v_plus_omega_cross_r(slab):
+    """A rigid body's velocity at a tie is v + ω × r, and the reaction it gets is the force and its moment
+    r × f about the centre of gravity: the exact kinematics, checked on three arms."""
+    mesh, cells, nodes = slab
+    nodal_mass(mesh, cells, 1600.0, nodes.mass)
+    tied = [node(1, 0, 3), node(2, 1, 3), node(3, 1, 2)]
+    arm = np.array([[0.4, -0.2, 0.1], [-0.3, 0.5, -0.25], [0.2, 0.1, 0.6]])
+    contact = _contact(np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), tied, [True] * 3,
+                       np.zeros((3, 3)), arm)
+    v, w = np.array([0.3, -0.1, -1.2]), np.array([0.5, -0.7, 0.2])
+    apply_ties(contact, nodes, _body(vx=v[0], vy=v[1], vz=v[2], wx=w[0], wy=w[1], wz=w[2]))
+    for k, n in enumerate(tied):
+        assert nodes.v[:, n] == pytest.approx(v + np.cross(w, arm[k]), rel=1e-14)
+    f = np.array([[1.0, 2.0, 3.0], [-4.0, 0.5, 2.0], [0.25, -1.0, 7.0]])
+    for k, n in enumerate(tied):
+        nodes.f[:, n] = f[k]
+    force, inertia = np.zeros(6), np.zeros((6, 6))
+    tie_reactions(contact, nodes, 0.0, force, inertia)
+    assert force[:3] == pytest.approx(f.sum(axis=0), rel=1e-14)
+    assert force[3:] == pytest.approx(np.cross(arm, f).sum(axis=0), rel=1e-14)
+    # the tied nodes' inertia: Σ m·JᵀJ, J = [I, −[r]×], whose rotational block is the inertia tensor Σ m(r²I − rrᵀ)
+    m = nodes.mass[tied]
+    tensor = sum(mk * (rk @ rk * np.eye(3) - np.outer(rk, rk)) for mk, rk in zip(m, arm))
+    assert inertia[3:, 3:] == pytest.approx(tensor, rel=1e-13)
+    assert inertia[:3, :3] == pytest.approx(m.sum() * np.eye(3), rel=1e-14)
 
 
 def test_one_rasteriser_for_three_axes():

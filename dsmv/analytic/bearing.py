@@ -25,6 +25,31 @@ PRANDTL_NC = 2.0 + math.pi  # Prandtl (1920): rigid strip on the surface of weig
 #: a deeply embedded cylinder (T-bar) in weightless Tresca soil, full flow round it: Randolph &
 #: Houlsby (1984) for the rough one, Martin & Randolph (2006) for the smooth one (exact)
 TBAR_NC = {"rough": 11.94, "smooth": 9.20}
+
+
+def green_vertical(h: float) -> float:
+    """Green (1954): the exact vertical capacity V/(B·su) of a rough rigid strip on the surface of
+    weightless Tresca soil carrying the horizontal load h = H/(B·su), 0 ≤ h ≤ 1:
+    1 + π − arcsin h + √(1 − h²); 2 + π at h = 0 (Prandtl), 1 + π/2 at h = 1, where the strip slides
+    along its base (any smaller V slides at H = B·su too)."""
+    if not 0.0 <= h <= 1.0:
+        raise ValueError(f"h = H/(B·su) must lie in [0, 1], not {h}")
+    return 1.0 + math.pi - math.asin(h) + math.sqrt(1.0 - h * h)
+
+
+def green_radial_factor(h: float, v: float) -> float:
+    """How far the load point (h, v) = (H, V)/(B·su) lies from Green's envelope along its ray from the
+    origin: λ with (h, v)/λ on the envelope (1: on it, > 1: beyond it). Bisection on λ, the envelope
+    being convex (the flat sliding part H = B·su below V = (1 + π/2)·B·su included)."""
+    def outside(lam: float) -> bool:
+        hh, vv = abs(h) / lam, v / lam
+        return hh > 1.0 or vv > green_vertical(hh)
+
+    low, high = 1e-6, 1e6
+    for _ in range(200):
+        mid = math.sqrt(low * high)
+        low, high = (mid, high) if outside(mid) else (low, mid)
+    return math.sqrt(low * high)
 #: rigorous lower bounds on q/su of a strip wished in place 0.05 B deep, its soil tied to the walls
 #: along their normal as dsmv's CEL contact ties it: dsmv.analytic.limit_analysis on its finest
 #: mesh, ``python -m dsmv.analytic.limit_analysis --depth 0.05 --roughness rough`` (the rough bound

@@ -53,7 +53,7 @@ class ContactRules:
         rules = cls(body.kind, getattr(body, "view", "cross_section") == "longitudinal", body.adhesion_factor,
                     body.roughness, axisymmetric, asked is True)
         if asked == "auto":
-            landing = scene.landing.kind == "drop" and scene.solver.economies.symmetry
+            landing = scene.landing.kind == "drop" and scene.solver.economies.symmetry and scene.landing.symmetric
             rules = replace(rules, separation=rules.separable and landing)
         return rules
 
@@ -268,6 +268,19 @@ def fixed_velocities(node_shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarra
     return np.concatenate(nodes).astype(np.int64), order.astype(np.int64)
 
 
+def tie_arms(axes, node: np.ndarray, split_node: np.ndarray, split_parent: np.ndarray, base_m: float) -> np.ndarray:
+    """Each tied node's position (ties, d) relative to the body's reference point: the middle of its
+    base, on the model's axis (x = 0, and y = 0 in 3D) at height ``base_m`` (m). A split node sits
+    where the node it copies does."""
+    shape = tuple(len(a) for a in axes)
+    parent = np.arange(int(np.prod(shape)) + len(split_node))
+    parent[split_node] = split_parent
+    index = np.unravel_index(parent[node], shape)
+    arm = np.stack([a[i] for a, i in zip(axes, index)], axis=1)
+    arm[:, -1] -= base_m
+    return np.ascontiguousarray(arm)
+
+
 def build_contact(rules: ContactRules, shape, grid: Grid2D, j_base: int) -> BodyContact:
     """The body's cells, openings and contact table on a grid, from the rules."""
     solid = solid_cells(shape, grid)
@@ -287,8 +300,9 @@ def build_contact(rules: ContactRules, shape, grid: Grid2D, j_base: int) -> Body
     split_normal[:, 0] = [side for *_, side, _grip, _cap in splits]
     # the ties: the grid's, then the split nodes' (tied along the wall's normal, with its adhesion)
     fixed_node, fixed_axis = fixed_velocities((grid.nx + 1, grid.ny + 1))
+    node = np.concatenate([tie_i * ny1 + tie_j, split_node]).astype(np.int64)
     contact = Contact(
-        node=np.concatenate([tie_i * ny1 + tie_j, split_node]).astype(np.int64),
+        node=node,
         full=np.concatenate([full, np.zeros(len(splits), dtype=np.bool_)]),
         normal=np.ascontiguousarray(np.concatenate([normal, split_normal])),
         cap=np.concatenate([cap, [c for *_, c in splits]]).astype(float),
@@ -297,6 +311,7 @@ def build_contact(rules: ContactRules, shape, grid: Grid2D, j_base: int) -> Body
         split_node=split_node, split_parent=split_parent,
         fixed_node=fixed_node, fixed_axis=fixed_axis,
         merge=sliver_pairs(openings),
+        arm=tie_arms((grid.x, grid.y), node, split_node, split_parent, grid.y[j_base]),
     )
     factor = np.ones(solid.shape)
     if rules.cut_cells:
@@ -463,17 +478,20 @@ def build_plate_contact(shape, grid, k_base: int, alpha: float, wall_area: float
     fixed_node, fixed_axis = fixed_velocities(node_shape)
     n_split = len(split_node)
     extra = np.array(split_fixed, dtype=np.int64).reshape(-1, 2)
+    node = np.concatenate([np.ravel_multi_index((tie_i, tie_j, tie_k), node_shape), split_node]).astype(np.int64)
+    split_node, split_parent = np.array(split_node, dtype=np.int64), np.array(split_parent, dtype=np.int64)
     contact = Contact(
-        node=np.concatenate([np.ravel_multi_index((tie_i, tie_j, tie_k), node_shape), split_node]).astype(np.int64),
+        node=node,
         full=np.concatenate([full, np.zeros(n_split, dtype=np.bool_)]),
         normal=np.ascontiguousarray(np.concatenate([normal, np.array(split_normal).reshape(-1, 3)])),
         cap=np.concatenate([cap, split_cap]),
         grip_start=np.concatenate([[0], np.cumsum([len(g) for g in grips + split_grips])]).astype(np.int64),
         grip_cell=np.array([c for g in grips + split_grips for c in g], dtype=np.int64).reshape(-1, 3),
         holding=np.ones(len(tie_i) + n_split, dtype=np.bool_),
-        split_node=np.array(split_node, dtype=np.int64), split_parent=np.array(split_parent, dtype=np.int64),
+        split_node=split_node, split_parent=split_parent,
         fixed_node=np.concatenate([fixed_node, extra[:, 0]]), fixed_axis=np.concatenate([fixed_axis, extra[:, 1]]),
         merge=np.zeros((0, 6), dtype=np.int64),
+        arm=tie_arms((grid.x, grid.y, grid.z), node, split_node, split_parent, grid.z[k_base]),
     )
     return BodyContact(solid, Openings(1.0 - solid, np.zeros(0), np.zeros(0)), contact, corner, n_grid + n_split,
                        np.ones(solid.shape), np.zeros(solid.shape, dtype=bool))

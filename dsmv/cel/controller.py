@@ -38,7 +38,9 @@ import numpy as np
 
 from dsmv.cel import ledger
 from dsmv.cel.kernels.common import all_finite
-from dsmv.cel.layout import B_FCOUNT, B_FSUM, B_MAXDISP, B_OFFSET, B_TIME, B_VEL
+from dsmv.cel.layout import (
+    B_FCOUNT, B_HSUM_X, B_MAXDISP, B_MSUM_Y, B_OFFSET, B_OFFSET_X, B_ROT_Y, B_TIME, B_VEL, FORCE_SLOTS,
+)
 from dsmv.cel.stepper import AT_REST, NOT_FINITE, OUTRAN, RUNNING
 
 
@@ -82,10 +84,35 @@ class Run:
     def max_sinkage_m(self) -> float:
         return self.start_sinkage_m + float(self.body[B_MAXDISP])
 
+    def mean_reaction(self, slot: int) -> float:
+        """The soil's mean force or moment on the body over the last chunk, per track, from its sum in ``slot``."""
+        return self.force_scale * self.body[slot] / max(self.body[B_FCOUNT], 1.0)
+
     @property
     def force_n(self) -> float:
         """The soil's mean force on the body over the last chunk, per track (N, up +)."""
-        return self.force_scale * self.body[B_FSUM] / max(self.body[B_FCOUNT], 1.0)
+        return self.mean_reaction(FORCE_SLOTS[2])
+
+    @property
+    def horizontal_force_n(self) -> float:
+        """The soil's mean force on the body along +x over the last chunk, per track (N)."""
+        return self.mean_reaction(B_HSUM_X)
+
+    @property
+    def moment_n_m(self) -> float:
+        """The soil's mean moment on the body about y through its centre of gravity over the last chunk,
+        per track (N·m; + turns it as a positive rotation does, lowering the +x side)."""
+        return self.mean_reaction(B_MSUM_Y)
+
+    @property
+    def rotation_deg(self) -> float:
+        """The body's rotation about y (degrees; + has lowered the +x side)."""
+        return math.degrees(float(self.body[B_ROT_Y]))
+
+    @property
+    def horizontal_displacement_m(self) -> float:
+        """How far the body's centre has moved along +x (m)."""
+        return float(self.body[B_OFFSET_X])
 
 
 class Cadence:
@@ -163,7 +190,7 @@ class Controller:
                 tracker.start(run)
             t_run = time.perf_counter()
             while True:
-                run.body[B_FSUM] = 0.0
+                run.body[FORCE_SLOTS] = 0.0
                 run.body[B_FCOUNT] = 0.0
                 self.step_chunk(run)
                 ending = self.interrupted(run) or self.look(run)
@@ -236,17 +263,25 @@ class Controller:
 # ----------------------------------------------------------------------------- observers
 
 
+#: the history's columns of a body that may slide or turn (the :class:`Run` properties of the same names)
+PLANAR_COLUMNS = ("horizontal_force_n", "moment_n_m", "rotation_deg", "horizontal_displacement_m")
+
+
 class History(Tracker):
     """The time history: time, sinkage, the body's downward velocity and the soil's force, per chunk,
-    from the touchdown on (downward velocity ``velocity0_m_s``)."""
+    from the touchdown on (downward velocity ``velocity0_m_s``); with ``planar``, also the horizontal
+    force, the moment, the rotation and the horizontal displacement (:data:`PLANAR_COLUMNS`)."""
 
-    def __init__(self, velocity0_m_s: float):
+    def __init__(self, velocity0_m_s: float, planar: bool = False):
         self.velocity0_m_s = velocity0_m_s
+        self.extra = PLANAR_COLUMNS if planar else ()
 
     def start(self, run: Run) -> None:
         for name, value in (("time_s", 0.0), ("sinkage_m", run.start_sinkage_m), ("velocity_m_s", self.velocity0_m_s),
                             ("force_n", 0.0)):
             run.history[name].append(value)
+        for name in self.extra:
+            run.history[name] = [0.0 if name.endswith(("_n", "_n_m")) else getattr(run, name)]
 
     def after_chunk(self, run: Run) -> None:
         h = run.history
@@ -254,6 +289,8 @@ class History(Tracker):
         h["sinkage_m"].append(run.sinkage_m)
         h["velocity_m_s"].append(-run.body[B_VEL])
         h["force_n"].append(run.force_n)
+        for name in self.extra:
+            h[name].append(getattr(run, name))
 
 
 class Zigzag(Tracker):
@@ -487,13 +524,21 @@ class BearingFailure(Tracker):
 
 @dataclass
 class PushEnd(Tracker):
-    """A push ends at its displacement."""
+    """A push ends at its displacement (m, of the translations it drives: ``pose_slots``, the body's
+    slots of their displacements) or its rotation (degrees, when it drives one)."""
 
-    displacement: float
+    displacement: Optional[float]
+    pose_slots: tuple = (B_OFFSET,)
+    rotation_deg: Optional[float] = None
 
     def after_chunk(self, run: Run) -> Optional[Ending]:
-        if run.travel_m >= self.displacement - 1e-12:
-            return Ending("ok", f"pushed to {run.sinkage_m:.4g} m")
+        if self.displacement is not None and self.pose_slots:
+            travelled = math.sqrt(sum(float(run.body[s]) ** 2 for s in self.pose_slots))
+            if travelled >= self.displacement - 1e-12:
+                turned = f", turned {run.rotation_deg:.4g}°" if self.rotation_deg is not None else ""
+                return Ending("ok", f"pushed to {run.sinkage_m:.4g} m{turned}")
+        if self.rotation_deg is not None and abs(run.rotation_deg) >= self.rotation_deg - 1e-12:
+            return Ending("ok", f"turned to {run.rotation_deg:.4g}° at {run.sinkage_m:.4g} m")
         return None
 
 

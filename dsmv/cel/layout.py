@@ -166,7 +166,8 @@ class Contact(NamedTuple):
     ``grip_start[k]`` to ``grip_start[k + 1]``, cell indices per axis). ``holding`` is work space:
     which ties hold this step. Split nodes: each with the structured node it copies
     (``split_parent``). Boundary conditions: node and axis of every fixed velocity component.
-    Merged slivers of a cut body: rows (i, j, i', j')."""
+    Merged slivers of a cut body: rows (i, j, i', j'). ``arm`` (ties, d): each tied node's position
+    relative to the body's centre of gravity (m), the lever of its reaction."""
 
     node: np.ndarray
     full: np.ndarray
@@ -180,6 +181,7 @@ class Contact(NamedTuple):
     fixed_node: np.ndarray
     fixed_axis: np.ndarray
     merge: np.ndarray
+    arm: np.ndarray
 
 
 class Inflow(NamedTuple):
@@ -232,6 +234,10 @@ class Params(NamedTuple):
     law_active: bool        # evaluate the soil law (softening or rate)
     skip_void: bool         # cells without soil do no force arithmetic
     separation: bool        # face ties let go of soil that pulls away
+    free: int = 0           # the body's freedoms integrated under the soil's reaction (bits over FREEDOMS)
+    inertia_x: float = 0.0  # the body's rotational inertia about axes through its centre of gravity
+    inertia_y: float = 0.0  # (kg·m² per unit thickness in plane strain, where only y turns)
+    inertia_z: float = 0.0
 
 
 # the body's mutable state, a float array: time (s), offset of the grid (m, up +), velocity (m/s,
@@ -242,7 +248,29 @@ class Params(NamedTuple):
 # them stale), and with them their hourglass and bulk-viscosity power (W) and force on the body (N)
 (B_TIME, B_OFFSET, B_VEL, B_MAXDISP, B_FSUM, B_FCOUNT, B_INFLOW, B_STEP, B_FRICTION, B_REMAP_OFFSET, B_REMAPS,
  B_FORCES_AHEAD, B_HOURGLASS_W, B_BULK_W, B_BESIDE_N) = range(15)
-N_BODY = 15
+# then the body's other freedoms (:data:`FREEDOMS`), each with the slots of the vertical one above: its
+# velocity (m/s, rad/s: v_x, v_y, ω_x, ω_y, ω_z), its displacement (m, rad), the sum of the soil's
+# force or moment on the body over the chunk (N, N·m about the centre of gravity) and the adhesive
+# pull of the last step; and the largest rotation (rad) and horizontal displacement (m) so far
+(B_VX, B_VY, B_WX, B_WY, B_WZ, B_OFFSET_X, B_OFFSET_Y, B_ROT_X, B_ROT_Y, B_ROT_Z,
+ B_HSUM_X, B_HSUM_Y, B_MSUM_X, B_MSUM_Y, B_MSUM_Z, B_PULL_X, B_PULL_Y, B_PULL_RX, B_PULL_RY, B_PULL_RZ,
+ B_MAXROT, B_MAXSLIDE) = range(15, 37)
+N_BODY = 37
+
+#: the rigid body's six freedoms, in this order everywhere (config, bitmask ``Params.free``, slots)
+FREEDOMS = ("x", "y", "z", "rx", "ry", "rz")
+#: per freedom, the body's slot for its velocity, its displacement, its force sum and its adhesive pull
+VELOCITY_SLOTS = np.array([B_VX, B_VY, B_VEL, B_WX, B_WY, B_WZ])
+POSE_SLOTS = np.array([B_OFFSET_X, B_OFFSET_Y, B_OFFSET, B_ROT_X, B_ROT_Y, B_ROT_Z])
+FORCE_SLOTS = np.array([B_HSUM_X, B_HSUM_Y, B_FSUM, B_MSUM_X, B_MSUM_Y, B_MSUM_Z])
+PULL_SLOTS = np.array([B_PULL_X, B_PULL_Y, B_FRICTION, B_PULL_RX, B_PULL_RY, B_PULL_RZ])
+#: the freedoms a model of d axes has: plane strain moves in x, z and turns about y (out of the plane)
+MODEL_FREEDOMS = {2: np.array([0, 2, 4]), 3: np.arange(6)}
+
+
+def freedom_mask(names) -> int:
+    """The bitmask over :data:`FREEDOMS` of the freedoms named."""
+    return sum(1 << FREEDOMS.index(n) for n in names)
 
 
 def corner_offsets(dim: int) -> np.ndarray:

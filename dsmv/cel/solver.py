@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from typing import Optional
 
@@ -35,7 +35,10 @@ from dsmv.cel import ledger
 from dsmv.cel.config import CelConfig
 from dsmv.cel.contact import ContactRules, touchdown_mass
 from dsmv.cel.kernels import DimensionKernels, for_dimension
-from dsmv.cel.layout import B_INFLOW, B_TIME, B_VEL, N_BODY, CellRows, Cells, Inflow, Nodes, Params, SoilLawKernel
+from dsmv.cel.layout import (
+    B_INFLOW, B_MAXROT, B_MAXSLIDE, B_OFFSET_X, B_ROT_Y, B_TIME, B_VEL, B_VX, B_WY, FREEDOMS, N_BODY, POSE_SLOTS,
+    VELOCITY_SLOTS, CellRows, Cells, Inflow, Nodes, Params, SoilLawKernel, freedom_mask,
+)
 from dsmv.cel.state import Elastic, geostatic_state, hourglass_factor, step_parameters
 from dsmv.errors import ConfigError
 from dsmv.results import SolveResult, add_plate_sinkage
@@ -146,7 +149,36 @@ class CelSolver:
         refusal = rules.refusal()
         if refusal is not None:
             raise refusal
+        landing = scene.landing
+        if landing.moves_beyond_vertical:
+            if landing.kind == "drop" and (landing.horizontal_velocity_m_s or landing.rotation_rate_rad_s):
+                raise ConfigError("landing.horizontal_velocity_m_s" if landing.horizontal_velocity_m_s
+                                  else "landing.rotation_rate_rad_s", landing.horizontal_velocity_m_s
+                                  or landing.rotation_rate_rad_s, "a drop touches down without drift or turning so far")
         return rules
+
+    #: the freedoms a model of this solver has, by name (:data:`dsmv.cel.layout.FREEDOMS`)
+    model_freedoms: tuple[str, ...] = FREEDOMS
+
+    def held_by_symmetry(self) -> tuple[str, ...]:
+        """The freedoms a symmetry plane of the model holds (none without one)."""
+        return ()
+
+    def moving_freedoms(self) -> tuple[str, ...]:
+        """The freedoms this model integrates under the soil's reaction: the landing's, those the model
+        has, less those its symmetry planes hold."""
+        held = self.held_by_symmetry()
+        return tuple(n for n in self.scene.landing.freedoms if n in self.model_freedoms and n not in held)
+
+    def rotational_inertia_kg_m2(self) -> float:
+        """The body's inertia about the axis along it through its centre of gravity, per track (kg·m²):
+        ``landing.rotational_inertia_kg_m2``, else a uniform box of its width B and height (a track's
+        sprocket diameter, else B): m·(B² + height²)/12."""
+        landing, body = self.scene.landing, self.scene.geometry
+        if landing.rotational_inertia_kg_m2 is not None:
+            return landing.rotational_inertia_kg_m2
+        height = 2.0 * body.sprocket_radius_m if body.kind == "track" else body.width_m
+        return self.start().inertia_kg * (body.width_m**2 + height**2) / 12.0
 
     @staticmethod
     def is_axisymmetric(scene: Scene) -> bool:
@@ -254,7 +286,7 @@ class CelSolver:
         drop = landing.kind == "drop"
         B = self.characteristic_width_m(self.travel)
         zigzag = C.Zigzag(lambda: self.hourglass_modes(state))
-        trackers = [C.History(-state.body[B_VEL]), zigzag]
+        trackers = [C.History(-state.body[B_VEL], landing.moves_beyond_vertical), zigzag]
         if scene.output.fields and run_dir is not None:
             trackers.append(C.Fields(self.field_recorder(state), lambda: self.snapshot(state), run_dir))
         v0 = state.body[B_VEL]
@@ -280,7 +312,11 @@ class CelSolver:
             trackers += [C.Rest(state.par.body_weight == 0.0, cfg.economies.stop_at_rest),
                          C.BearingFailure(width, width == scene.geometry.width_m), C.TravelLimit(self.travel)]
         else:
-            trackers.append(C.PushEnd(landing.displacement_m))
+            driven = [n for n in ("x", "z") if n not in self.moving_freedoms()
+                      and (landing.velocity_m_s if n == "z" else landing.horizontal_velocity_m_s)]
+            turning = landing.rotation_rate_rad_s != 0 and "ry" not in self.moving_freedoms()
+            trackers.append(C.PushEnd(landing.displacement_m, tuple(int(POSE_SLOTS[FREEDOMS.index(n)]) for n in driven),
+                                      landing.rotation_deg if turning else None))
         trackers.append(C.StepBudget(cfg.max_steps))
         if self.shows_progress():
             trackers.append(C.Progress(self.expected_duration_s(), sys.stderr.isatty()))
@@ -302,7 +338,7 @@ class CelSolver:
             return (4.0 * math.sqrt(2.0 * self.travel / grav) if grav > 0
                     else self.travel / max(landing.velocity_m_s, 0.1))
         if landing.kind == "push":
-            return landing.displacement_m / landing.velocity_m_s
+            return landing.push_duration_s
         if scene.geometry.kind in ("track", "strip"):
             model = fast_landing(scene, "skempton" if self.dim == 3 and scene.geometry.kind == "track" else "plane_strain")
         else:
@@ -368,8 +404,6 @@ class CelSolver:
     def coarser(self, factor: int) -> "CelSolver":
         """This scene on cells ``factor`` times the core size (a cone: ``factor`` times fewer cells
         across its depth), without fields, progress or a further estimate."""
-        from dataclasses import replace
-
         scene = self.scene
         h = self.h if hasattr(self, "h") else scene.mesh.cell_size_m
         cfg = scene.solver.model_copy(update={
@@ -455,7 +489,7 @@ class CelSolver:
                  "hourglass_mode_ratio": "-"}
         audit = ledger.audit(
             state.energy, kinetic_in=state.kinetic_in, kinetic_soil=self.soil_kinetic_energy(state),
-            kinetic_body=0.5 * par.body_mass * body[B_VEL] ** 2 if drop else 0.0,
+            kinetic_body=self.body_kinetic_energy(state),
             elastic_change=self.elastic_energy(state) - state.elastic0, touchdown_loss=state.touchdown_loss,
             scale=state.scale)
         metrics |= audit
@@ -473,6 +507,8 @@ class CelSolver:
             units |= {"sinkage_over_width": "-", "time_to_rest_s": "s"}
         if not drop:
             self._push_metrics(history, metrics, units)
+        if landing.moves_beyond_vertical:
+            self._planar_metrics(body, history, metrics, units)
         if status == "ok" and metrics["mass_error"] > 1e-6:
             status, message = "unstable", f"soil mass drifted by {metrics['mass_error']:.2e} (relative)"
         if status == "ok" and metrics["energy_error"] > ENERGY_ERROR_LIMIT:
@@ -510,6 +546,36 @@ class CelSolver:
         metrics["max_force_n"] = float(history["force_n"].max())
         units["max_force_n"] = "N"
 
+    @staticmethod
+    def _planar_metrics(body, history, metrics, units) -> None:
+        """A body that may slide or turn: its largest rotation and horizontal displacement, where it ended,
+        the largest horizontal force and moment on it, and the loads at the end (the mean over the last
+        twentieth of the history: a probe's limit load)."""
+        end = slice(-max(1, len(history["time_s"]) // 20), None)
+        metrics |= {
+            "max_rotation_deg": math.degrees(body[B_MAXROT]), "max_horizontal_displacement_m": body[B_MAXSLIDE],
+            "rotation_deg": math.degrees(body[B_ROT_Y]), "horizontal_displacement_m": body[B_OFFSET_X],
+            "max_horizontal_force_n": float(np.abs(history["horizontal_force_n"]).max()),
+            "max_moment_n_m": float(np.abs(history["moment_n_m"]).max()),
+            "end_force_n": float(history["force_n"][end].mean()),
+            "end_horizontal_force_n": float(history["horizontal_force_n"][end].mean()),
+            "end_moment_n_m": float(history["moment_n_m"][end].mean()),
+        }
+        units |= {"max_rotation_deg": "deg", "max_horizontal_displacement_m": "m", "rotation_deg": "deg",
+                  "horizontal_displacement_m": "m", "max_horizontal_force_n": "N", "max_moment_n_m": "N·m",
+                  "end_force_n": "N", "end_horizontal_force_n": "N", "end_moment_n_m": "N·m"}
+
+    def body_kinetic_energy(self, state: State) -> float:
+        """The body's own kinetic energy in its free freedoms (J per unit thickness or per radian): a pushed
+        freedom's is the push's business."""
+        par, body = state.par, state.body
+        energy = 0.0
+        for q, name in enumerate(FREEDOMS):
+            if (par.free >> q) & 1:
+                inertia = par.body_mass if q < 3 else (par.inertia_x, par.inertia_y, par.inertia_z)[q - 3]
+                energy += 0.5 * inertia * body[VELOCITY_SLOTS[q]] ** 2
+        return energy
+
     # ------------------------------------------------------------------ the compiled loop
 
     def law_kernel(self, par: Params, n_state: int) -> Optional[SoilLawKernel]:
@@ -534,6 +600,12 @@ class CelSolver:
         up = v.shape[0] - 1
         v[up, contact.node[full]] = v0
         v[:, contact.node[~full]] = v0 * normal[~full, up] * normal[~full].T
+        landing = self.scene.landing
+        if landing.moves_beyond_vertical:  # a push along x or about y: the tied nodes move with the body
+            from dsmv.cel.kernels.nodes import apply_ties
+
+            state.body[B_VX], state.body[B_WY] = landing.horizontal_velocity_m_s, landing.rotation_rate_rad_s
+            apply_ties(contact, state.nodes, state.body)
 
     def hourglass_modes(self, state: State) -> tuple[float, float]:
         return self.kernels.hourglass_modes(state.mesh.corner, state.cells.phi, state.nodes.v, ZIGZAG_FULL_CELL)
@@ -624,6 +696,7 @@ class CelSolver:
         rho, grav = soil.density_kg_m3, landing.gravity_m_s2
         elastic = Elastic.of(soil)
         body_contact = self.body_contact(grid)
+        body_contact = replace(body_contact, contact=self.about_centre_of_gravity(body_contact.contact))
         open_frac = body_contact.openings.open_frac
         phi, q = geostatic_state(grid, rho, grav, elastic.k0, self.mudline, open_frac)
         # the soil law's state variables ride with the material, as ξ and z0 do
@@ -650,7 +723,8 @@ class CelSolver:
             push_velocity=landing.velocity_m_s, remap_courant=cfg.remap_courant,
             axisymmetric=self.axisym, advection_order=cfg.advection_order, drop=drop, inflow=True, remap=cfg.remap,
             law_active=self.law.active or not cfg.economies.skip_inactive_law, skip_void=cfg.economies.skip_void,
-            separation=self.contact_separation(),
+            separation=self.contact_separation(), free=freedom_mask(self.moving_freedoms()),
+            inertia_y=self.rotational_inertia_kg_m2() / scale,
             tresca=cfg.yield_surface == "tresca" or (cfg.yield_surface == "auto" and self.axisym),
         )
         nodal_mass(mesh, cells, rho, nodes.mass)
@@ -665,6 +739,13 @@ class CelSolver:
                       0.0, 0.5 * par.body_mass * start.velocity_m_s**2 if drop else 0.0)
         self.touchdown(state)
         return state
+
+    def about_centre_of_gravity(self, contact):
+        """The contact with its ties' levers from the centre of gravity (``landing.cg_offset_m`` from the
+        middle of the base: x, y, z; a plane-strain model has x and z)."""
+        offset = np.asarray(self.scene.landing.cg_offset_m, dtype=float)
+        offset = offset[[0, 2]] if self.dim == 2 else offset
+        return contact._replace(arm=np.ascontiguousarray(contact.arm - offset))
 
     def contact_separation(self) -> bool:
         """Whether the body's faces let go of soil that pulls away (the contact rules' word)."""

@@ -37,15 +37,36 @@ class Cel2DSolver(CelSolver):
         mode = scene.solver.mode
         return mode == "axisymmetric" or (mode == "auto" and scene.geometry.kind in ("cone", "circular_plate"))
 
+    #: plane strain moves across (x) and up (z) and turns about the axis out of the plane (y)
+    model_freedoms = ("x", "z", "ry")
+
+    @staticmethod
+    def half_model(scene: Scene) -> bool:
+        """Whether the model is half the section, a symmetry plane on the body's axis: asked
+        (``solver.economies.symmetry``) and valid (the landing is symmetric about that plane)."""
+        return scene.solver.economies.symmetry and scene.landing.symmetric
+
+    def held_by_symmetry(self) -> tuple[str, ...]:
+        """On the half model the symmetry plane holds the slide and the turn: a symmetric body stays upright."""
+        return ("x", "ry") if self.half_model(self.scene) else ()
+
     @classmethod
     def check_capabilities(cls, scene: Scene) -> ContactRules:
         rules = super().check_capabilities(scene)
         cfg, body = scene.solver, scene.geometry
-        if not cfg.economies.symmetry and (body.kind in ("cone", "circular_plate") or cfg.mode == "axisymmetric"
-                                           or body.roughness != "rough" or scene.output.fields or rules.separation):
-            raise ConfigError("solver.economies.symmetry", False, "the whole section runs plane strain bodies with "
-                              "rough contact, no contact separation and no field output; it exists to measure what "
-                              "the half model saves")
+        if scene.landing.moves_beyond_vertical and (cls.is_axisymmetric(scene) or body.kind not in ("strip", "track")
+                                                    or getattr(body, "view", "") == "longitudinal"):
+            raise ConfigError("landing.free", list(scene.landing.freedoms), "a body slides and turns in plane strain: "
+                              "a strip or a track's cross-section")
+        if scene.landing.moves_beyond_vertical and not cls.half_model(scene) and cfg.remap:
+            raise ConfigError("solver.remap", True, "a body that slides or turns runs on the undeformed grid so far "
+                              "(small strain): set solver.remap=false")
+        if not cls.half_model(scene) and (body.kind in ("cone", "circular_plate") or cfg.mode == "axisymmetric"
+                                          or body.roughness != "rough" or scene.output.fields or rules.separation):
+            what = ("solver.economies.symmetry", False) if not cfg.economies.symmetry else (
+                "landing.cg_offset_m", scene.landing.cg_offset_m)
+            raise ConfigError(*what, "the whole section (an asymmetric landing, or one asked for) runs plane strain "
+                              "bodies with rough contact, no contact separation and no field output so far")
         if body.kind in ("cone", "circular_plate") and cfg.mode == "plane_strain":
             raise ConfigError("solver.mode", cfg.mode, f"a {body.kind.replace('_', ' ')} is axisymmetric: 'auto' or "
                                                        "'axisymmetric'")
@@ -76,7 +97,7 @@ class Cel2DSolver(CelSolver):
             # a deep body (a T-bar) needs the uniform core only around itself
             core_height=B + cfg.core_margin_widths * B if self.circular else None,
         )
-        if not cfg.economies.symmetry:  # the whole section: the half grid and its mirror image
+        if not self.half_model(scene):  # the whole section: the half grid and its mirror image
             grid = Grid2D(np.concatenate([-grid.x[:0:-1], grid.x]), grid.y, grid.h)
         self.grid, self.h, self.n_half, self.travel = grid, h, n_half, travel
         return grid
@@ -88,7 +109,7 @@ class Cel2DSolver(CelSolver):
     def whole_body_cells(self, cells: float) -> float:
         """The cells the whole section would take on this grid (the half model mirrored; an
         axisymmetric model is its own whole)."""
-        return 2 * cells if self.scene.solver.economies.symmetry and not self.axisym else cells
+        return 2 * cells if self.half_model(self.scene) and not self.axisym else cells
 
     def model_scale(self) -> float:
         """The model carries a share of the body: the half-section per metre of the out-of-plane length
@@ -96,7 +117,7 @@ class Cel2DSolver(CelSolver):
         if self.axisym:
             return 2.0 * math.pi
         body = self.scene.geometry
-        return (2.0 if self.scene.solver.economies.symmetry else 1.0) * (
+        return (2.0 if self.half_model(self.scene) else 1.0) * (
             body.width_m if self.longitudinal else body.contact_length_m)
 
     def mesh_and_faces(self, grid, body_contact):

@@ -86,6 +86,9 @@ class Cel3DSolver(CelSolver):
             # about 36 times the track's cells
             raise ConfigError("geometry.view", body.view, "cel3d models the whole track, its side view included: "
                                                           "leave geometry.view to cel2d")
+        if scene.landing.moves_beyond_vertical:
+            raise ConfigError("landing.free", list(scene.landing.freedoms), "cel3d moves a body vertically so far; "
+                              "a body slides and turns in cel2d (plane strain)")
         return ContactRules.of(scene, False)
 
     # ------------------------------------------------------------------ geometry

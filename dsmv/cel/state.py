@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dsmv.cel.layout import CellRows, Params
+from dsmv.cel.layout import CellRows, Params, freedom_mask
 
 
 @dataclass(frozen=True)
@@ -77,6 +77,8 @@ def step_parameters(*, elastic: Elastic, h: float, remap_courant: float = 0.0, *
     fields = PARAM_DEFAULTS | fields
     switches = ("axisymmetric", "drop", "inflow", "remap", "tresca", "law_active", "skip_void", "separation")
     fields |= {k: bool(fields[k]) for k in switches} | {"advection_order": int(fields["advection_order"])}
+    # a landing's body falls free: the vertical is one of its integrated freedoms
+    fields["free"] = int(fields.get("free", 0)) | (freedom_mask("z") if fields["drop"] else 0)
     return Params(
         shear=elastic.shear_pa, bulk=elastic.bulk_pa, wave_speed=elastic.wave_speed_m_s, k0=elastic.k0,
         mass_floor=1e-9 * fields["density"] * h * h,  # nodes lighter than this are empty
@@ -139,6 +141,6 @@ def body_free_state(x, y, phi, q, vol):
         Nodes(np.zeros((2, n_nodes)), np.zeros((2, n_nodes)), np.zeros(n_nodes), np.zeros((2, n_nodes))),
         Contact(none, none.astype(np.bool_), np.zeros((0, 2)), np.zeros(0), np.zeros(1, dtype=np.int64),
                 np.zeros((0, 2), dtype=np.int64), none.astype(np.bool_), none, none, fixed_node, fixed_axis,
-                np.zeros((0, 4), dtype=np.int64)),
+                np.zeros((0, 4), dtype=np.int64), np.zeros((0, 2))),
         Inflow(np.zeros((q.shape[0], nx)), np.zeros(nx)),
     )

@@ -24,9 +24,13 @@ from numba import njit
 
 from dsmv.cel.kernels.common import INLINE
 from dsmv.cel.kernels.nodes import (
-    adhesion, apply_fixed, apply_ties, hand_travel_to_parents, nodal_mass, rejoin_ties, split_mass_kinetic_change, split_masses, tie_reactions,
+    adhesion, apply_fixed, apply_ties, hand_travel_to_parents, model_freedoms, nodal_mass, rejoin_ties,
+    split_mass_kinetic_change, split_masses, tie_reactions,
 )
-from dsmv.cel.layout import B_FCOUNT, B_FRICTION, B_FSUM, B_MAXDISP, B_OFFSET, B_REMAP_OFFSET, B_REMAPS, B_STEP, B_TIME, B_VEL
+from dsmv.cel.layout import (
+    B_FCOUNT, B_MAXDISP, B_MAXROT, B_MAXSLIDE, B_OFFSET, B_OFFSET_X, B_OFFSET_Y, B_REMAP_OFFSET, B_REMAPS, B_ROT_X,
+    B_ROT_Y, B_ROT_Z, B_STEP, B_TIME, B_VEL, FORCE_SLOTS, POSE_SLOTS, PULL_SLOTS, VELOCITY_SLOTS,
+)
 from dsmv.cel.ledger import E_BODY_GRAV, E_FRICTION, E_PUSH, E_REMAP_ELASTIC, E_REMAP_KINETIC, E_SOIL_GRAV
 
 # exit codes
@@ -37,23 +41,86 @@ RUNNING, AT_REST, NOT_FINITE, OUTRAN = 0, 1, 2, 3
 
 
 @njit(**INLINE)
-def move_body(nodes, contact, par, body, energy, soil_on_nodes):
-    """The rigid body's step: free fall against the soil's force and the tied nodes' inertia, or the
-    push's constant speed. Returns the soil's force on the body (N, up +) and its old velocity."""
-    force, tied_mass = tie_reactions(contact, nodes, par.gravity)
-    soil_on_nodes += force
+def is_free(par, q):
+    """Whether the body's freedom q (:data:`~dsmv.cel.layout.FREEDOMS`) moves under the soil's reaction;
+    a freedom that is not keeps the speed it was given (a push's, or 0: held)."""
+    return (par.free >> q) & 1 == 1
+
+
+@njit(**INLINE)
+def body_inertia(par, q):
+    """The body's own inertia along freedom q: its mass (kg) for a translation, its rotational inertia
+    about the centre of gravity (kg·m²) for a rotation."""
+    if q < 3:
+        return par.body_mass
+    return par.inertia_x if q == 3 else (par.inertia_y if q == 4 else par.inertia_z)
+
+
+@njit(**INLINE)
+def solve_free(matrix, rhs, free, n_free):
+    """Solve the symmetric positive definite system over the ``n_free`` freedoms listed first in
+    ``free`` in place (Gaussian elimination, no pivoting: the body's mass matrix dominates); the
+    solution overwrites ``rhs`` at those indices."""
+    for i in range(n_free):
+        qi = free[i]
+        for j in range(i + 1, n_free):
+            qj = free[j]
+            factor = matrix[qj, qi] / matrix[qi, qi]
+            for l in range(i, n_free):
+                matrix[qj, free[l]] -= factor * matrix[qi, free[l]]
+            rhs[qj] -= factor * rhs[qi]
+    for i in range(n_free - 1, -1, -1):
+        qi = free[i]
+        total = rhs[qi]
+        for j in range(i + 1, n_free):
+            total -= matrix[qi, free[j]] * rhs[free[j]]
+        rhs[qi] = total / matrix[qi, qi]
+
+
+@njit(**INLINE)
+def move_body(nodes, contact, par, body, energy, beside_n):
+    """The rigid body's step. Its free freedoms (:func:`is_free`) move under its wet weight, the soil's
+    force and moment on it and the inertia of the nodes tied to it (one linear system over them); the
+    others keep their speed, the push supplying the work. ``beside_n``: the soil's vertical force on
+    the body that no tie carries (N, up +: the cut cells' arcs, the closed faces'). Adds the soil's
+    reaction per freedom to the chunk's sums; returns the vertical one (N, up +) and the old vertical
+    velocity."""
+    force = np.zeros(6)
+    inertia = np.zeros((6, 6))
+    tie_reactions(contact, nodes, par.gravity, force, inertia)
+    freedoms = model_freedoms(nodes.v.shape[0])
+    free = np.empty(6, dtype=np.int64)
+    n_free = 0
+    for q in freedoms:
+        force[q] = (body[PULL_SLOTS[q]] + (beside_n if q == 2 else 0.0)) + force[q]
+        if is_free(par, q):
+            free[n_free] = q
+            n_free += 1
     v_old = body[B_VEL]
-    if par.drop:
-        accel = (soil_on_nodes - par.body_weight) / (par.body_mass + tied_mass)
-        body[B_VEL] = v_old + par.dt * accel
-        energy[E_BODY_GRAV] += par.body_weight * (-0.5 * (v_old + body[B_VEL])) * par.dt
-    else:
-        accel = 0.0
-        body[B_VEL] = -par.push_velocity
-    resistance = soil_on_nodes - tied_mass * accel
-    if not par.drop:
-        energy[E_PUSH] += -resistance * body[B_VEL] * par.dt
-    body[B_FSUM] += resistance
+    accel = np.zeros(6)
+    if n_free > 0:
+        matrix = inertia.copy()
+        for i in range(n_free):
+            q = free[i]
+            matrix[q, q] = body_inertia(par, q) + matrix[q, q]
+            accel[q] = force[q] - (par.body_weight if q == 2 else 0.0)
+        solve_free(matrix, accel, free, n_free)
+    resistance = 0.0
+    for q in freedoms:
+        reaction = force[q]  # the soil's, less the tied nodes' share of the body's acceleration
+        for p in freedoms:
+            reaction -= inertia[q, p] * accel[p]
+        slot = VELOCITY_SLOTS[q]
+        if is_free(par, q):
+            speed_old = body[slot]
+            body[slot] = speed_old + par.dt * accel[q]
+            if q == 2:
+                energy[E_BODY_GRAV] += par.body_weight * (-0.5 * (speed_old + body[slot])) * par.dt
+        else:
+            energy[E_PUSH] += -reaction * body[slot] * par.dt
+        body[FORCE_SLOTS[q]] += reaction
+        if q == 2:
+            resistance = reaction
     body[B_FCOUNT] += 1.0
     return resistance, v_old
 
@@ -64,23 +131,30 @@ def hold_nodes(cells, nodes, contact, par, body, energy, momentum_before, moment
     after it): the boundary conditions, the ties and the faces' adhesive pull; the work of gravity
     on the soil from its vertical momentum before and after all of them."""
     momentum_after += apply_fixed(nodes, contact)
-    momentum_after += apply_ties(contact, nodes, body[B_VEL])
+    momentum_after += apply_ties(contact, nodes, body)
     slip = np.zeros(1)
-    change, body[B_FRICTION] = adhesion(contact, cells, nodes, body[B_VEL], par.dt, par.mass_floor, slip)
-    momentum_after += change
+    pull = np.zeros(6)
+    momentum_after += adhesion(contact, cells, nodes, body, par.dt, par.mass_floor, slip, pull)
+    for q in model_freedoms(nodes.v.shape[0]):
+        body[PULL_SLOTS[q]] = pull[q]
     energy[E_FRICTION] += slip[0]
     energy[E_SOIL_GRAV] += -par.gravity * par.dt * 0.5 * (momentum_before + momentum_after)
 
 
 @njit(**INLINE)
 def advance_clock(par, body):
-    """The end of a step's Lagrangian phase: the grid moves on with the body, time and the step count
-    advance, and the deepest sinkage is kept."""
-    body[B_OFFSET] += body[B_VEL] * par.dt
+    """The end of a step's Lagrangian phase: the body's pose and the grid (which follows its vertical
+    motion) move on, time and the step count advance, and the deepest sinkage, the largest rotation
+    and the largest horizontal displacement are kept."""
+    for q in range(6):
+        body[POSE_SLOTS[q]] += body[VELOCITY_SLOTS[q]] * par.dt
     body[B_TIME] += par.dt
     body[B_STEP] += 1.0
     if -body[B_OFFSET] > body[B_MAXDISP]:
         body[B_MAXDISP] = -body[B_OFFSET]
+    rotation = math.sqrt(body[B_ROT_X] ** 2 + body[B_ROT_Y] ** 2 + body[B_ROT_Z] ** 2)
+    body[B_MAXROT] = max(body[B_MAXROT], rotation)
+    body[B_MAXSLIDE] = max(body[B_MAXSLIDE], math.sqrt(body[B_OFFSET_X] ** 2 + body[B_OFFSET_Y] ** 2))
 
 
 @njit(**INLINE)
@@ -138,7 +212,7 @@ def settle_nodes(mesh, cells, nodes, contact, par, body, energy, swept, audit):
     nodal_mass(mesh, cells, par.density, nodes.mass)
     energy[E_REMAP_KINETIC] += split_mass_kinetic_change(contact, nodes, swept)
     rejoined = np.zeros(2)
-    body[B_VEL] = rejoin_ties(contact, nodes, body[B_VEL], par.body_mass, par.drop, rejoined)
+    rejoin_ties(contact, nodes, body, par.body_mass, is_free(par, 2), rejoined)
     energy[E_REMAP_KINETIC] += rejoined[0]
     energy[E_PUSH] += rejoined[1]
     body[B_REMAP_OFFSET] = body[B_OFFSET]

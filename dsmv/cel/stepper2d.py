@@ -15,7 +15,7 @@ from dsmv.cel.kernels.common import INLINE, JIT
 from dsmv.cel.kernels.elements2d import merged_divergence, nodal_forces, update_stress
 from dsmv.cel.kernels.nodes import gather_travel, ties_that_hold, update_velocities
 from dsmv.cel.kernels.remap2d import remap_sweeps, share_merged_fill
-from dsmv.cel.layout import B_FRICTION, B_INFLOW, B_REMAPS, B_VEL, ROWS_2D
+from dsmv.cel.layout import B_INFLOW, B_REMAPS, B_VEL, ROWS_2D
 from dsmv.cel.ledger import E_BULK, E_GAP_RELEASE, E_HOURGLASS, E_PLASTIC
 from dsmv.cel.stepper import (
     AT_REST, RUNNING, advance_clock, came_to_rest, hold_nodes, move_body, prepare_remap, remap_due, settle_nodes,
@@ -31,10 +31,9 @@ def lagrange_step(mesh, cells, faces, nodes, contact, par, body, energy, law):
     energy[E_HOURGLASS] += work[0] * par.dt
     energy[E_BULK] += work[1] * par.dt
     if par.separation:  # which face ties hold this step: those the soil would otherwise cross
-        v_body_next = body[B_VEL] if par.drop else -par.push_velocity
-        ties_that_hold(contact, nodes, par.dt, par.gravity, par.mass_floor, v_body_next)
-    # the adhesive pull of the last step, the cut cells' arcs
-    resistance, v_old = move_body(nodes, contact, par, body, energy, body[B_FRICTION] + work[2])
+        ties_that_hold(contact, nodes, par.dt, par.gravity, par.mass_floor, body)
+    # the cut cells' arcs (the adhesive pull of the last step is the body's)
+    resistance, v_old = move_body(nodes, contact, par, body, energy, work[2])
     momentum_before, momentum_after = update_velocities(nodes, par.gravity, par.dt, par.mass_floor)
     hold_nodes(cells, nodes, contact, par, body, energy, momentum_before, momentum_after)
     merge = contact.merge

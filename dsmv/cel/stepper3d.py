@@ -18,7 +18,7 @@ from dsmv.cel.kernels.common import INLINE, JIT
 from dsmv.cel.kernels.elements3d import nodal_forces, update_stress_and_forces
 from dsmv.cel.kernels.nodes import gather_travel_in_blocks, ties_that_hold, update_velocities_in_blocks
 from dsmv.cel.kernels.remap3d import remap_sweeps
-from dsmv.cel.layout import (B_BESIDE_N, B_BULK_W, B_FORCES_AHEAD, B_FRICTION, B_HOURGLASS_W, B_INFLOW, B_REMAPS, B_VEL,
+from dsmv.cel.layout import (B_BESIDE_N, B_BULK_W, B_FORCES_AHEAD, B_HOURGLASS_W, B_INFLOW, B_REMAPS, B_VEL,
                               ROWS_3D)
 from dsmv.cel.ledger import E_BULK, E_HOURGLASS, E_PLASTIC
 from dsmv.cel.stepper import (
@@ -39,10 +39,9 @@ def lagrange_step(mesh, cells, nodes, contact, par, body, energy, law):
     energy[E_HOURGLASS] += body[B_HOURGLASS_W] * par.dt
     energy[E_BULK] += body[B_BULK_W] * par.dt
     if par.separation:  # which face ties hold this step: those the soil would otherwise cross
-        ties_that_hold(contact, nodes, par.dt, par.gravity, par.mass_floor,
-                       body[B_VEL] if par.drop else -par.push_velocity)
-    # last step's adhesive pull, the mean stress on the closed faces
-    resistance, v_old = move_body(nodes, contact, par, body, energy, body[B_FRICTION] + body[B_BESIDE_N])
+        ties_that_hold(contact, nodes, par.dt, par.gravity, par.mass_floor, body)
+    # the mean stress on the closed faces (the adhesive pull of the last step is the body's)
+    resistance, v_old = move_body(nodes, contact, par, body, energy, body[B_BESIDE_N])
     momentum_before, momentum_after = update_velocities_in_blocks(nodes, par.gravity, par.dt, par.mass_floor)
     hold_nodes(cells, nodes, contact, par, body, energy, momentum_before, momentum_after)
     work = np.zeros(4)

@@ -195,6 +195,13 @@ GEOMETRY_KINDS: dict[str, type[BodyConfig]] = {
 # --------------------------------------------------------------------------- landing
 
 
+#: the rigid body's freedoms, as ``landing.free`` names them (translations, then rotations about x, y, z)
+FREEDOM_NAMES = ("x", "y", "z", "rx", "ry", "rz")
+#: the landing keys of the freedoms beyond the vertical, at the values that keep a body vertical
+VERTICAL_LANDING = {"free": None, "horizontal_velocity_m_s": 0.0, "rotation_rate_rad_s": 0.0, "rotation_deg": None,
+                    "cg_offset_m": [0.0, 0.0, 0.0], "rotational_inertia_kg_m2": None}
+
+
 class LandingConfig(Schema):
     """How the body meets the soil.
 
@@ -202,6 +209,11 @@ class LandingConfig(Schema):
     wet weight m for inertia too (``inertial_mass_kg`` overrides that).
     ``push``: prescribed downward velocity to ``displacement_m`` (load–displacement curves).
     The weight is shared by ``n_tracks`` tracks; one track is modelled.
+
+    The body's freedoms (x across it, z up, rotation ry about the axis along it; a plane-strain model
+    has these three): those in ``free`` move under the soil's reaction (a drop's z always), the others
+    keep their given speed (``velocity_m_s`` down, ``horizontal_velocity_m_s``, ``rotation_rate_rad_s``;
+    0: held). The centre of gravity sits ``cg_offset_m`` (x, y, z) from the middle of the body's base.
     """
 
     kind: Literal["drop", "push"]
@@ -212,15 +224,65 @@ class LandingConfig(Schema):
     gravity_m_s2: Number = Field(9.81, ge=0, description="gravitational acceleration (m/s²)")
     displacement_m: Optional[Number] = Field(None, gt=0, description="push: displacement to reach (m)")
     initial_depth_m: Number = Field(0.0, ge=0, description="depth of the body's base below the mudline at the start (m)")
+    free: Optional[list[Literal[FREEDOM_NAMES]]] = Field(None, description=(
+        "freedoms that move under the soil's reaction; null: z for a drop, none for a push"))
+    horizontal_velocity_m_s: Number = Field(0.0, description="velocity along +x at touchdown / of the push (m/s)")
+    rotation_rate_rad_s: Number = Field(0.0, description=(
+        "rotation rate about y at touchdown / of the push (rad/s; + lowers the +x side)"))
+    rotation_deg: Optional[Number] = Field(None, gt=0, description="push: rotation to reach (degrees)")
+    cg_offset_m: list[Number] = Field([0.0, 0.0, 0.0], min_length=3, max_length=3, description=(
+        "the centre of gravity's offset (x, y, z) from the middle of the body's base (m)"))
+    rotational_inertia_kg_m2: Optional[Number] = Field(None, gt=0, description=(
+        "inertia about the axis along the body through the centre of gravity, per track (kg·m²); "
+        "null: a uniform box of the body's width and height"))
 
     @model_validator(mode="after")
-    def _push_needs_motion(self):
+    def _motion_is_complete(self):
+        if self.free is not None and len(set(self.free)) < len(self.free):
+            raise ConfigError("landing.free", self.free, "names a freedom twice")
+        if self.kind == "drop" and "z" not in self.freedoms:
+            raise ConfigError("landing.free", self.free, "a drop falls free: include z (a body held in z is a push)")
         if self.kind == "push":
-            if self.velocity_m_s <= 0:
-                raise ConfigError("landing.velocity_m_s", self.velocity_m_s, "a push needs a velocity > 0 (m/s)")
-            if self.displacement_m is None:
+            rates = {"z": self.velocity_m_s, "x": self.horizontal_velocity_m_s, "ry": self.rotation_rate_rad_s}
+            driven = {name for name, rate in rates.items() if rate != 0 and name not in self.freedoms}
+            if not driven:
+                raise ConfigError("landing.velocity_m_s", self.velocity_m_s, "a push needs a velocity > 0 (m/s), "
+                                  "a horizontal_velocity_m_s or a rotation_rate_rad_s on a freedom it holds")
+            if driven & {"x", "z"} and self.displacement_m is None:
                 raise ConfigError("landing.displacement_m", None, "a push needs a displacement > 0 (m)")
+            if driven == {"ry"} and self.rotation_deg is None:
+                raise ConfigError("landing.rotation_deg", None, "a push that only turns needs a rotation > 0 (degrees)")
         return self
+
+    @property
+    def freedoms(self) -> tuple[str, ...]:
+        """The freedoms that move under the soil's reaction: ``free``, or z for a drop and none for a push."""
+        if self.free is not None:
+            return tuple(self.free)
+        return ("z",) if self.kind == "drop" else ()
+
+    @property
+    def push_duration_s(self) -> float:
+        """How long a push lasts (s): its displacement over the speed of the translations it drives, or its
+        rotation over its rate, whichever ends it first."""
+        speed = math.hypot(*(rate for name, rate in (("z", self.velocity_m_s), ("x", self.horizontal_velocity_m_s))
+                             if name not in self.freedoms))
+        ends = [self.displacement_m / speed] if speed > 0 and self.displacement_m else []
+        if self.rotation_rate_rad_s and "ry" not in self.freedoms and self.rotation_deg:
+            ends.append(math.radians(self.rotation_deg) / abs(self.rotation_rate_rad_s))
+        return min(ends)
+
+    @property
+    def symmetric(self) -> bool:
+        """Whether the landing is mirror-symmetric about the body's vertical mid-plane across its width (no
+        drift, no turning, the centre of gravity above the base's middle): a symmetric body then stays
+        upright and slides nowhere, whatever freedoms it has."""
+        return self.horizontal_velocity_m_s == 0 and self.rotation_rate_rad_s == 0 and self.cg_offset_m[0] == 0
+
+    @property
+    def moves_beyond_vertical(self) -> bool:
+        """Whether the body may slide or turn: a freedom other than z, or a push along one."""
+        return bool(set(self.freedoms) - {"z"}) or not self.symmetric
 
     @property
     def weight_per_track_n(self) -> float:
@@ -323,7 +385,10 @@ class Scene:
         return {
             "soil": self.soil.model_dump(),
             "geometry": self.geometry.model_dump(),
-            "landing": self.landing.model_dump(),
+            # the keys of the body's other freedoms count once they differ from a vertical landing's,
+            # so a vertical scene keeps the hash it had before they existed (its runs still resume)
+            "landing": {k: v for k, v in self.landing.model_dump().items()
+                        if k not in VERTICAL_LANDING or v != VERTICAL_LANDING[k]},
             "mesh": self.mesh.model_dump(),
             "solver": self.solver.model_dump(exclude=RESULT_NEUTRAL_SOLVER_KEYS),
         }

@@ -24,12 +24,60 @@ import numpy as np
 from numba import njit, prange
 
 from dsmv.cel.kernels.common import BLOCK, INLINE, JIT, PARALLEL, ordered_sums
+from dsmv.cel.layout import B_VEL, MODEL_FREEDOMS, VELOCITY_SLOTS
 
 #: a cell the body cuts lends its nodes at least the mass of this fill of the whole cell: its open
 #: faces are as stiff as a full cell's, and the explicit step stays stable (see nodal_mass)
 CUT_MASS_FILL = 0.5
 #: nodes per block of the parallel node stages
 NODE_BLOCK = BLOCK
+#: the freedoms (indices into dsmv.cel.layout.FREEDOMS) a model of two or three axes has
+FREEDOMS_2D, FREEDOMS_3D = MODEL_FREEDOMS[2], MODEL_FREEDOMS[3]
+
+
+@njit(**INLINE)
+def model_freedoms(dim):
+    """The body's freedoms in a model of ``dim`` axes: x, z, ry in plane strain; all six in 3D."""
+    return FREEDOMS_2D if dim == 2 else FREEDOMS_3D
+
+
+@njit(**INLINE)
+def lever(arm, k, a, q):
+    """How fast tie k moves along the model's axis ``a`` per unit speed of the body's freedom ``q``
+    (:data:`dsmv.cel.layout.FREEDOMS`): 1 along the freedom's own axis, the tie's lever for a rotation
+    (ω × r, r = ``arm[k]`` from the centre of gravity), else 0. Plane strain's axes are x and up (z) and
+    it turns about y, out of the plane: a positive ω_y moves the +x side down."""
+    dim = arm.shape[1]
+    if q < 3:
+        axis = q if dim == 3 else (0 if q == 0 else (1 if q == 2 else -1))
+        return 1.0 if axis == a else 0.0
+    r = q - 3
+    if dim == 2:
+        if r != 1:
+            return 0.0
+        return arm[k, 1] if a == 0 else -arm[k, 0]
+    if r == a:
+        return 0.0
+    c = 3 - a - r  # (ω × r)_a = ε_{a r c} ω_r r_c
+    return arm[k, c] if r == (a + 1) % 3 else -arm[k, c]
+
+
+@njit(**INLINE)
+def rigid_velocity(body, arm, k, a):
+    """The rigid body's velocity at tie k along axis ``a`` (m/s): v + ω × r."""
+    u = 0.0
+    for q in model_freedoms(arm.shape[1]):
+        u += lever(arm, k, a, q) * body[VELOCITY_SLOTS[q]]
+    return u
+
+
+@njit(**INLINE)
+def normal_speed(body, arm, normal, k):
+    """The rigid body's velocity at tie k along the tie's normal (m/s)."""
+    u = 0.0
+    for a in range(arm.shape[1]):
+        u += rigid_velocity(body, arm, k, a) * normal[k, a]
+    return u
 
 
 @njit(**JIT)
@@ -175,7 +223,7 @@ def apply_fixed(nodes, contact):
 
 
 @njit(**JIT)
-def ties_that_hold(contact, nodes, dt, gravity, mass_floor, v_body_next):
+def ties_that_hold(contact, nodes, dt, gravity, mass_floor, body):
     """With contact separation: which ties hold this step (``contact.holding``), those whose free
     velocity would carry the node into the body, not away from the face (no tension). A tie with no
     normal (a corner, a staircase) and an empty node hold."""
@@ -196,40 +244,67 @@ def ties_that_hold(contact, nodes, dt, gravity, mass_floor, v_body_next):
                     g = gravity if a == up else 0.0
                     vn_free += (v[a, n] + dt * (f[a, n] / m - g)) * nk
             if on_face:
-                held = vn_free <= v_body_next * normal[k, up]
+                held = vn_free <= normal_speed(body, contact.arm, normal, k)
         holding[k] = held
 
 
+@njit(**INLINE)
+def translation_of(dim, a):
+    """The freedom (:data:`dsmv.cel.layout.FREEDOMS`) that translates along the model's axis ``a``."""
+    return a if dim == 3 else 2 * a
+
+
 @njit(**JIT)
-def tie_reactions(contact, nodes, gravity):
-    """What the holding tied nodes put on the body: their force (N, up +) and the mass they add (kg)."""
-    f, mass, normal = nodes.f, nodes.mass, contact.normal
-    up = f.shape[0] - 1
-    force = 0.0
-    added = 0.0
+def tie_reactions(contact, nodes, gravity, force, inertia):
+    """What the holding tied nodes put on the body, per freedom (:data:`dsmv.cel.layout.FREEDOMS`): their
+    force and moment about the centre of gravity (N, N·m; the nodes' forces less their weight) added
+    to ``force``, and the inertia they add to the body's motion (kg, kg·m, kg·m²) added to ``inertia``
+    (6 × 6: a node held along its normal n counts m·(nᵀJ)ᵀ(nᵀJ), a fully tied one m·JᵀJ, J its levers)."""
+    f, mass, normal, arm = nodes.f, nodes.mass, contact.normal, contact.arm
+    dim = f.shape[0]
+    up = dim - 1
+    freedoms = model_freedoms(dim)
+    levers = np.zeros(6)
     for k in range(len(contact.node)):
         if not contact.holding[k]:
             continue
         n = np.uint64(contact.node[k])  # unsigned: no wraparound check at each access
         m = mass[n]
         if contact.full[k]:
-            force += f[up, n] - m * gravity
-            added += m
+            for a in range(dim):
+                fa = f[a, n] - m * gravity if a == up else f[a, n]
+                along = translation_of(dim, a)
+                force[along] += fa
+                inertia[along, along] += m
+                for q in freedoms:
+                    if q >= 3:  # a rotation: the force's moment, the node's coupling and its m·r²
+                        lq = lever(arm, k, a, q)
+                        force[q] += lq * fa
+                        inertia[along, q] += m * lq
+                        inertia[q, along] += m * lq
+                        for p in freedoms:
+                            if p >= 3:
+                                inertia[q, p] += m * lq * lever(arm, k, a, p)
         else:
             fn = 0.0
             for a in range(up):
                 fn += f[a, n] * normal[k, a]
             fn += (f[up, n] - m * gravity) * normal[k, up]
-            force += fn * normal[k, up]
-            added += m * normal[k, up] * normal[k, up]
-    return force, added
+            for q in freedoms:
+                levers[q] = 0.0
+                for a in range(dim):
+                    levers[q] += normal[k, a] * lever(arm, k, a, q)
+                force[q] += fn * levers[q]
+            for q in freedoms:
+                for p in freedoms:
+                    inertia[q, p] += m * levers[q] * levers[p]
 
 
 @njit(**JIT)
-def apply_ties(contact, nodes, v_body):
-    """A holding tied node's velocity: the body's (full tie), or its own with the normal part the
-    body's. Returns the change of the vertical momentum (kg·m/s)."""
-    v, mass, normal = nodes.v, nodes.mass, contact.normal
+def apply_ties(contact, nodes, body):
+    """A holding tied node's velocity: the body's at its place (full tie), or its own with the normal
+    part the body's. Returns the change of the vertical momentum (kg·m/s)."""
+    v, mass, normal, arm = nodes.v, nodes.mass, contact.normal, contact.arm
     dim = v.shape[0]
     up = dim - 1
     change = 0.0
@@ -239,14 +314,15 @@ def apply_ties(contact, nodes, v_body):
         n = np.uint64(contact.node[k])  # unsigned: no wraparound check at each access
         v_free = v[up, n]
         if contact.full[k]:
-            for a in range(up):
-                v[a, n] = 0.0
-            v[up, n] = v_body
+            for a in range(dim):
+                v[a, n] = rigid_velocity(body, arm, k, a)
         else:
             vn = 0.0
             for a in range(dim):
                 vn += v[a, n] * normal[k, a]
-            gap = v_body * normal[k, up] - vn
+            gap = -vn  # the body's normal speed there less the node's
+            for a in range(dim):
+                gap += rigid_velocity(body, arm, k, a) * normal[k, a]
             for a in range(dim):
                 v[a, n] += gap * normal[k, a]
         change += mass[n] * (v[up, n] - v_free)
@@ -267,7 +343,7 @@ def held_kinetic_energy(contact, nodes):
 
 
 @njit(**JIT)
-def rejoin_ties(contact, nodes, v_body, body_mass, drop, energy_out):
+def rejoin_ties(contact, nodes, body, body_mass, drop, energy_out):
     """After a remap the holding tied nodes move with the body again, and the body pays for it.
 
     The remap carries momentum into and out of the tied nodes' dual cells, so it leaves them off the
@@ -275,13 +351,15 @@ def rejoin_ties(contact, nodes, v_body, body_mass, drop, energy_out):
     (5 % of the energy put in by a 10 m/s landing on a quarter plate four cells wide). They rejoin
     the body as one rigid unit instead, an inelastic collision: a falling body takes the momentum-
     conserving velocity (a normal tie counts with n_up², as its inertia does in :func:`tie_reactions`),
-    a pushed body keeps its speed and the push supplies the impulse. Returns the body's velocity;
+    a pushed body keeps its speed and the push supplies the impulse. The vertical freedom only (a
+    body with others runs on the undeformed grid, without a remap). Sets the body's velocity;
     adds the kinetic energy change less the push's work (−the collision's loss, J) to
     ``energy_out[0]`` and the push's work (J) to ``energy_out[1]``.
     """
     v, mass, normal = nodes.v, nodes.mass, contact.normal
     dim = v.shape[0]
     up = dim - 1
+    v_body = body[B_VEL]
     v_new = v_body
     if drop:
         momentum, inertia = body_mass * v_body, body_mass
@@ -300,12 +378,12 @@ def rejoin_ties(contact, nodes, v_body, body_mass, drop, energy_out):
         v_new = momentum / inertia
     kinetic = 0.5 * body_mass * (v_new**2 - v_body**2) if drop else 0.0
     kinetic -= held_kinetic_energy(contact, nodes)
-    impulse_up = apply_ties(contact, nodes, v_new)  # on the tied nodes, from the body (kg·m/s)
+    body[B_VEL] = v_new
+    impulse_up = apply_ties(contact, nodes, body)  # on the tied nodes, from the body (kg·m/s)
     kinetic += held_kinetic_energy(contact, nodes)
     push_work = 0.0 if drop else impulse_up * v_body
     energy_out[0] += kinetic - push_work
     energy_out[1] += push_work
-    return v_new
 
 
 @njit(**INLINE)
@@ -328,46 +406,50 @@ def grip_strength(contact, cells, k):
 
 
 @njit(**INLINE)
-def pull_along_face(vx, vy, tx, ty, v_body, dw_max, m, dt):
-    """A face's capped pull on a tied node of mass m (kg) moving along the face (tx, ty): it takes
-    the node's whole slip speed relative to the body when it can (the node sticks), else at most
-    dw_max (m/s), against the slip. Returns the node's new velocity, its momentum change m·Δvy, the
-    pull times the slip it leaves (J per s of step, times Δt: 0 when it sticks), and the pull's
-    reaction on the body (N, up +)."""
-    w = vx * tx + (vy - v_body) * ty  # slip speed relative to the body
+def pull_along_face(vx, vy, tx, ty, ux, uy, dw_max, m, dt):
+    """A face's capped pull on a tied node of mass m (kg) moving along the face (tx, ty), the body
+    moving there at (ux, uy): it takes the node's whole slip speed relative to the body when it can
+    (the node sticks), else at most dw_max (m/s), against the slip. Returns the node's new velocity,
+    its momentum change m·Δvy, the pull times the slip it leaves (J per s of step, times Δt: 0 when it
+    sticks), and the pull's reaction on the body along x and up (N)."""
+    w = (vx - ux) * tx + (vy - uy) * ty  # slip speed relative to the body
     dw = -w if abs(w) <= dw_max else (-dw_max if w > 0.0 else dw_max)
-    return vx + dw * tx, vy + dw * ty, m * dw * ty, -m * dw * (w + dw), -m * dw * ty / dt
+    return vx + dw * tx, vy + dw * ty, m * dw * ty, -m * dw * (w + dw), -m * dw * tx / dt, -m * dw * ty / dt
 
 
 @njit(**INLINE)
-def pull_in_face(v, n, normal, k, v_body, dw_max, m, dt):
+def pull_in_face(v, n, normal, k, ux, uy, uz, dw_max, m, dt, reaction):
     """In 3D, the face's capped pull on tied node n: as :func:`pull_along_face`, against the slip's own
-    direction in the face (the node's velocity relative to the body, less its normal part). Updates
-    ``v`` and returns the momentum change m·Δv_up, the pull times the slip it leaves, and the pull's
-    reaction on the body (N, up +)."""
-    wx, wy, wz = v[0, n], v[1, n], v[2, n] - v_body
+    direction in the face (the node's velocity relative to the body's (ux, uy, uz) there, less its
+    normal part). Updates ``v``, puts the pull's reaction on the body along each axis (N) in
+    ``reaction`` and returns the momentum change m·Δv_up and the pull times the slip it leaves."""
+    wx, wy, wz = v[0, n] - ux, v[1, n] - uy, v[2, n] - uz
     un = wx * normal[k, 0] + wy * normal[k, 1] + wz * normal[k, 2]
     wx, wy, wz = wx - un * normal[k, 0], wy - un * normal[k, 1], wz - un * normal[k, 2]
     w = math.sqrt(wx * wx + wy * wy + wz * wz)
+    reaction[:] = 0.0
     if w == 0.0:
-        return 0.0, 0.0, 0.0
+        return 0.0, 0.0
     scale = -1.0 if w <= dw_max else -dw_max / w  # stick, or the capped change against the slip
     v[0, n] += scale * wx
     v[1, n] += scale * wy
     v[2, n] += scale * wz
     dw = -scale * w  # the change's size
-    return m * scale * wz, m * dw * (w - dw), -m * scale * wz / dt
+    reaction[0], reaction[1], reaction[2] = -m * scale * wx / dt, -m * scale * wy / dt, -m * scale * wz / dt
+    return m * scale * wz, m * dw * (w - dw)
 
 
 @njit(**JIT)
-def adhesion(contact, cells, nodes, v_body, dt, mass_floor, energy_slip):
+def adhesion(contact, cells, nodes, body, dt, mass_floor, energy_slip, pull):
     """The faces' capped pull (α·su) on their holding, normally tied nodes: in 2D along the face's
     in-plane tangent, in 3D against the slip's direction in the face. Adds the slip's dissipation to
-    ``energy_slip[0]`` (J); returns the change of the vertical momentum (kg·m/s) and the pull's
-    reaction on the body (N)."""
-    v, mass, normal = nodes.v, nodes.mass, contact.normal
+    ``energy_slip[0]`` (J) and the pull's reaction on the body per freedom (N, N·m) to ``pull``;
+    returns the change of the vertical momentum (kg·m/s)."""
+    v, mass, normal, arm = nodes.v, nodes.mass, contact.normal, contact.arm
+    dim = v.shape[0]
+    freedoms = model_freedoms(dim)
     change = 0.0
-    reaction = 0.0
+    reaction = np.zeros(3)
     for k in range(len(contact.node)):
         if contact.full[k] or contact.cap[k] <= 0.0 or not contact.holding[k]:
             continue
@@ -376,15 +458,19 @@ def adhesion(contact, cells, nodes, v_body, dt, mass_floor, energy_slip):
         if m <= mass_floor:
             continue
         dw_max = contact.cap[k] * grip_strength(contact, cells, k) * dt / m
-        if v.shape[0] == 2:
-            v[0, n], v[1, n], dp, slip, pull = pull_along_face(v[0, n], v[1, n], -normal[k, 1], normal[k, 0],
-                                                               v_body, dw_max, m, dt)
+        if dim == 2:
+            v[0, n], v[1, n], dp, slip, reaction[0], reaction[1] = pull_along_face(
+                v[0, n], v[1, n], -normal[k, 1], normal[k, 0], rigid_velocity(body, arm, k, 0),
+                rigid_velocity(body, arm, k, 1), dw_max, m, dt)
         else:
-            dp, slip, pull = pull_in_face(v, n, normal, k, v_body, dw_max, m, dt)
+            dp, slip = pull_in_face(v, n, normal, k, rigid_velocity(body, arm, k, 0), rigid_velocity(body, arm, k, 1),
+                                    rigid_velocity(body, arm, k, 2), dw_max, m, dt, reaction)
         change += dp
         energy_slip[0] += slip
-        reaction += pull
-    return change, reaction
+        for q in freedoms:
+            for a in range(dim):
+                pull[q] += lever(arm, k, a, q) * reaction[a]
+    return change
 
 
 @njit(**INLINE)
