@@ -1,5 +1,5 @@
 """A body that slides and turns (``landing.free``, ``landing.horizontal_velocity_m_s``,
-``landing.rotation_rate_rad_s``, ``landing.cg_offset_m``) in plane strain.
+``landing.roll_rate_rad_s``, ``landing.cg_offset_m``) in plane strain and in 3D.
 
 Truths: Green's (1954) exact V–H envelope of a rough strip on weightless Tresca soil, whose flat
 part is sliding at H = B·su; the mirror image of a push; and a symmetric landing, which keeps its
@@ -93,11 +93,12 @@ def test_a_symmetric_landing_stays_upright_bit_for_bit(compose_cfg):
     (["landing.free=[z,z]"], "landing.free"),
     (["landing.free=[x]"], "landing.free"),  # a drop falls free in z
     (["landing=push", "landing.velocity_m_s=0"], "landing.velocity_m_s"),
-    (["landing=push", "landing.velocity_m_s=0", "landing.rotation_rate_rad_s=0.1"], "landing.rotation_deg"),
-    # the whole section holds the soil to the body so far
-    (["landing.cg_offset_m=[0.1,0,0]", "solver.remap=false", "solver.contact_separation=true"], "landing.cg_offset_m"),
+    (["landing=push", "landing.velocity_m_s=0", "landing.roll_rate_rad_s=0.1"], "landing.rotation_deg"),
+    (["geometry=fall_cone_30deg", "landing.cg_offset_m=[0.01,0,0]"], "landing.cg_offset_m"),  # axisymmetric
     (["landing.cg_offset_m=[0.1,0,0]", "solver.contact_separation=false", "solver.remap=true"], "solver.remap"),
-    (["solver=cel3d", "landing.free=[z,x]"], "landing.free"),
+    (["solver=cel3d", "landing.free=[z,x]"], "solver.remap"),  # small strain so far
+    (["landing=push", "landing.lateral_velocity_m_s=0.1", "solver.remap=false"], "landing.lateral_velocity_m_s"),
+    (["landing.pitch_rate_rad_s=0.1"], "landing.pitch_rate_rad_s"),  # a drop touches down without turning
 ])
 def test_motions_the_solvers_cannot_honour_are_refused_by_key(compose_cfg, overrides, key):
     with pytest.raises(ConfigError) as refused:  # the scene's own check, then the solver's

@@ -47,13 +47,13 @@ class ContactRules:
     @classmethod
     def of(cls, scene, axisymmetric: bool) -> "ContactRules":
         """The rules of a scene. ``solver.contact_separation=auto`` lets the soil part from the body in a
-        landing (real contact holds no tension) wherever the faces can let go and the half model runs;
+        landing (real contact holds no tension) wherever the faces can let go;
         a push (the verification cases) keeps the soil tied unless asked."""
         body, asked = scene.geometry, scene.solver.contact_separation
         rules = cls(body.kind, getattr(body, "view", "cross_section") == "longitudinal", body.adhesion_factor,
                     body.roughness, axisymmetric, asked is True)
         if asked == "auto":
-            landing = scene.landing.kind == "drop" and scene.solver.economies.symmetry and scene.landing.symmetric
+            landing = scene.landing.kind == "drop"
             rules = replace(rules, separation=rules.separable and landing)
         return rules
 

@@ -38,9 +38,7 @@ import numpy as np
 
 from dsmv.cel import ledger
 from dsmv.cel.kernels.common import all_finite
-from dsmv.cel.layout import (
-    B_FCOUNT, B_HSUM_X, B_MAXDISP, B_MSUM_Y, B_OFFSET, B_OFFSET_X, B_ROT_Y, B_TIME, B_VEL, FORCE_SLOTS,
-)
+from dsmv.cel.layout import B_FCOUNT, B_MAXDISP, B_OFFSET, B_ROT_X, B_ROT_Y, B_ROT_Z, B_TIME, B_VEL, FORCE_SLOTS, POSE_SLOTS
 from dsmv.cel.stepper import AT_REST, NOT_FINITE, OUTRAN, RUNNING
 
 
@@ -81,6 +79,11 @@ class Run:
         return self.start_sinkage_m + self.travel_m
 
     @property
+    def turned_deg(self) -> float:
+        """How far the body has turned, the size of its rotation (degrees)."""
+        return math.degrees(math.sqrt(sum(float(self.body[s]) ** 2 for s in (B_ROT_X, B_ROT_Y, B_ROT_Z))))
+
+    @property
     def max_sinkage_m(self) -> float:
         return self.start_sinkage_m + float(self.body[B_MAXDISP])
 
@@ -93,26 +96,26 @@ class Run:
         """The soil's mean force on the body over the last chunk, per track (N, up +)."""
         return self.mean_reaction(FORCE_SLOTS[2])
 
-    @property
-    def horizontal_force_n(self) -> float:
-        """The soil's mean force on the body along +x over the last chunk, per track (N)."""
-        return self.mean_reaction(B_HSUM_X)
+    def column(self, name: str) -> float:
+        """A history column of a body that slides or turns (:data:`MOTION_COLUMNS`): the soil's mean force
+        (N) or moment about the centre of gravity (N·m) over the last chunk, per track, or the body's
+        displacement (m) or rotation (degrees) now."""
+        kind, q = MOTION_COLUMNS[name]
+        if kind == "reaction":
+            return self.mean_reaction(FORCE_SLOTS[q])
+        value = float(self.body[POSE_SLOTS[q]])
+        return math.degrees(value) if q >= 3 else value
 
-    @property
-    def moment_n_m(self) -> float:
-        """The soil's mean moment on the body about y through its centre of gravity over the last chunk,
-        per track (N·m; + turns it as a positive rotation does, lowering the +x side)."""
-        return self.mean_reaction(B_MSUM_Y)
 
-    @property
-    def rotation_deg(self) -> float:
-        """The body's rotation about y (degrees; + has lowered the +x side)."""
-        return math.degrees(float(self.body[B_ROT_Y]))
-
-    @property
-    def horizontal_displacement_m(self) -> float:
-        """How far the body's centre has moved along +x (m)."""
-        return float(self.body[B_OFFSET_X])
+#: the history's columns of a body that slides or turns: what each is and its freedom (dsmv.cel.layout.FREEDOMS);
+#: plane strain has the first four (x, and the turn about y), 3D all. Moments and rotations follow the right
+#: hand: + about y lowers the +x side, about x raises the +y end, about z turns +x towards +y.
+MOTION_COLUMNS = {
+    "horizontal_force_n": ("reaction", 0), "moment_n_m": ("reaction", 4),
+    "rotation_deg": ("pose", 4), "horizontal_displacement_m": ("pose", 0),
+    "lateral_force_n": ("reaction", 1), "pitch_moment_n_m": ("reaction", 3), "yaw_moment_n_m": ("reaction", 5),
+    "pitch_deg": ("pose", 3), "yaw_deg": ("pose", 5), "lateral_displacement_m": ("pose", 1),
+}
 
 
 class Cadence:
@@ -263,25 +266,21 @@ class Controller:
 # ----------------------------------------------------------------------------- observers
 
 
-#: the history's columns of a body that may slide or turn (the :class:`Run` properties of the same names)
-PLANAR_COLUMNS = ("horizontal_force_n", "moment_n_m", "rotation_deg", "horizontal_displacement_m")
-
-
 class History(Tracker):
     """The time history: time, sinkage, the body's downward velocity and the soil's force, per chunk,
-    from the touchdown on (downward velocity ``velocity0_m_s``); with ``planar``, also the horizontal
-    force, the moment, the rotation and the horizontal displacement (:data:`PLANAR_COLUMNS`)."""
+    from the touchdown on (downward velocity ``velocity0_m_s``); and the ``extra`` columns of a body
+    that slides or turns (:data:`MOTION_COLUMNS`)."""
 
-    def __init__(self, velocity0_m_s: float, planar: bool = False):
+    def __init__(self, velocity0_m_s: float, extra: tuple[str, ...] = ()):
         self.velocity0_m_s = velocity0_m_s
-        self.extra = PLANAR_COLUMNS if planar else ()
+        self.extra = extra
 
     def start(self, run: Run) -> None:
         for name, value in (("time_s", 0.0), ("sinkage_m", run.start_sinkage_m), ("velocity_m_s", self.velocity0_m_s),
                             ("force_n", 0.0)):
             run.history[name].append(value)
         for name in self.extra:
-            run.history[name] = [0.0 if name.endswith(("_n", "_n_m")) else getattr(run, name)]
+            run.history[name] = [0.0 if MOTION_COLUMNS[name][0] == "reaction" else run.column(name)]
 
     def after_chunk(self, run: Run) -> None:
         h = run.history
@@ -290,7 +289,7 @@ class History(Tracker):
         h["velocity_m_s"].append(-run.body[B_VEL])
         h["force_n"].append(run.force_n)
         for name in self.extra:
-            h[name].append(getattr(run, name))
+            h[name].append(run.column(name))
 
 
 class Zigzag(Tracker):
@@ -535,10 +534,10 @@ class PushEnd(Tracker):
         if self.displacement is not None and self.pose_slots:
             travelled = math.sqrt(sum(float(run.body[s]) ** 2 for s in self.pose_slots))
             if travelled >= self.displacement - 1e-12:
-                turned = f", turned {run.rotation_deg:.4g}°" if self.rotation_deg is not None else ""
+                turned = f", turned {run.turned_deg:.4g}°" if self.rotation_deg is not None else ""
                 return Ending("ok", f"pushed to {run.sinkage_m:.4g} m{turned}")
-        if self.rotation_deg is not None and abs(run.rotation_deg) >= self.rotation_deg - 1e-12:
-            return Ending("ok", f"turned to {run.rotation_deg:.4g}° at {run.sinkage_m:.4g} m")
+        if self.rotation_deg is not None and run.turned_deg >= self.rotation_deg - 1e-12:
+            return Ending("ok", f"turned to {run.turned_deg:.4g}° at {run.sinkage_m:.4g} m")
         return None
 
 

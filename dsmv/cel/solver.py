@@ -36,13 +36,13 @@ from dsmv.cel.config import CelConfig
 from dsmv.cel.contact import ContactRules, touchdown_mass
 from dsmv.cel.kernels import DimensionKernels, for_dimension
 from dsmv.cel.layout import (
-    B_INFLOW, B_MAXROT, B_MAXSLIDE, B_OFFSET_X, B_ROT_Y, B_TIME, B_VEL, B_VX, B_WY, FREEDOMS, N_BODY, POSE_SLOTS,
+    B_INFLOW, B_MAXROT, B_MAXSLIDE, B_TIME, B_VEL, FREEDOMS, N_BODY, POSE_SLOTS,
     VELOCITY_SLOTS, CellRows, Cells, Inflow, Nodes, Params, SoilLawKernel, freedom_mask,
 )
 from dsmv.cel.state import Elastic, geostatic_state, hourglass_factor, step_parameters
 from dsmv.errors import ConfigError
 from dsmv.results import SolveResult, add_plate_sinkage
-from dsmv.config.scene import Scene
+from dsmv.config.scene import FREEDOM_NAMES, RATE_KEYS, Scene
 
 #: s/B at which push curves are sampled for the bearing factor q/su0 (averaged over ±0.005·B)
 NC_SAMPLES = {"nc_at_0p02B": 0.02, "nc_at_0p05B": 0.05, "nc_at_0p1B": 0.1, "nc_at_1B": 1.0}
@@ -150,11 +150,11 @@ class CelSolver:
         if refusal is not None:
             raise refusal
         landing = scene.landing
-        if landing.moves_beyond_vertical:
-            if landing.kind == "drop" and (landing.horizontal_velocity_m_s or landing.rotation_rate_rad_s):
-                raise ConfigError("landing.horizontal_velocity_m_s" if landing.horizontal_velocity_m_s
-                                  else "landing.rotation_rate_rad_s", landing.horizontal_velocity_m_s
-                                  or landing.rotation_rate_rad_s, "a drop touches down without drift or turning so far")
+        if landing.kind == "drop":
+            drift = next((RATE_KEYS[n] for n in FREEDOM_NAMES if n != "z" and landing.given_velocity(n)), None)
+            if drift:
+                raise ConfigError(f"landing.{drift}", getattr(landing, drift), "a drop touches down without drift or "
+                                  "turning so far")
         return rules
 
     #: the freedoms a model of this solver has, by name (:data:`dsmv.cel.layout.FREEDOMS`)
@@ -170,15 +170,17 @@ class CelSolver:
         held = self.held_by_symmetry()
         return tuple(n for n in self.scene.landing.freedoms if n in self.model_freedoms and n not in held)
 
-    def rotational_inertia_kg_m2(self) -> float:
-        """The body's inertia about the axis along it through its centre of gravity, per track (kg·m²):
-        ``landing.rotational_inertia_kg_m2``, else a uniform box of its width B and height (a track's
-        sprocket diameter, else B): m·(B² + height²)/12."""
+    def rotational_inertia_kg_m2(self) -> tuple[float, float, float]:
+        """The body's inertia about x, y and z through its centre of gravity, per track (kg·m²):
+        ``landing.rotational_inertia_kg_m2``, else a uniform box B wide, L long and as high as a track's
+        sprockets (else B): m·(L² + height²)/12, m·(B² + height²)/12, m·(B² + L²)/12."""
         landing, body = self.scene.landing, self.scene.geometry
         if landing.rotational_inertia_kg_m2 is not None:
-            return landing.rotational_inertia_kg_m2
-        height = 2.0 * body.sprocket_radius_m if body.kind == "track" else body.width_m
-        return self.start().inertia_kg * (body.width_m**2 + height**2) / 12.0
+            return tuple(landing.rotational_inertia_kg_m2)
+        B, L = body.width_m, body.contact_length_m or body.width_m
+        height = 2.0 * body.sprocket_radius_m if body.kind == "track" else B
+        m = self.start().inertia_kg
+        return m * (L**2 + height**2) / 12.0, m * (B**2 + height**2) / 12.0, m * (B**2 + L**2) / 12.0
 
     @staticmethod
     def is_axisymmetric(scene: Scene) -> bool:
@@ -286,7 +288,7 @@ class CelSolver:
         drop = landing.kind == "drop"
         B = self.characteristic_width_m(self.travel)
         zigzag = C.Zigzag(lambda: self.hourglass_modes(state))
-        trackers = [C.History(-state.body[B_VEL], landing.moves_beyond_vertical), zigzag]
+        trackers = [C.History(-state.body[B_VEL], self.motion_columns()), zigzag]
         if scene.output.fields and run_dir is not None:
             trackers.append(C.Fields(self.field_recorder(state), lambda: self.snapshot(state), run_dir))
         v0 = state.body[B_VEL]
@@ -312,11 +314,10 @@ class CelSolver:
             trackers += [C.Rest(state.par.body_weight == 0.0, cfg.economies.stop_at_rest),
                          C.BearingFailure(width, width == scene.geometry.width_m), C.TravelLimit(self.travel)]
         else:
-            driven = [n for n in ("x", "z") if n not in self.moving_freedoms()
-                      and (landing.velocity_m_s if n == "z" else landing.horizontal_velocity_m_s)]
-            turning = landing.rotation_rate_rad_s != 0 and "ry" not in self.moving_freedoms()
-            trackers.append(C.PushEnd(landing.displacement_m, tuple(int(POSE_SLOTS[FREEDOMS.index(n)]) for n in driven),
-                                      landing.rotation_deg if turning else None))
+            driven = landing.driven
+            trackers.append(C.PushEnd(landing.displacement_m, tuple(int(POSE_SLOTS[FREEDOMS.index(n)])
+                                                                    for n in ("x", "y", "z") if n in driven),
+                                      landing.rotation_deg if driven & {"rx", "ry", "rz"} else None))
         trackers.append(C.StepBudget(cfg.max_steps))
         if self.shows_progress():
             trackers.append(C.Progress(self.expected_duration_s(), sys.stderr.isatty()))
@@ -508,7 +509,7 @@ class CelSolver:
         if not drop:
             self._push_metrics(history, metrics, units)
         if landing.moves_beyond_vertical:
-            self._planar_metrics(body, history, metrics, units)
+            self._motion_metrics(body, history, metrics, units)
         if status == "ok" and metrics["mass_error"] > 1e-6:
             status, message = "unstable", f"soil mass drifted by {metrics['mass_error']:.2e} (relative)"
         if status == "ok" and metrics["energy_error"] > ENERGY_ERROR_LIMIT:
@@ -546,24 +547,29 @@ class CelSolver:
         metrics["max_force_n"] = float(history["force_n"].max())
         units["max_force_n"] = "N"
 
-    @staticmethod
-    def _planar_metrics(body, history, metrics, units) -> None:
-        """A body that may slide or turn: its largest rotation and horizontal displacement, where it ended,
-        the largest horizontal force and moment on it, and the loads at the end (the mean over the last
-        twentieth of the history: a probe's limit load)."""
+    def motion_columns(self) -> tuple[str, ...]:
+        """The history columns of a body that may slide or turn (none for one that cannot): those of the
+        freedoms this model has (:data:`dsmv.cel.controller.MOTION_COLUMNS`)."""
+        if not self.scene.landing.moves_beyond_vertical:
+            return ()
+        return tuple(name for name, (_, q) in C.MOTION_COLUMNS.items() if FREEDOMS[q] in self.model_freedoms)
+
+    def _motion_metrics(self, body, history, metrics, units) -> None:
+        """A body that may slide or turn: its largest rotation and displacement in plan, where it ended
+        (each column's last value), the largest force and moment on it, and the loads at the end (the
+        mean over the last twentieth of the history: a probe's limit load)."""
         end = slice(-max(1, len(history["time_s"]) // 20), None)
-        metrics |= {
-            "max_rotation_deg": math.degrees(body[B_MAXROT]), "max_horizontal_displacement_m": body[B_MAXSLIDE],
-            "rotation_deg": math.degrees(body[B_ROT_Y]), "horizontal_displacement_m": body[B_OFFSET_X],
-            "max_horizontal_force_n": float(np.abs(history["horizontal_force_n"]).max()),
-            "max_moment_n_m": float(np.abs(history["moment_n_m"]).max()),
-            "end_force_n": float(history["force_n"][end].mean()),
-            "end_horizontal_force_n": float(history["horizontal_force_n"][end].mean()),
-            "end_moment_n_m": float(history["moment_n_m"][end].mean()),
-        }
-        units |= {"max_rotation_deg": "deg", "max_horizontal_displacement_m": "m", "rotation_deg": "deg",
-                  "horizontal_displacement_m": "m", "max_horizontal_force_n": "N", "max_moment_n_m": "N·m",
-                  "end_force_n": "N", "end_horizontal_force_n": "N", "end_moment_n_m": "N·m"}
+        metrics |= {"max_rotation_deg": math.degrees(body[B_MAXROT]), "max_horizontal_displacement_m": body[B_MAXSLIDE],
+                    "end_force_n": float(history["force_n"][end].mean())}
+        units |= {"max_rotation_deg": "deg", "max_horizontal_displacement_m": "m", "end_force_n": "N"}
+        for name in self.motion_columns():
+            unit = {"_n": "N", "_m": "N·m" if name.endswith("_n_m") else "m", "eg": "deg"}[name[-2:]]
+            if C.MOTION_COLUMNS[name][0] == "reaction":
+                metrics[f"max_{name}"] = float(np.abs(history[name]).max())
+                metrics[f"end_{name}"] = float(history[name][end].mean())
+                units[f"max_{name}"] = units[f"end_{name}"] = unit
+            else:
+                metrics[name], units[name] = float(history[name][-1]), unit
 
     def body_kinetic_energy(self, state: State) -> float:
         """The body's own kinetic energy in its free freedoms (J per unit thickness or per radian): a pushed
@@ -601,10 +607,12 @@ class CelSolver:
         v[up, contact.node[full]] = v0
         v[:, contact.node[~full]] = v0 * normal[~full, up] * normal[~full].T
         landing = self.scene.landing
-        if landing.moves_beyond_vertical:  # a push along x or about y: the tied nodes move with the body
+        if landing.moves_beyond_vertical:  # a push along or about another axis: the tied nodes move with the body
             from dsmv.cel.kernels.nodes import apply_ties
 
-            state.body[B_VX], state.body[B_WY] = landing.horizontal_velocity_m_s, landing.rotation_rate_rad_s
+            for q, name in enumerate(FREEDOMS):
+                if name != "z":
+                    state.body[VELOCITY_SLOTS[q]] = landing.given_velocity(name)
             apply_ties(contact, state.nodes, state.body)
 
     def hourglass_modes(self, state: State) -> tuple[float, float]:
@@ -724,7 +732,7 @@ class CelSolver:
             axisymmetric=self.axisym, advection_order=cfg.advection_order, drop=drop, inflow=True, remap=cfg.remap,
             law_active=self.law.active or not cfg.economies.skip_inactive_law, skip_void=cfg.economies.skip_void,
             separation=self.contact_separation(), free=freedom_mask(self.moving_freedoms()),
-            inertia_y=self.rotational_inertia_kg_m2() / scale,
+            **{f"inertia_{axis}": inertia / scale for axis, inertia in zip("xyz", self.rotational_inertia_kg_m2())},
             tresca=cfg.yield_surface == "tresca" or (cfg.yield_surface == "auto" and self.axisym),
         )
         nodal_mass(mesh, cells, rho, nodes.mass)

@@ -21,7 +21,7 @@ from dsmv.cel.grid import Grid2D, build_grid_2d
 from dsmv.cel.layout import Faces2D, Mesh2D, split_cells
 from dsmv.cel.solver import CelSolver
 from dsmv.errors import ConfigError
-from dsmv.config.scene import Scene
+from dsmv.config.scene import RATE_KEYS, Scene
 
 
 class Cel2DSolver(CelSolver):
@@ -44,7 +44,7 @@ class Cel2DSolver(CelSolver):
     def half_model(scene: Scene) -> bool:
         """Whether the model is half the section, a symmetry plane on the body's axis: asked
         (``solver.economies.symmetry``) and valid (the landing is symmetric about that plane)."""
-        return scene.solver.economies.symmetry and scene.landing.symmetric
+        return scene.solver.economies.symmetry and scene.landing.symmetric_about("x")
 
     def held_by_symmetry(self) -> tuple[str, ...]:
         """On the half model the symmetry plane holds the slide and the turn: a symmetric body stays upright."""
@@ -54,19 +54,22 @@ class Cel2DSolver(CelSolver):
     def check_capabilities(cls, scene: Scene) -> ContactRules:
         rules = super().check_capabilities(scene)
         cfg, body = scene.solver, scene.geometry
-        if scene.landing.moves_beyond_vertical and (cls.is_axisymmetric(scene) or body.kind not in ("strip", "track")
-                                                    or getattr(body, "view", "") == "longitudinal"):
-            raise ConfigError("landing.free", list(scene.landing.freedoms), "a body slides and turns in plane strain: "
-                              "a strip or a track's cross-section")
+        landing = scene.landing
+        if landing.moves_beyond_vertical and (cls.is_axisymmetric(scene) or body.kind not in ("strip", "track")
+                                              or getattr(body, "view", "") == "longitudinal"):
+            key = landing.beyond_vertical_key
+            raise ConfigError(key, landing.model_dump()[key.split(".")[1]], "a body slides and turns in plane "
+                              "strain on a strip or a track's cross-section")
+        beyond_plane = [n for n in ("y", "rx", "rz") if n in landing.freedoms or landing.given_velocity(n)]
+        if beyond_plane:
+            raise ConfigError("landing.free" if beyond_plane[0] in landing.freedoms else f"landing.{RATE_KEYS[beyond_plane[0]]}",
+                              beyond_plane[0], "plane strain moves in x and z and turns about y (ry): cel3d has the rest")
         if scene.landing.moves_beyond_vertical and not cls.half_model(scene) and cfg.remap:
             raise ConfigError("solver.remap", True, "a body that slides or turns runs on the undeformed grid so far "
                               "(small strain): set solver.remap=false")
-        if not cls.half_model(scene) and (body.kind in ("cone", "circular_plate") or cfg.mode == "axisymmetric"
-                                          or body.roughness != "rough" or scene.output.fields or rules.separation):
-            what = ("solver.economies.symmetry", False) if not cfg.economies.symmetry else (
-                "landing.cg_offset_m", scene.landing.cg_offset_m)
-            raise ConfigError(*what, "the whole section (an asymmetric landing, or one asked for) runs plane strain "
-                              "bodies with rough contact, no contact separation and no field output so far")
+        if not cls.half_model(scene) and (body.kind in ("cone", "circular_plate") or cfg.mode == "axisymmetric"):
+            raise ConfigError("solver.economies.symmetry", False, "the whole section is a plane-strain model: an "
+                              "axisymmetric body is its own whole")
         if body.kind in ("cone", "circular_plate") and cfg.mode == "plane_strain":
             raise ConfigError("solver.mode", cfg.mode, f"a {body.kind.replace('_', ' ')} is axisymmetric: 'auto' or "
                                                        "'axisymmetric'")

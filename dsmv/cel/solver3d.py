@@ -86,10 +86,31 @@ class Cel3DSolver(CelSolver):
             # about 36 times the track's cells
             raise ConfigError("geometry.view", body.view, "cel3d models the whole track, its side view included: "
                                                           "leave geometry.view to cel2d")
-        if scene.landing.moves_beyond_vertical:
-            raise ConfigError("landing.free", list(scene.landing.freedoms), "cel3d moves a body vertically so far; "
-                              "a body slides and turns in cel2d (plane strain)")
+        landing = scene.landing
+        if landing.moves_beyond_vertical and scene.solver.remap:
+            raise ConfigError("solver.remap", True, "a body that slides or turns runs on the undeformed grid so far "
+                              "(small strain): set solver.remap=false")
+        if body.kind == "strip":
+            beyond_slab = [n for n in ("y", "rx", "rz") if n in landing.freedoms or landing.given_velocity(n)]
+            if beyond_slab:
+                raise ConfigError("landing.free", beyond_slab[0], "a strip (a slab between plane-strain planes) moves "
+                                  "in x and z and turns about y")
         return ContactRules.of(scene, False)
+
+    def symmetry_planes(self) -> tuple[bool, bool]:
+        """Which vertical mid-planes the model cuts the body on (normal to x, normal to y): those
+        ``solver.economies.symmetry`` asks for (quarter: both; half: the one normal to x; full: none) about
+        which the landing is symmetric. A strip's slab always has its plane-strain planes."""
+        asked = self.scene.solver.economies.symmetry
+        landing = self.scene.landing
+        return (asked != "full" and landing.symmetric_about("x"),
+                self.slab or (asked == "quarter" and landing.symmetric_about("y")))
+
+    def held_by_symmetry(self) -> tuple[str, ...]:
+        """A symmetry plane holds the slide across it and the turns that would tilt or twist it."""
+        normal_x, normal_y = self.symmetry_planes()
+        held = (("x", "ry", "rz") if normal_x else ()) + (("y", "rx", "rz") if normal_y else ())
+        return tuple(dict.fromkeys(held))
 
     # ------------------------------------------------------------------ geometry
 
@@ -137,8 +158,7 @@ class Cel3DSolver(CelSolver):
                              void_height=self.mudline + 1.3 * travel + 0.25 * B + 3 * h,
                              ratio=scene.mesh.growth_ratio,
                              h_max=scene.mesh.max_cell_size_m, slab=self.slab)
-        symmetry = cfg.economies.symmetry
-        mirrored = (symmetry == "full", symmetry != "quarter" and not self.slab)  # the axes modelled both sides
+        mirrored = tuple(not plane for plane in self.symmetry_planes())  # the axes modelled on both sides
         grid = Grid3D(*(np.concatenate([-a[:0:-1], a]) if both else a for a, both in zip((grid.x, grid.y), mirrored)),
                          grid.z, grid.h)
         self.grid, self.h, self.n_half, self.travel = grid, h, n_half, travel
@@ -147,17 +167,17 @@ class Cel3DSolver(CelSolver):
     def model_scale(self) -> float:
         """Model quantities → per track: four quarters of a plate (two halves, one whole); a strip slab is
         half the section (or the whole) over one cell of thickness, per contact length L."""
-        symmetry = self.scene.solver.economies.symmetry
+        normal_x, normal_y = self.symmetry_planes()
         if self.slab:
-            return (1.0 if symmetry == "full" else 2.0) * self.scene.geometry.contact_length_m / self.h
-        return {"quarter": 4.0, "half": 2.0, "full": 1.0}[symmetry]
+            return (2.0 if normal_x else 1.0) * self.scene.geometry.contact_length_m / self.h
+        return (2.0 if normal_x else 1.0) * (2.0 if normal_y else 1.0)
 
     def whole_body_cells(self, cells: float) -> float:
         """The cells the whole body would take on this grid: the quarter model mirrored twice, the half
         once (a strip slab is its own whole)."""
         if self.slab:
             return cells
-        return cells * {"quarter": 4, "half": 2, "full": 1}[self.scene.solver.economies.symmetry]
+        return cells * self.model_scale()
 
     def contact_area_m2(self) -> float:
         """The area the bearing factor refers to (m²): the footprint the body's cells press, per track

@@ -198,8 +198,12 @@ GEOMETRY_KINDS: dict[str, type[BodyConfig]] = {
 #: the rigid body's freedoms, as ``landing.free`` names them (translations, then rotations about x, y, z)
 FREEDOM_NAMES = ("x", "y", "z", "rx", "ry", "rz")
 #: the landing keys of the freedoms beyond the vertical, at the values that keep a body vertical
-VERTICAL_LANDING = {"free": None, "horizontal_velocity_m_s": 0.0, "rotation_rate_rad_s": 0.0, "rotation_deg": None,
-                    "cg_offset_m": [0.0, 0.0, 0.0], "rotational_inertia_kg_m2": None}
+VERTICAL_LANDING = {"free": None, "horizontal_velocity_m_s": 0.0, "lateral_velocity_m_s": 0.0, "roll_rate_rad_s": 0.0,
+                    "pitch_rate_rad_s": 0.0, "yaw_rate_rad_s": 0.0, "rotation_deg": None, "cg_offset_m": [0.0, 0.0, 0.0],
+                    "rotational_inertia_kg_m2": None}
+#: the landing key of each freedom's given speed (z's is downward)
+RATE_KEYS = {"x": "horizontal_velocity_m_s", "y": "lateral_velocity_m_s", "z": "velocity_m_s",
+             "rx": "pitch_rate_rad_s", "ry": "roll_rate_rad_s", "rz": "yaw_rate_rad_s"}
 
 
 class LandingConfig(Schema):
@@ -210,10 +214,11 @@ class LandingConfig(Schema):
     ``push``: prescribed downward velocity to ``displacement_m`` (load–displacement curves).
     The weight is shared by ``n_tracks`` tracks; one track is modelled.
 
-    The body's freedoms (x across it, z up, rotation ry about the axis along it; a plane-strain model
-    has these three): those in ``free`` move under the soil's reaction (a drop's z always), the others
-    keep their given speed (``velocity_m_s`` down, ``horizontal_velocity_m_s``, ``rotation_rate_rad_s``;
-    0: held). The centre of gravity sits ``cg_offset_m`` (x, y, z) from the middle of the body's base.
+    The body's freedoms (x across it, y along it, z up; rx pitch, ry roll, rz yaw about them; a
+    plane-strain model has x, z and ry): those in ``free`` move under the soil's reaction (a drop's z
+    always), the others keep their given speed (``velocity_m_s`` down, ``horizontal_velocity_m_s``,
+    ``lateral_velocity_m_s``, ``pitch_rate_rad_s``, ``roll_rate_rad_s``, ``yaw_rate_rad_s``; 0: held).
+    The centre of gravity sits ``cg_offset_m`` (x, y, z) from the middle of the body's base.
     """
 
     kind: Literal["drop", "push"]
@@ -226,31 +231,34 @@ class LandingConfig(Schema):
     initial_depth_m: Number = Field(0.0, ge=0, description="depth of the body's base below the mudline at the start (m)")
     free: Optional[list[Literal[FREEDOM_NAMES]]] = Field(None, description=(
         "freedoms that move under the soil's reaction; null: z for a drop, none for a push"))
-    horizontal_velocity_m_s: Number = Field(0.0, description="velocity along +x at touchdown / of the push (m/s)")
-    rotation_rate_rad_s: Number = Field(0.0, description=(
-        "rotation rate about y at touchdown / of the push (rad/s; + lowers the +x side)"))
+    horizontal_velocity_m_s: Number = Field(0.0, description="velocity along +x, across the body (m/s)")
+    lateral_velocity_m_s: Number = Field(0.0, description="velocity along +y, along the body (m/s)")
+    pitch_rate_rad_s: Number = Field(0.0, description="rotation rate about x (rad/s; + raises the +y end)")
+    roll_rate_rad_s: Number = Field(0.0, description="rotation rate about y (rad/s; + lowers the +x side)")
+    yaw_rate_rad_s: Number = Field(0.0, description="rotation rate about z (rad/s; + turns +x towards +y)")
     rotation_deg: Optional[Number] = Field(None, gt=0, description="push: rotation to reach (degrees)")
     cg_offset_m: list[Number] = Field([0.0, 0.0, 0.0], min_length=3, max_length=3, description=(
         "the centre of gravity's offset (x, y, z) from the middle of the body's base (m)"))
-    rotational_inertia_kg_m2: Optional[Number] = Field(None, gt=0, description=(
-        "inertia about the axis along the body through the centre of gravity, per track (kg·m²); "
-        "null: a uniform box of the body's width and height"))
+    rotational_inertia_kg_m2: Optional[list[Number]] = Field(None, min_length=3, max_length=3, description=(
+        "inertia about x, y and z through the centre of gravity, per track (kg·m²); null: a uniform box of "
+        "the body's size"))
 
     @model_validator(mode="after")
     def _motion_is_complete(self):
         if self.free is not None and len(set(self.free)) < len(self.free):
             raise ConfigError("landing.free", self.free, "names a freedom twice")
+        if self.rotational_inertia_kg_m2 is not None and min(self.rotational_inertia_kg_m2) <= 0:
+            raise ConfigError("landing.rotational_inertia_kg_m2", self.rotational_inertia_kg_m2, "must be > 0 (kg·m²)")
         if self.kind == "drop" and "z" not in self.freedoms:
             raise ConfigError("landing.free", self.free, "a drop falls free: include z (a body held in z is a push)")
         if self.kind == "push":
-            rates = {"z": self.velocity_m_s, "x": self.horizontal_velocity_m_s, "ry": self.rotation_rate_rad_s}
-            driven = {name for name, rate in rates.items() if rate != 0 and name not in self.freedoms}
+            driven = self.driven
             if not driven:
                 raise ConfigError("landing.velocity_m_s", self.velocity_m_s, "a push needs a velocity > 0 (m/s), "
-                                  "a horizontal_velocity_m_s or a rotation_rate_rad_s on a freedom it holds")
-            if driven & {"x", "z"} and self.displacement_m is None:
+                                  "or another speed or rate on a freedom it holds")
+            if driven & {"x", "y", "z"} and self.displacement_m is None:
                 raise ConfigError("landing.displacement_m", None, "a push needs a displacement > 0 (m)")
-            if driven == {"ry"} and self.rotation_deg is None:
+            if not driven & {"x", "y", "z"} and self.rotation_deg is None:
                 raise ConfigError("landing.rotation_deg", None, "a push that only turns needs a rotation > 0 (degrees)")
         return self
 
@@ -261,27 +269,57 @@ class LandingConfig(Schema):
             return tuple(self.free)
         return ("z",) if self.kind == "drop" else ()
 
+    def given_velocity(self, name: str) -> float:
+        """The speed given to a freedom (m/s or rad/s, the body's axes: z up +)."""
+        rate = getattr(self, RATE_KEYS[name])
+        return -rate if name == "z" else rate
+
+    @property
+    def driven(self) -> set[str]:
+        """The freedoms a push drives: those with a speed that do not move under the soil."""
+        return {n for n in FREEDOM_NAMES if self.given_velocity(n) != 0 and n not in self.freedoms}
+
     @property
     def push_duration_s(self) -> float:
         """How long a push lasts (s): its displacement over the speed of the translations it drives, or its
         rotation over its rate, whichever ends it first."""
-        speed = math.hypot(*(rate for name, rate in (("z", self.velocity_m_s), ("x", self.horizontal_velocity_m_s))
-                             if name not in self.freedoms))
+        driven = self.driven
+        speed = math.sqrt(sum(self.given_velocity(n) ** 2 for n in ("x", "y", "z") if n in driven))
         ends = [self.displacement_m / speed] if speed > 0 and self.displacement_m else []
-        if self.rotation_rate_rad_s and "ry" not in self.freedoms and self.rotation_deg:
-            ends.append(math.radians(self.rotation_deg) / abs(self.rotation_rate_rad_s))
+        rate = math.sqrt(sum(self.given_velocity(n) ** 2 for n in ("rx", "ry", "rz") if n in driven))
+        if rate > 0 and self.rotation_deg:
+            ends.append(math.radians(self.rotation_deg) / rate)
         return min(ends)
+
+    def symmetric_about(self, axis: str) -> bool:
+        """Whether the landing is mirror-symmetric about the body's vertical mid-plane normal to ``axis``
+        (x: the plane along the body; y: across it): no drift across the plane, no turn that tilts or
+        twists it, the centre of gravity on it. A symmetric body then moves as its mirror image does,
+        whatever freedoms it has."""
+        across, tilt = ("x", "ry") if axis == "x" else ("y", "rx")
+        return (self.given_velocity(across) == 0 and self.given_velocity(tilt) == 0
+                and self.given_velocity("rz") == 0 and self.cg_offset_m["xy".index(axis)] == 0)
 
     @property
     def symmetric(self) -> bool:
-        """Whether the landing is mirror-symmetric about the body's vertical mid-plane across its width (no
-        drift, no turning, the centre of gravity above the base's middle): a symmetric body then stays
-        upright and slides nowhere, whatever freedoms it has."""
-        return self.horizontal_velocity_m_s == 0 and self.rotation_rate_rad_s == 0 and self.cg_offset_m[0] == 0
+        """Symmetric about both vertical mid-planes (:meth:`symmetric_about`)."""
+        return self.symmetric_about("x") and self.symmetric_about("y")
+
+    @property
+    def beyond_vertical_key(self) -> Optional[str]:
+        """The first landing key that lets the body slide or turn (a freedom, a speed, the centre of
+        gravity off the axis), or None."""
+        if set(self.freedoms) - {"z"}:
+            return "landing.free"
+        rate = next((RATE_KEYS[n] for n in FREEDOM_NAMES if n != "z" and self.given_velocity(n)), None)
+        if rate:
+            return f"landing.{rate}"
+        return "landing.cg_offset_m" if any(self.cg_offset_m[:2]) else None
 
     @property
     def moves_beyond_vertical(self) -> bool:
-        """Whether the body may slide or turn: a freedom other than z, or a push along one."""
+        """Whether the body may slide or turn: a freedom other than z, or a speed on one, or its centre of
+        gravity off its axis."""
         return bool(set(self.freedoms) - {"z"}) or not self.symmetric
 
     @property

@@ -138,27 +138,37 @@ ARROWS_ACROSS = 24
 SU_NOTE = "su above su_intact = su0 + ks·z is the rate effect: Einav–Randolph's R(γ̇) > 1 where the soil shears"
 
 
+def is_whole_section(frame) -> bool:
+    """Whether a 2D frame holds the whole section (its grid spans both sides of the axis x = 0)."""
+    return frame.x[0] < 0.0
+
+
 def _mirrored_view(frame, window):
-    """The half model mirrored about the symmetry axis x = 0, ready to draw in ``window``.
+    """The half model mirrored about the symmetry axis x = 0 (the whole section as it is), ready to
+    draw in ``window``.
 
     Returns a dict: node coordinates x, y; cell fields; cell velocity (ux, uy), the mean of a
     cell's four nodal velocities (m/s); ``shown``, the soil cells inside the window.
     """
     half_width, bottom, top = window
-    x = np.concatenate([-frame.x[:0:-1], frame.x])
-    cells = {k: np.concatenate([v[::-1], v]) for k, v in frame.cells.items()}
     vx, vy = frame.velocity[..., 0], frame.velocity[..., 1]
-    vx, vy = np.concatenate([-vx[:0:-1], vx]), np.concatenate([vy[:0:-1], vy])
+    if is_whole_section(frame):
+        x, cells = frame.x, dict(frame.cells)
+    else:
+        x = np.concatenate([-frame.x[:0:-1], frame.x])
+        cells = {k: np.concatenate([v[::-1], v]) for k, v in frame.cells.items()}
+        vx, vy = np.concatenate([-vx[:0:-1], vx]), np.concatenate([vy[:0:-1], vy])
     ux, uy = (0.25 * (v[:-1, :-1] + v[1:, :-1] + v[1:, 1:] + v[:-1, 1:]) for v in (vx, vy))
     xc, yc = 0.5 * (x[1:] + x[:-1]), 0.5 * (frame.y[1:] + frame.y[:-1])
     inside = (np.abs(xc)[:, None] <= half_width) & (yc[None, :] >= bottom) & (yc[None, :] <= top)
     shown = (cells["volume_fraction"] >= SOIL_LEVEL) & inside & np.isfinite(cells["su_pa"])
-    return dict(x=x, y=frame.y, xc=xc, yc=yc, cells=cells, ux=ux, uy=uy, shown=shown, n_half=len(frame.x) - 1)
+    return dict(x=x, y=frame.y, xc=xc, yc=yc, cells=cells, ux=ux, uy=uy, shown=shown, n_half=(len(x) - 1) // 2)
 
 
 def _core_window(frame):
     """The grid's uniform core (where the solver expects the soil to deform), capped just above the soil (m)."""
-    dx, dy = np.diff(frame.x), np.diff(frame.y)
+    x = frame.x[frame.x >= 0.0] if is_whole_section(frame) else frame.x  # the half beside the axis
+    dx, dy = np.diff(x), np.diff(frame.y)
     h = dx[0]  # the core starts at the symmetry axis (a graded axis may close with a smaller cell)
     core_x = np.nonzero(np.isclose(dx, h, rtol=1e-6))[0]
     core_y = np.nonzero(np.isclose(dy, h, rtol=1e-6))[0]
@@ -166,7 +176,7 @@ def _core_window(frame):
     top = frame.y[soil_rows.max() + 1] if soil_rows.size else frame.y[core_y.max() + 1]
     bottom = frame.y[core_y.min()]
     top = min(top + 0.15 * (top - bottom), frame.y[core_y.max() + 1])
-    return frame.x[core_x.max() + 1], bottom, top
+    return x[core_x.max() + 1], bottom, top
 
 
 def _contour_panel(fig, ax, view, values, label, cmap, title, window, arrows=False):
@@ -270,7 +280,7 @@ def _plot_section(frame, flow: list, path: Path, title: str) -> Path:
     across, up = frame.labels
     for ax in axes:
         ax.set_ylabel(f"{up} (m)")
-    axes[-1].set_xlabel(f"{across} (m): 0 on the symmetry plane; {up} = 0 the body's base at touchdown")
+    axes[-1].set_xlabel(f"{across} (m): 0 on the body's axis; {up} = 0 the body's base at touchdown")
     fig.suptitle(title, fontsize=10)
     fig.savefig(path, dpi=110, bbox_inches="tight")  # a tall equal-aspect panel's label is kept
     plt.close(fig)
