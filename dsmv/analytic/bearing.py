@@ -37,6 +37,28 @@ def green_vertical(h: float) -> float:
     return 1.0 + math.pi - math.asin(h) + math.sqrt(1.0 - h * h)
 
 
+def scoop_moment_upper_bound() -> float:
+    """A kinematic (upper) bound on the pure moment M/(B²·su) a rough strip bonded to weightless Tresca
+    soil carries (no vertical or horizontal load): the soil under it turns with it as a rigid circular
+    segment through both edges (the "scoop"), dissipating su along the arc; derived here. A chord B
+    subtending 2α at radius R = B/(2 sin α) dissipates su·2α·R² per unit rotation, least at
+    tan α = 2α: M/(B²·su) ≤ min α/(2 sin²α) = 0.690."""
+    from scipy.optimize import brentq
+
+    alpha = brentq(lambda a: math.tan(a) - 2.0 * a, 1.0, 1.5)
+    return alpha / (2.0 * math.sin(alpha) ** 2)
+
+
+def effective_width_moment(v: float) -> float:
+    """The moment M/(B²·su) a rough strip whose contact holds no tension carries with the vertical load
+    v = V/(B·su), by Meyerhof's (1953) effective width: the load sits at eccentricity e over the width
+    B − 2e that bears it at (2 + π)·su, so v = (2 + π)(1 − 2e/B) and M = V·e. The stress field (Prandtl's
+    under the effective width, none beside it) is statically admissible: a lower bound."""
+    if not 0.0 <= v <= PRANDTL_NC:
+        raise ValueError(f"v = V/(B·su) must lie in [0, 2 + π], not {v}")
+    return 0.5 * v * (1.0 - v / PRANDTL_NC)
+
+
 def green_radial_factor(h: float, v: float) -> float:
     """How far the load point (h, v) = (H, V)/(B·su) lies from Green's envelope along its ray from the
     origin: λ with (h, v)/λ on the envelope (1: on it, > 1: beyond it). Bisection on λ, the envelope

@@ -1,0 +1,54 @@
+"""``dsmv-bench --freedoms``: what a body that slides and turns costs against one that only sinks.
+
+The default landing on the undeformed grid (a body that turns runs in small strain so far), timed
+interleaved in one process: the vertical landing on the half model, the same on the whole section,
+and the landing with its centre of gravity 0.1 m off the axis, free to sink, slide and turn (which
+needs the whole section). The ratios say what the freedoms cost at equal cells and what the lost
+symmetry plane costs. Writes ``bench_freedoms.md`` under the output folder.
+"""
+
+from __future__ import annotations
+
+import statistics
+import tempfile
+from pathlib import Path
+
+from dsmv.verify.bench import LANDING, solve
+
+#: timed this often each, interleaved, so that a load change hits all alike
+REPEATS = 7
+SMALL_STRAIN = [*LANDING, "solver.remap=false"]
+CASES = {
+    "vertical, half model": SMALL_STRAIN,
+    "vertical, whole section": [*SMALL_STRAIN, "solver.economies.symmetry=false"],
+    "free to sink, slide and turn, centre of gravity 0.1 m off": [
+        *SMALL_STRAIN, "landing.free=[z,x,ry]", "landing.cg_offset_m=[0.1,0,0.3]"],
+}
+
+
+def main(out: Path, quick: bool = False) -> dict[str, float]:
+    """Time the cases; print and write the medians and the ratios."""
+    out.mkdir(parents=True, exist_ok=True)
+    walls = {name: [] for name in CASES}
+    metrics = {}
+    with tempfile.TemporaryDirectory() as scratch:
+        for name, overrides in CASES.items():  # warm the compiled variants
+            solve(overrides, 1, Path(scratch))
+        for _ in range(3 if quick else REPEATS):
+            for name, overrides in CASES.items():
+                metrics[name], _, wall = solve(overrides, 1, Path(scratch))
+                walls[name] += wall
+    median = {name: statistics.median(w) for name, w in walls.items()}
+    vertical_half, vertical_whole, free = median.values()
+    ratios = {"free / vertical, whole section": free / vertical_whole, "free / vertical, half model": free / vertical_half}
+    lines = ["| landing (default scene, small strain) | cells | wall (s, median) | max sinkage (m) | rotation (°) |",
+             "|---|---|---|---|---|"]
+    for name in CASES:
+        m = metrics[name]
+        lines.append(f"| {name} | {m['cells']:,.0f} | {median[name]:.4f} | {m['max_sinkage_m']:.4f} | "
+                     f"{m.get('rotation_deg', 0.0):.2f} |")
+    lines += ["", *(f"- {name}: {value:.2f}×" for name, value in ratios.items())]
+    text = "\n".join(lines) + "\n"
+    (out / "bench_freedoms.md").write_text(text)
+    print(text, flush=True)
+    return ratios
