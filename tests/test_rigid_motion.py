@@ -172,6 +172,7 @@ def test_a_symmetric_landing_stays_upright_bit_for_bit(compose_cfg):
     assert free.metrics["max_sinkage_m"] == vertical.metrics["max_sinkage_m"]
     assert np.array_equal(free.history["force_n"], vertical.history["force_n"])
     assert free.metrics["max_rotation_deg"] == 0.0 and free.metrics["max_horizontal_displacement_m"] == 0.0
+    assert free.metrics["max_horizontal_force_n"] == 0.0 and free.metrics["max_moment_n_m"] == 0.0
 
 
 @pytest.mark.parametrize("overrides, key", [
@@ -190,3 +191,41 @@ def test_motions_the_solvers_cannot_honour_are_refused_by_key(compose_cfg, overr
         scene = build_scene(compose_cfg(["solver=cel2d", "solver.progress=off", *overrides]))
         registry.load("solvers", scene.solver.name, "solver.name").check_capabilities(scene)
     assert refused.value.path == key
+
+
+@pytest.mark.parametrize("motion", [
+    ["landing.horizontal_velocity_m_s=0.0866", "landing.velocity_m_s=0.05", "landing.displacement_m=0.03"],
+    ["landing.free=[x]", "landing.roll_rate_rad_s=0.1", "landing.velocity_m_s=0.025", "landing.rotation_deg=3",
+     "landing.displacement_m=0.03"],
+], ids=["inclined", "turned"])
+def test_the_3d_slab_slides_and_turns_as_the_plane_strain_section(compose_cfg, motion):
+    """The strip as a 3D slab one cell thick between plane-strain planes, pushed along a slope or turned:
+    its vertical and horizontal force and its moment per metre are the 2D section's, to the 1e-4 by
+    which the two elements' bulk viscosity differs (docs: 3D, strip slab)."""
+    case = [*STRIP, "mesh.cell_size_m=0.1", *motion]
+    plane = Cel2DSolver(build_scene(compose_cfg(case))).solve()
+    scene = build_scene(compose_cfg([*case, "solver=cel3d"]))
+    slab = registry.load("solvers", "cel3d", "solver.name")(scene).solve()
+    assert plane.status == slab.status == "ok"
+    scale = np.abs(plane.history["force_n"]).max()
+    for name in ("end_force_n", "end_horizontal_force_n", "end_moment_n_m"):
+        assert slab.metrics[name] == pytest.approx(plane.metrics[name], abs=2e-4 * scale), name
+
+
+def test_a_square_plate_slides_alike_along_x_and_along_y(compose_cfg):
+    """A rough square plate, the whole of it on a grid square in plan, pushed sideways along x and then
+    along y: the same resistance to round-off, each in its own direction, and no moment about z (3D's
+    freedoms x and y)."""
+    case = ["solver=cel3d", "landing=push", "soil.law=tresca", "soil.su0_pa=10000", "soil.ks_pa_per_m=0",
+            "soil.youngs_modulus_pa=5e6", "landing.gravity_m_s2=0", "solver.contact_separation=false",
+            "solver.remap=false", "geometry=rectangular_plate", "geometry.width_m=1", "geometry.contact_length_m=1",
+            "mesh.cell_size_m=0.25", "solver.progress=off", "landing.velocity_m_s=0", "landing.displacement_m=0.02",
+            "solver.economies.symmetry=full"]
+    solver = registry.load("solvers", "cel3d", "solver.name")
+    along_x = solver(build_scene(compose_cfg([*case, "landing.horizontal_velocity_m_s=0.1"]))).solve()
+    along_y = solver(build_scene(compose_cfg([*case, "landing.lateral_velocity_m_s=0.1"]))).solve()
+    hx, hy = along_x.metrics["end_horizontal_force_n"], along_y.metrics["end_lateral_force_n"]
+    assert hx < 0 and hy == pytest.approx(hx, rel=1e-9)
+    assert abs(along_x.metrics["end_lateral_force_n"]) < 1e-9 * abs(hx)
+    assert abs(along_y.metrics["end_horizontal_force_n"]) < 1e-9 * abs(hx)
+    assert abs(along_x.metrics["end_yaw_moment_n_m"]) < 1e-9 * abs(hx)

@@ -38,7 +38,9 @@ import numpy as np
 
 from dsmv.cel import ledger
 from dsmv.cel.kernels.common import all_finite
-from dsmv.cel.layout import B_FCOUNT, B_MAXDISP, B_OFFSET, B_ROT_X, B_ROT_Y, B_ROT_Z, B_TIME, B_VEL, FORCE_SLOTS, POSE_SLOTS
+from dsmv.cel.layout import (
+    B_FCOUNT, B_MAXDISP, B_OFFSET, B_ROT_X, B_ROT_Y, B_ROT_Z, B_TIME, B_VEL, FORCE_SLOTS, FREEDOMS, POSE_SLOTS,
+)
 from dsmv.cel.stepper import AT_REST, NOT_FINITE, OUTRAN, RUNNING
 
 
@@ -271,16 +273,22 @@ class History(Tracker):
     from the touchdown on (downward velocity ``velocity0_m_s``); and the ``extra`` columns of a body
     that slides or turns (:data:`MOTION_COLUMNS`)."""
 
-    def __init__(self, velocity0_m_s: float, extra: tuple[str, ...] = ()):
+    def __init__(self, velocity0_m_s: float, extra: tuple[str, ...] = (), held: tuple[str, ...] = ()):
         self.velocity0_m_s = velocity0_m_s
         self.extra = extra
+        self.zero = {name for name in extra if FREEDOMS[MOTION_COLUMNS[name][1]] in held}
+
+    def value(self, run: Run, name: str) -> float:
+        """A column's value: the whole body's, which is 0 for a freedom a symmetry plane holds (the model's
+        part of the body feels the plane's reaction, its mirror image the opposite one)."""
+        return 0.0 if name in self.zero else run.column(name)
 
     def start(self, run: Run) -> None:
         for name, value in (("time_s", 0.0), ("sinkage_m", run.start_sinkage_m), ("velocity_m_s", self.velocity0_m_s),
                             ("force_n", 0.0)):
             run.history[name].append(value)
         for name in self.extra:
-            run.history[name] = [0.0 if MOTION_COLUMNS[name][0] == "reaction" else run.column(name)]
+            run.history[name] = [0.0 if MOTION_COLUMNS[name][0] == "reaction" else self.value(run, name)]
 
     def after_chunk(self, run: Run) -> None:
         h = run.history
@@ -289,7 +297,7 @@ class History(Tracker):
         h["velocity_m_s"].append(-run.body[B_VEL])
         h["force_n"].append(run.force_n)
         for name in self.extra:
-            h[name].append(run.column(name))
+            h[name].append(self.value(run, name))
 
 
 class Zigzag(Tracker):

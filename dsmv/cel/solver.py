@@ -288,7 +288,7 @@ class CelSolver:
         drop = landing.kind == "drop"
         B = self.characteristic_width_m(self.travel)
         zigzag = C.Zigzag(lambda: self.hourglass_modes(state))
-        trackers = [C.History(-state.body[B_VEL], self.motion_columns()), zigzag]
+        trackers = [C.History(-state.body[B_VEL], self.motion_columns(), self.held_by_symmetry()), zigzag]
         if scene.output.fields and run_dir is not None:
             trackers.append(C.Fields(self.field_recorder(state), lambda: self.snapshot(state), run_dir))
         v0 = state.body[B_VEL]
