@@ -261,18 +261,32 @@ def _answer(scene: Scene, result: SolveResult) -> str:
     sinkage = result.metrics.get("max_sinkage_m")
     if result.status != "ok" or sinkage is None:  # only an 'ok' run has an answer: say what happened
         return result.message
+    motion = _motion(result.metrics)
     if scene.landing.kind != "push":
         plates = result.metrics.get("plate_sinkage_m", sinkage)
         where = (f" at the grouser tips, {plates:.4f} m at the plates" if plates != sinkage else
                  " of the 2D cross-section" if is_cross_section(scene) else "")
         if "max_sinkage_error_m" in result.metrics:  # solver.error_estimate: the mesh's share of doubt
             return (f"max sinkage {sinkage:.4f} m{where}; extrapolated {result.metrics['max_sinkage_extrapolated_m']:.4f} m "
-                    f"± {result.metrics['max_sinkage_error_m']:.4f} m (mesh)")
-        return f"max sinkage {sinkage:.4f} m{where}"
+                    f"± {result.metrics['max_sinkage_error_m']:.4f} m (mesh){motion}")
+        return f"max sinkage {sinkage:.4f} m{where}{motion}"
     factors = [f"{result.metrics[name]:.3f} at {label}" for name, label in
                (("nc_at_0p02B", "0.02 B"), ("nc_at_0p05B", "0.05 B"), ("nc_at_0p1B", "0.1 B"),
                 ("nc_at_1B", "1 B"), ("nc_deep", "depth (nc_deep)")) if name in result.metrics]
+    if "end_vertical_factor" in result.metrics:  # a probe along or about another axis: its end load
+        m = result.metrics
+        factors = [f"V/(A·su) {m['end_vertical_factor']:.3f}, H/(A·su) {m['end_horizontal_factor']:.3f}, "
+                   f"M/(A·B·su) {m['end_moment_factor']:.3f} at the end"]
+        return f"pushed to {sinkage:.4f} m{motion}; " + factors[0]
     return f"pushed to {sinkage:.4f} m" + (f"; q/su {', '.join(factors)}" if factors else "")
+
+
+def _motion(metrics: dict) -> str:
+    """A body that may slide or turn: how far it did, in words (empty for one that cannot)."""
+    if "max_rotation_deg" not in metrics:
+        return ""
+    return (f", turned {metrics['max_rotation_deg']:.2f}° at most, slid {metrics['max_horizontal_displacement_m']:.4f} m "
+            "at most")
 
 
 #: the 3D track's max sinkage (grouser tips, cel3d's default mesh) less the 2D cross-section's (cel2d's),

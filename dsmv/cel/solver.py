@@ -557,11 +557,19 @@ class CelSolver:
     def _motion_metrics(self, body, history, metrics, units) -> None:
         """A body that may slide or turn: its largest rotation and displacement in plan, where it ended
         (each column's last value), the largest force and moment on it, and the loads at the end (the
-        mean over the last twentieth of the history: a probe's limit load)."""
+        mean over the last twentieth of the history: a probe's limit load), for a push also as factors
+        V/(A·su0), H/(A·su0) and M/(A·B·su0) of the resistance (against +x and +ry)."""
         end = slice(-max(1, len(history["time_s"]) // 20), None)
         metrics |= {"max_rotation_deg": math.degrees(body[B_MAXROT]), "max_horizontal_displacement_m": body[B_MAXSLIDE],
                     "end_force_n": float(history["force_n"][end].mean())}
         units |= {"max_rotation_deg": "deg", "max_horizontal_displacement_m": "m", "end_force_n": "N"}
+        if self.scene.landing.kind == "push":  # the probe's end load as bearing factors, resistance +
+            area, su0 = self.contact_area_m2(), self.scene.soil.su0_pa
+            metrics |= {"end_vertical_factor": metrics["end_force_n"] / (area * su0),
+                        "end_horizontal_factor": -float(history["horizontal_force_n"][end].mean()) / (area * su0),
+                        "end_moment_factor": -float(history["moment_n_m"][end].mean())
+                        / (area * self.scene.geometry.width_m * su0)}
+            units |= {"end_vertical_factor": "-", "end_horizontal_factor": "-", "end_moment_factor": "-"}
         for name in self.motion_columns():
             unit = {"_n": "N", "_m": "N·m" if name.endswith("_n_m") else "m", "eg": "deg"}[name[-2:]]
             if C.MOTION_COLUMNS[name][0] == "reaction":

@@ -416,6 +416,17 @@ class Scene:
         landing = self.landing
         motion = (f"push to {landing.displacement_m:g} m at {landing.velocity_m_s:g} m/s" if landing.kind == "push"
                   else f"{landing.kind} {landing.mass_kg:g} kg at {landing.velocity_m_s:g} m/s")
+        if landing.kind == "push" and landing.driven - {"z"}:  # a push along or about another axis
+            speeds = [f"down {landing.velocity_m_s:g} m/s" if n == "z" else
+                      f"{n} {landing.given_velocity(n):g} {'m/s' if len(n) == 1 else 'rad/s'}"
+                      for n in FREEDOM_NAMES if n in landing.driven]
+            ends = [f"{landing.displacement_m:g} m" if landing.driven & {"x", "y", "z"} else "",
+                    f"{landing.rotation_deg:g}°" if landing.rotation_deg and landing.driven & {"rx", "ry", "rz"} else ""]
+            motion = f"push to {' or '.join(e for e in ends if e)} at {', '.join(speeds)}"
+        if set(landing.freedoms) - {"z"} or landing.kind == "push" and landing.freedoms:
+            motion += f", free in {', '.join(landing.freedoms)}"
+        if any(landing.cg_offset_m):
+            motion += f", centre of gravity {tuple(landing.cg_offset_m)} m off"
         return f"{self.soil.name} soil ({self.soil.law}), {self.geometry.name}, {motion}"
 
     def physics_dict(self) -> dict[str, Any]:

@@ -13,11 +13,12 @@ import statistics
 import tempfile
 from pathlib import Path
 
-from dsmv.verify.bench import LANDING, solve
+from dsmv.verify import canonical
 
 #: timed this often each, interleaved, so that a load change hits all alike
 REPEATS = 7
-SMALL_STRAIN = [*LANDING, "solver.remap=false"]
+SMALL_STRAIN = [*canonical.LANDING, "solver.remap=false", "tracking=disabled", "output.plots=false",
+                "solver.progress=off"]
 CASES = {
     "vertical, half model": SMALL_STRAIN,
     "vertical, whole section": [*SMALL_STRAIN, "solver.economies.symmetry=false"],
@@ -29,15 +30,18 @@ CASES = {
 def main(out: Path, quick: bool = False) -> dict[str, float]:
     """Time the cases; print and write the medians and the ratios."""
     out.mkdir(parents=True, exist_ok=True)
+    from dsmv.cel.solver2d import Cel2DSolver
+    from dsmv.config.tree import compose_scene
+
     walls = {name: [] for name in CASES}
     metrics = {}
     with tempfile.TemporaryDirectory() as scratch:
         for name, overrides in CASES.items():  # warm the compiled variants
-            solve(overrides, 1, Path(scratch))
+            Cel2DSolver(compose_scene(overrides)).solve(Path(scratch))
         for _ in range(3 if quick else REPEATS):
             for name, overrides in CASES.items():
-                metrics[name], _, wall = solve(overrides, 1, Path(scratch))
-                walls[name] += wall
+                metrics[name] = Cel2DSolver(compose_scene(overrides)).solve(Path(scratch)).metrics
+                walls[name].append(metrics[name]["wall_s"])
     median = {name: statistics.median(w) for name, w in walls.items()}
     vertical_half, vertical_whole, free = median.values()
     ratios = {"free / vertical, whole section": free / vertical_whole, "free / vertical, half model": free / vertical_half}
