@@ -124,7 +124,7 @@ def _no_output_dirs(tmp_path: Path) -> bool:
 
 TYPED_MISTAKES = [  # (override, what the one line must say)
     ("landing.mass_kg=-1", "dsmv: error: landing.mass_kg = -1: must be greater than 0"),
-    ("soil=nope", "dsmv: error: soil = 'nope': not a soil option; available: nodule_field, sample_I"),
+    ("soil=nope", "dsmv: error: soil = 'nope': not a soil option; available: ccz_box_core, nodule_field, sample_I"),
     ("landing.mass_kg=abc", "dsmv: error: landing.mass_kg = 'abc': must be a valid number"),
     ("soil.poisson_ratio=0.5", "dsmv: error: soil.poisson_ratio = 0.5: must be less than 0.5"),
     ("geometry.width_m=0", "dsmv: error: geometry.width_m = 0: must be greater than 0"),

@@ -345,7 +345,7 @@ def test_the_template_writes_a_law_package_that_installs_runs_and_passes_its_tes
     assert run_cli("dsmv-plugins", "--check").returncode == 0
     listed = run_cli("dsmv-plugins").stdout
     assert "my_clay_law.law:MyClayLaw" in listed and "dsmv.configs:\n  my_clay" in listed, listed
-    assert "soil: my_clay_clay, nodule_field" in run_cli("dsmv", "--help").stdout  # Hydra lists it too
+    assert "soil: ccz_box_core, my_clay_clay, nodule_field" in run_cli("dsmv", "--help").stdout  # Hydra lists it too
     proc = run_cli("dsmv", "-m", "soil=my_clay_clay,nodule_field", "soil.law=my_clay", "mesh=coarse",
                    "tracking=disabled", "output.plots=false")
     assert proc.returncode == 0, proc.stderr

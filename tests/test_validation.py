@@ -64,7 +64,7 @@ def test_push_needs_a_velocity(compose_cfg):
 @pytest.mark.parametrize(
     "override,expected",
     [("landing.mass_kg=-1", "landing.mass_kg = -1"), ("soil.law=nope", "tresca"),
-     ("soil=nope", "available: nodule_field, sample_I"), ("mesh=coarse,tiny", "mesh = 'tiny'")],
+     ("soil=nope", "available: ccz_box_core, nodule_field, sample_I"), ("mesh=coarse,tiny", "mesh = 'tiny'")],
 )
 def test_cli_reports_one_line_without_traceback(run_cli, override, expected):
     proc = run_cli("dsmv", override, "tracking=disabled")

@@ -31,6 +31,7 @@ from pydantic import BeforeValidator, Field
 
 from dsmv import registry
 from dsmv.analytic.bearing import PRANDTL_NC
+from dsmv.config.profile import refuse_a_bent_profile
 from dsmv.errors import ConfigError
 from dsmv.results import SolveResult, add_plate_sinkage
 from dsmv.config.scene import Scene
@@ -89,6 +90,29 @@ def sinkage_from_energy(weight_n, inertia_kg, velocity_m_s, resistance_area_m2, 
     return (root - excess) / stiffness
 
 
+def sinkage_in_profile(weight_n, inertia_kg, velocity_m_s, resistance_area_m2, strength) -> float:
+    """:func:`sinkage_from_energy` in a strength profile (:class:`dsmv.config.profile.StrengthSegments`): a
+    straight line by the closed form, a bent one segment by segment, each by the closed form with its own
+    su at its top and its slope, carrying the energy left over to the next."""
+    if strength.straight:
+        return sinkage_from_energy(weight_n, inertia_kg, velocity_m_s, resistance_area_m2,
+                                   float(strength.su(0.0)), float(strength.slope[0]))
+    kinetic = 0.5 * inertia_kg * velocity_m_s**2  # the energy left to absorb at the segment's top (J)
+    bottoms = [*strength.depth[1:], math.inf]
+    top = 0.0
+    for start, bottom, slope in zip(strength.depth, bottoms, strength.slope):
+        if bottom <= top:
+            continue
+        speed = math.sqrt(2.0 * kinetic / inertia_kg) if inertia_kg > 0 else 0.0
+        dz = sinkage_from_energy(weight_n, inertia_kg, speed, resistance_area_m2, float(strength.su(top)), float(slope))
+        if top + dz <= bottom:
+            return top + dz
+        span = bottom - top
+        kinetic += weight_n * span - resistance_area_m2 * (float(strength.su(top)) * span + 0.5 * slope * span**2)
+        top = bottom
+    return math.inf
+
+
 #: bodies the energy method estimates for other solvers (domain sizing, features); a cone has Hansbo's
 ESTIMATED_KINDS = ("track", "strip", "tbar", "rectangular_plate", "circular_plate")
 
@@ -119,6 +143,7 @@ class AnalyticEnergySolver:
         if scene.geometry.kind not in ("track", "strip", "rectangular_plate", "circular_plate"):
             raise ConfigError("geometry.kind", scene.geometry.kind,
                               "the energy method models tracks, strips and plates; use solver=cel2d for this body")
+        refuse_a_bent_profile(scene.soil, "the energy method")
 
     def __init__(self, scene: Scene, config: AnalyticEnergyConfig | None = None, check: bool = True):
         if check:  # off only for energy_estimate

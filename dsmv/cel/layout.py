@@ -234,6 +234,9 @@ class Params(NamedTuple):
     law_active: bool        # evaluate the soil law (softening or rate)
     skip_void: bool         # cells without soil do no force arithmetic
     separation: bool        # face ties let go of soil that pulls away
+    strength_depth: np.ndarray = np.array([-np.inf])  # the intact strength's segments: top depth (m),
+    strength_intercept: np.ndarray = np.zeros(1)       # intercept (Pa) and slope (Pa/m), su = intercept + slope·z0
+    strength_slope: np.ndarray = np.zeros(1)           # (dsmv.config.profile.StrengthSegments)
     free: int = 0           # the body's freedoms integrated under the soil's reaction (bits over FREEDOMS)
     inertia_x: float = 0.0  # the body's rotational inertia about axes through its centre of gravity
     inertia_y: float = 0.0  # (kg·m² per unit thickness in plane strain, where only y turns)

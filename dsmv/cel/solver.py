@@ -28,7 +28,7 @@ import numpy as np
 
 from dsmv import registry
 from dsmv.analytic.dynamic import fast_landing
-from dsmv.analytic.energy import energy_estimate, sinkage_from_energy
+from dsmv.analytic.energy import energy_estimate, sinkage_in_profile
 from dsmv.cel import controller as C
 from dsmv.cel import cost as cost_model
 from dsmv.cel import ledger
@@ -229,9 +229,9 @@ class CelSolver:
         if self.cone:
             return 1.5 * self.hansbo_depth_m()
         estimate = energy_estimate(scene)
-        z = sinkage_from_energy(
+        z = sinkage_in_profile(
             scene.landing.weight_per_track_n, scene.landing.inertia_per_track_kg, scene.landing.velocity_m_s,
-            estimate.resistance_area_m2, scene.soil.su0_pa, scene.soil.ks_pa_per_m,
+            estimate.resistance_area_m2, scene.soil.strength,
         )
         return 1.5 * scene.geometry.width_m if math.isinf(z) else 1.5 * z + 0.05 * scene.geometry.width_m
 
@@ -733,7 +733,7 @@ class CelSolver:
         drop = landing.kind == "drop"
         par = step_parameters(
             dt=cfg.cfl * self.h / elastic.wave_speed_m_s, density=rho, elastic=elastic, h=self.h, gravity=grav,
-            su0=soil.su0_pa, ks=soil.ks_pa_per_m, hourglass=cfg.hourglass, bulk_linear=cfg.bulk_viscosity_linear,
+            su0=soil.su0_pa, ks=soil.ks_pa_per_m, strength=soil.strength, hourglass=cfg.hourglass, bulk_linear=cfg.bulk_viscosity_linear,
             bulk_quadratic=cfg.bulk_viscosity_quadratic, stress_cutoff=cfg.stress_cutoff,
             body_mass=start.inertia_kg / scale, body_weight=start.weight_n / scale,
             push_velocity=landing.velocity_m_s, remap_courant=cfg.remap_courant,

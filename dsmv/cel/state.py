@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dsmv.cel.layout import CellRows, Params, freedom_mask
+from dsmv.config.profile import straight_line
 
 
 @dataclass(frozen=True)
@@ -79,6 +80,11 @@ def step_parameters(*, elastic: Elastic, h: float, remap_courant: float = 0.0, *
     fields |= {k: bool(fields[k]) for k in switches} | {"advection_order": int(fields["advection_order"])}
     # a landing's body falls free: the vertical is one of its integrated freedoms
     fields["free"] = int(fields.get("free", 0)) | (freedom_mask("z") if fields["drop"] else 0)
+    # the intact strength: a table's segments, else the straight line su0 + ks·z0 as one
+    strength = fields.pop("strength", None) or straight_line(fields["su0"], fields["ks"])
+    fields |= {"strength_depth": np.ascontiguousarray(strength.depth, dtype=float),
+               "strength_intercept": np.ascontiguousarray(strength.intercept, dtype=float),
+               "strength_slope": np.ascontiguousarray(strength.slope, dtype=float)}
     return Params(
         shear=elastic.shear_pa, bulk=elastic.bulk_pa, wave_speed=elastic.wave_speed_m_s, k0=elastic.k0,
         mass_floor=1e-9 * fields["density"] * h * h,  # nodes lighter than this are empty

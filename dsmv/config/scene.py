@@ -24,6 +24,7 @@ from pydantic import BaseModel, BeforeValidator, Field, model_validator
 from dsmv import registry
 from dsmv.config.location import CONFIG_DIR
 from dsmv.config.objective import objective_config
+from dsmv.config.profile import StrengthSegments, read_points, segments, straight_line
 from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError
 
@@ -79,7 +80,8 @@ class RateConfig(Schema):
 
 
 class SoilConfig(Schema):
-    """A soil profile: su_intact(z) = su0 + ks·z, softening, rate, elasticity, buoyant density."""
+    """A soil profile: su_intact(z) = su0 + ks·z, or a table of su against depth (``profile``,
+    :mod:`dsmv.config.profile`), softening, rate, elasticity, buoyant density."""
 
     name: str
     law: str = Field(description="soil-law plugin (entry point in dsmv.soil_laws)")
@@ -92,6 +94,26 @@ class SoilConfig(Schema):
     youngs_modulus_pa: Number = Field(gt=0, description="Young's modulus E (Pa)")
     poisson_ratio: Number = Field(ge=0, lt=0.5, description="Poisson's ratio ν (-), < 0.5")
     params: dict[str, Number] = Field(default_factory=dict, description="law-specific parameters (see the law)")
+    profile: Optional[Union[list[list[Number]], str]] = Field(None, description=(
+        "su_intact against depth: [[depth_m, su_pa], ...] or a CSV path (columns depth_m|depth_cm, su_pa|su_kpa); "
+        "null: su0 + ks·z"))
+
+    @model_validator(mode="after")
+    def _profile_sets_the_mudline(self):
+        """A table is the strength: su0 and ks become its mudline strength and first gradient, so that every
+        reader of them (scales, normalisations) sees the table's."""
+        if self.profile is not None:
+            table = self.strength
+            object.__setattr__(self, "su0_pa", float(table.su(0.0)))
+            object.__setattr__(self, "ks_pa_per_m", float(table.slope[0]))
+        return self
+
+    @property
+    def strength(self) -> "StrengthSegments":
+        """su_intact(z) as segments (:class:`dsmv.config.profile.StrengthSegments`)."""
+        if self.profile is None:
+            return straight_line(self.su0_pa, self.ks_pa_per_m)
+        return segments(read_points(self.profile, Path(CONFIG_DIR).parent))
 
 
 # --------------------------------------------------------------------------- geometry
@@ -432,7 +454,8 @@ class Scene:
     def physics_dict(self) -> dict[str, Any]:
         """What decides a result (what the hash covers), as plain data: display settings excluded."""
         return {
-            "soil": self.soil.model_dump(),
+            # a soil without a table keeps the hash it had before tables existed
+            "soil": {k: v for k, v in self.soil.model_dump().items() if k != "profile" or v is not None},
             "geometry": self.geometry.model_dump(),
             # the keys of the body's other freedoms count once they differ from a vertical landing's,
             # so a vertical scene keeps the hash it had before they existed (its runs still resume)

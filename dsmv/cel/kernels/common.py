@@ -30,6 +30,17 @@ PARALLEL = dict(JIT, parallel=True)
 BLOCK = 8192
 
 
+@njit(**INLINE)
+def intact_strength(par, z0):
+    """su_intact(z0) (Pa), the strength of soil that started at depth z0 (m): the profile's segment there,
+    intercept + slope·z0 (:class:`dsmv.config.profile.StrengthSegments`; su0 + ks·z0 is one segment)."""
+    depth = par.strength_depth
+    k = len(depth) - 1
+    while k > 0 and z0 < depth[k]:
+        k -= 1
+    return par.strength_intercept[k] + par.strength_slope[k] * z0
+
+
 @njit(**JIT)
 def tresca_return(s1, s2, s3, su, shear_mod):
     """Return of sorted principal stresses s1 ≥ s2 ≥ s3 to Tresca's hexagon, s1 − s3 ≤ 2·su.

@@ -20,8 +20,8 @@ import math
 import numpy as np
 from numba import njit
 
-from dsmv.cel.kernels.common import (CUT_OPEN_FLOOR, INLINE, JIT, bulk_viscosity, elastic_energy_density, law_factor,
-                                     law_state, radial_return, tresca_return)
+from dsmv.cel.kernels.common import (CUT_OPEN_FLOOR, INLINE, JIT, bulk_viscosity, elastic_energy_density, intact_strength,
+                                     law_factor, law_state, radial_return, tresca_return)
 from dsmv.cel.layout import ROWS_2D
 
 SXX, SYY, SXY, SZZ = (ROWS_2D.of(c) for c in ("xx", "yy", "xy", "zz"))
@@ -454,7 +454,7 @@ def update_stress(mesh, cells, faces, nodes, par, v_body, law, out):
                 dxx, dyy = volumetric_override(i, j, dt, dx, dy, dxx, dyy, vel, v_body, faces, shared[i, j], open_ij)
             sxx, syy, sxy, szz = jaumann_trial(q[SXX, i, j], q[SYY, i, j], q[SXY, i, j], q[SZZ, i, j], dxx, dyy, dxy,
                                                dzz, w, lam, shear_mod)
-            su = (par.su0 + par.ks * q[Z0, i, j]) * factor[i, j]
+            su = intact_strength(par, q[Z0, i, j]) * factor[i, j]
             if su < 0.0:
                 su = 0.0
             xi_before = q[XI, i, j]

@@ -23,8 +23,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from dsmv.cel.kernels.common import (INLINE, JIT, PARALLEL, bulk_viscosity, elastic_energy_density, law_factor,
-                                     law_state, ordered_sums, radial_return, spread_order, tresca_return)
+from dsmv.cel.kernels.common import (INLINE, JIT, PARALLEL, bulk_viscosity, elastic_energy_density, intact_strength,
+                                     law_factor, law_state, ordered_sums, radial_return, spread_order, tresca_return)
 from dsmv.cel.kernels.nodes import zero_in_blocks
 from dsmv.cel.layout import ROWS_3D, corner_sides, hourglass_vectors
 
@@ -463,7 +463,7 @@ def slab_update(i, mesh, cells, v, v_body, parent, fn, par, law, stress):
                     shift = (par.dt * div - d[0] - d[1] - d[2]) / 3.0
                     for m in range(3):
                         d[m] += shift
-                strength = (par.su0 + par.ks * q[Z0, i, j, k]) * factor[i, j, k]
+                strength = intact_strength(par, q[Z0, i, j, k]) * factor[i, j, k]
                 plastic += cell_stress(q, su_cell, (i, j, k), d, spin, strength, dx * dy * dz * f, par, law, s, a, vec)
             stress_now = (q[SXX, i, j, k], q[SYY, i, j, k], q[SZZ, i, j, k], q[SXY, i, j, k], q[SYZ, i, j, k],
                           q[SZX, i, j, k])

@@ -1,0 +1,129 @@
+"""A soil's intact strength against depth as data: ``soil.profile``.
+
+A table of (depth, su) points, inline in YAML (``[[0, 3450], [0.114, 6890]]``, m and Pa) or a CSV file
+whose header names each column's unit (``depth_m`` or ``depth_cm``; ``su_pa`` or ``su_kpa``). Between
+points su is linear in depth; below the last point it stays at the last value; above the first it
+follows the first segment (soil heaved above the mudline). Two points at the same depth make a jump
+(a layer boundary). Without a table the profile is the straight line su0 + ks·z, one segment.
+
+The solvers read the profile as segments (:class:`StrengthSegments`): each from its top depth down,
+su = intercept + slope·z. A straight line is one segment whose intercept and slope are su0 and ks
+exactly, so a tabulated straight line with exact slopes gives the same answers to the bit.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from dsmv.errors import ConfigError
+
+#: the units a CSV column may name, as factors to m and Pa
+DEPTH_UNITS = {"depth_m": 1.0, "depth_cm": 0.01, "depth_mm": 0.001}
+STRENGTH_UNITS = {"su_pa": 1.0, "su_kpa": 1000.0}
+KEY = "soil.profile"
+
+
+class StrengthSegments(NamedTuple):
+    """The profile as the kernels read it: per segment its top depth (m; the first −∞), intercept (Pa)
+    and slope (Pa/m), su = intercept + slope·z from the segment's top down to the next one's."""
+
+    depth: np.ndarray
+    intercept: np.ndarray
+    slope: np.ndarray
+
+    def su(self, depth_m) -> np.ndarray:
+        """su_intact at the depths given (Pa)."""
+        z = np.asarray(depth_m, dtype=float)
+        k = np.searchsorted(self.depth, z, side="right") - 1
+        return self.intercept[k] + self.slope[k] * z
+
+    @property
+    def straight(self) -> bool:
+        """Whether the profile is one straight line su0 + ks·z down to its last point (a table of points
+        on one line; below the last, a table stays constant)."""
+        lines = set(zip(self.intercept[:-1], self.slope[:-1])) if len(self.depth) > 1 else {0}
+        return len(lines) == 1
+
+
+def refuse_a_bent_profile(soil, model: str) -> None:
+    """The analytic models read su0 + ks·z: a table that is not one straight line is refused, in one line."""
+    if soil.profile is not None and not soil.strength.straight:
+        raise ConfigError(KEY, "a table", f"{model} takes a straight-line strength su0 + ks·z; a bent or layered "
+                          "profile runs in solver=cel2d or cel3d")
+
+
+def straight_line(su0_pa: float, ks_pa_per_m: float) -> StrengthSegments:
+    """su0 + ks·z as one segment."""
+    return StrengthSegments(np.array([-math.inf]), np.array([float(su0_pa)]), np.array([float(ks_pa_per_m)]))
+
+
+def read_points(value, base: Path | None = None) -> np.ndarray:
+    """The profile's points, (n, 2): depth (m) and su (Pa), from an inline table or a CSV path, checked:
+    depths in order (a repeated depth is a jump), none negative, strengths > 0."""
+    if isinstance(value, (str, Path)):  # a relative path: from the working folder, else from the project's
+        path = Path(value)
+        points = _read_csv(path if path.is_absolute() or path.exists() or base is None else base / path)
+    else:
+        try:
+            points = np.array(value, dtype=float).reshape(-1, 2)
+        except (TypeError, ValueError):
+            raise ConfigError(KEY, value, "a table of [depth_m, su_pa] rows or the path of a CSV file") from None
+    if len(points) == 0:
+        raise ConfigError(KEY, [], "needs at least one [depth_m, su_pa] row")
+    depth, su = points.T
+    if not np.isfinite(points).all():
+        raise ConfigError(KEY, points.tolist(), "holds a value that is not a number")
+    if (depth < 0).any():
+        raise ConfigError(KEY, float(depth[depth < 0][0]), "depths are below the mudline: ≥ 0 (m)")
+    if (np.diff(depth) < 0).any():
+        k = int(np.nonzero(np.diff(depth) < 0)[0][0])
+        raise ConfigError(KEY, f"{depth[k]:g} m then {depth[k + 1]:g} m", "depths must not decrease (sort the rows; "
+                          "a depth given twice is a jump)")
+    if (su <= 0).any():
+        raise ConfigError(KEY, float(su[su <= 0][0]), "strengths must be > 0 (Pa)")
+    return points
+
+
+def _read_csv(path: Path) -> np.ndarray:
+    if not path.is_file():
+        raise ConfigError(KEY, str(path), "no such file")
+    with path.open(newline="") as handle:
+        rows = list(csv.reader(line for line in handle if line.strip() and not line.lstrip().startswith("#")))
+    if not rows:
+        raise ConfigError(KEY, str(path), "the file is empty")
+    header = [h.strip().lower() for h in rows[0]]
+    depth_col = next((c for c in header if c in DEPTH_UNITS), None)
+    su_col = next((c for c in header if c in STRENGTH_UNITS), None)
+    if depth_col is None or su_col is None:
+        raise ConfigError(KEY, f"{path.name}: columns {', '.join(header)}", "needs a depth column "
+                          f"({' | '.join(DEPTH_UNITS)}) and a strength column ({' | '.join(STRENGTH_UNITS)})")
+    i, j = header.index(depth_col), header.index(su_col)
+    try:
+        points = [(float(r[i]) * DEPTH_UNITS[depth_col], float(r[j]) * STRENGTH_UNITS[su_col]) for r in rows[1:]]
+    except (ValueError, IndexError):
+        raise ConfigError(KEY, str(path), f"a row of {depth_col}, {su_col} is not a pair of numbers") from None
+    return np.array(points, dtype=float).reshape(-1, 2)
+
+
+def segments(points: np.ndarray) -> StrengthSegments:
+    """The segments through the points: one per pair of points at different depths (the first reaching
+    up to −∞), then the last point's strength below it; a repeated depth is a jump."""
+    depth, su = points.T
+    tops, intercepts, slopes = [], [], []
+    for k in range(len(points) - 1):
+        if depth[k + 1] == depth[k]:
+            continue
+        slope = (su[k + 1] - su[k]) / (depth[k + 1] - depth[k])
+        tops.append(depth[k])
+        intercepts.append(su[k] - slope * depth[k])
+        slopes.append(slope)
+    tops.append(depth[-1])
+    intercepts.append(su[-1])
+    slopes.append(0.0)
+    tops[0] = -math.inf
+    return StrengthSegments(np.array(tops), np.array(intercepts), np.array(slopes))
