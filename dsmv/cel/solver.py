@@ -150,11 +150,12 @@ class CelSolver:
         if refusal is not None:
             raise refusal
         landing = scene.landing
-        if landing.kind == "drop":
-            drift = next((RATE_KEYS[n] for n in FREEDOM_NAMES if n != "z" and landing.given_velocity(n)), None)
-            if drift:
-                raise ConfigError(f"landing.{drift}", getattr(landing, drift), "a drop touches down without drift or "
-                                  "turning so far")
+        if landing.kind == "drop":  # a landing's drift and turn at touchdown go on under the soil's reaction
+            held = next((n for n in FREEDOM_NAMES if n != "z" and landing.given_velocity(n) and n not in landing.freedoms),
+                        None)
+            if held:
+                raise ConfigError(f"landing.{RATE_KEYS[held]}", getattr(landing, RATE_KEYS[held]),
+                                  f"a drop's drift or turn at touchdown moves on freely: add {held} to landing.free")
         return rules
 
     #: the freedoms a model of this solver has, by name (:data:`dsmv.cel.layout.FREEDOMS`)
@@ -615,13 +616,34 @@ class CelSolver:
         v[up, contact.node[full]] = v0
         v[:, contact.node[~full]] = v0 * normal[~full, up] * normal[~full].T
         landing = self.scene.landing
-        if landing.moves_beyond_vertical:  # a push along or about another axis: the tied nodes move with the body
+        if landing.moves_beyond_vertical:  # a body that may slide or turn: the tied nodes move with it
             from dsmv.cel.kernels.nodes import apply_ties
 
             for q, name in enumerate(FREEDOMS):
                 if name != "z":
                     state.body[VELOCITY_SLOTS[q]] = landing.given_velocity(name)
+            if par.drop:
+                self.share_momentum(state, -speed)
             apply_ties(contact, state.nodes, state.body)
+
+    def share_momentum(self, state: State, v_down: float) -> None:
+        """A drop that may slide or turn: at touchdown the body (velocity ``v_down`` up +, and its drift and
+        turn) and the soil nodes it meets become one rigid unit, their momentum and moment of momentum
+        kept in every free freedom: (M + A)·v = M·v_given, A the tied nodes' inertia. A centre of gravity
+        off the contact's middle starts the body turning. The kinetic energy lost is the touchdown's."""
+        from dsmv.cel.kernels.nodes import tie_reactions
+
+        par, body = state.par, state.body
+        force, tied = np.zeros(6), np.zeros((6, 6))
+        tie_reactions(state.contact, state.nodes, 0.0, force, tied)
+        free = [q for q in range(6) if (par.free >> q) & 1]
+        own = np.diag([par.body_mass] * 3 + [par.inertia_x, par.inertia_y, par.inertia_z])[np.ix_(free, free)]
+        given = np.array([v_down if q == 2 else body[VELOCITY_SLOTS[q]] for q in free])
+        shared = np.linalg.solve(own + tied[np.ix_(free, free)], own @ given)
+        for q, v in zip(free, shared):
+            body[VELOCITY_SLOTS[q]] = v
+        state.touchdown_loss = 0.5 * given @ own @ given - 0.5 * shared @ (own + tied[np.ix_(free, free)]) @ shared
+        state.kinetic_in = 0.5 * given @ own @ given
 
     def hourglass_modes(self, state: State) -> tuple[float, float]:
         return self.kernels.hourglass_modes(state.mesh.corner, state.cells.phi, state.nodes.v, ZIGZAG_FULL_CELL)
