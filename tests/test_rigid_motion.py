@@ -252,3 +252,12 @@ def test_a_drifting_touchdown_keeps_the_momentum_and_the_audit_closes(compose_cf
     assert result.metrics["horizontal_displacement_m"] > 0.0 and result.metrics["energy_error"] < 0.02
     assert result.metrics["energy_in_kinetic_j"] == pytest.approx(
         0.5 * scene.landing.mass_kg * (1.0**2 + 0.3**2), rel=1e-12)
+
+
+def test_the_summary_says_how_far_the_body_turned_and_which_symmetry_it_used(run_cli):
+    done = run_cli("dsmv", "solver=cel2d", "mesh=coarse", "solver.remap=false", "landing.free=[z,x,ry]",
+                   "landing.cg_offset_m=[0.1,0,0.3]", "tracking=disabled", "output.plots=false")
+    assert done.returncode == 0, done.stderr
+    assert "turned 5.66° at most" in done.stdout
+    assert "symmetry: none: the landing is not symmetric" in done.stdout
+    assert "free in z, x, ry, centre of gravity (0.1, 0.0, 0.3) m off" in done.stdout

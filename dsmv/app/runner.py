@@ -351,6 +351,11 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
         extent = f" ({'; '.join(notes)})" if notes else ""
         print(f"  model   : {m['cells']:,.0f} cells{extent}, {m['steps']:,.0f} steps, {m['wall_s']:.1f} s, "
               f"{m['cell_updates_per_s'] / 1e6:.2f} M cell-updates/s")
+        if scene.landing.moves_beyond_vertical:  # which symmetry economy the scene allowed
+            print("  symmetry: " + ("the model keeps the mid-planes the landing is symmetric about; the slide and "
+                                    "turn across them stay 0" if whole != m["cells"] else
+                                    "none: the landing is not symmetric about the body's mid-planes, the whole "
+                                    "body is modelled"))
     print(f"  outputs : {run_dir}")
     if tracker is not None:
         uri = tracker.uri
