@@ -118,6 +118,7 @@ _MAKERS = {
     "mesh_study": studies.mesh_study,
     "section_factors": studies.section_factors,
     "bearing_curves": studies.bearing_curves,
+    "green_envelope": studies.green_envelope,
 }
 #: what draws each sweep-level plot an experiment can ask for (``sweep_plot: <name>``, one of
 #: :data:`dsmv.config.scene.SWEEP_PLOTS`): ``maker(sweep_dir, png_path)``

@@ -30,7 +30,7 @@ import numpy as np
 from omegaconf import OmegaConf
 
 from dsmv.analytic.bearing import (NOTCHED_STRIP_LOWER_BOUND_AT_0P05B, PRANDTL_NC, STRIP_LOWER_BOUND_AT_0P05B,
-                                   TBAR_NC, embedded_strip_upper_bound)
+                                   TBAR_NC, embedded_strip_upper_bound, green_radial_factor, green_vertical)
 from dsmv.convergence import richardson
 from dsmv.results import HISTORY_FILE, RESULT_FILE
 
@@ -474,6 +474,66 @@ def _absorbed_energy(depth: np.ndarray, force: np.ndarray) -> tuple[np.ndarray, 
     energy = np.concatenate([[0.0], np.cumsum(0.5 * (force[1:] + force[:-1]) * np.diff(depth))])
     keep = np.concatenate([[True], np.diff(np.maximum.accumulate(depth)) > 0])
     return depth[keep], energy[keep]
+
+
+def green_envelope(sweep_dir: Path, path: Path) -> Path | None:
+    """The end loads of a sweep's probes of a strip (``verify_green``) in the (H, V)/(B·su) plane, beside
+    Green's (1954) exact envelope, per cell size, with the points extrapolated at first order from each
+    direction's two finest cells (the corner's one-cell wedge makes the error first order). Writes
+    ``green_envelope.csv`` (each probe's cell size, push direction, h, v and λ, its radial distance from
+    the envelope: 1 on it; then the extrapolated points) and the PNG. A vertical push gives its
+    ``nc_at_0p05B`` at h = 0."""
+    probes = {}
+    for job in sweep_jobs(sweep_dir):
+        config_file = job.path / "config_resolved.yaml"
+        if job.result["status"] != "ok" or not config_file.exists():
+            continue
+        config = OmegaConf.load(config_file)
+        if config.landing.kind != "push" or config.geometry.kind != "strip":
+            continue
+        down = float(config.landing.velocity_m_s)
+        across = float(OmegaConf.select(config, "landing.horizontal_velocity_m_s", default=0.0))
+        if "end_vertical_factor" in job.result["metrics"]:
+            h, v = job.metric("end_horizontal_factor"), job.metric("end_vertical_factor")
+        else:
+            h, v = 0.0, job.metric("nc_at_0p05B")
+        direction = round(math.degrees(math.atan2(down, across)), 2)
+        probes.setdefault(direction, {})[float(config.mesh.cell_size_m)] = (abs(h), v)
+    if not probes:
+        return None
+    rows = [{"direction_deg": d, "cell_size_m": cell, "h": h, "v": v, "lambda": green_radial_factor(h, v)}
+            for d, cells in sorted(probes.items()) for cell, (h, v) in sorted(cells.items())]
+    extrapolated = []
+    for d, cells in sorted(probes.items()):
+        if len(cells) >= 2:
+            fine, coarse = sorted(cells)[:2]
+            ratio = coarse / fine
+            point = [(ratio * a - b) / (ratio - 1.0) for a, b in zip(cells[fine], cells[coarse])]
+            extrapolated.append((d, *point))
+            rows.append({"direction_deg": d, "cell_size_m": 0.0, "h": point[0], "v": point[1],
+                         "lambda": green_radial_factor(min(max(point[0], 0.0), 1e9), point[1])})
+    _write_csv(Path(path).with_suffix(".csv"), rows)
+
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(7.0, 4.8), constrained_layout=True)
+    hs = np.linspace(0.0, 1.0, 200)
+    ax.plot(np.append(hs, 1.0), np.append([green_vertical(x) for x in hs], 0.0), "k-", lw=1.2,
+            label="Green (1954): 1 + π − arcsin h + √(1 − h²); sliding at h = 1")
+    for cell in sorted({c for cells in probes.values() for c in cells}, reverse=True):
+        points = np.array([cells[cell] for cells in probes.values() if cell in cells])
+        ax.plot(points[:, 0], points[:, 1], "o", ms=5, label=f"CEL, core cells {cell:g} m")
+    if extrapolated:
+        points = np.array([p[1:] for p in extrapolated])
+        ax.plot(points[:, 0], points[:, 1], "k*", ms=10, label="extrapolated from the two finest")
+    ax.set_xlabel("H / (B·su) (-)")
+    ax.set_ylabel("V / (B·su) (-)")
+    ax.set_xlim(0.0, 1.3)
+    ax.set_ylim(0.0, 5.6)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="lower left")
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return Path(path)
 
 
 def _write_csv(path: Path, rows: list[dict]) -> Path:
