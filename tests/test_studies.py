@@ -195,3 +195,30 @@ def test_bearing_curves_normalise_each_push_by_its_own_body(tmp_path):
     assert [(r["body"], float(r["nc_end"])) for r in rows] == [
         ("strip", pytest.approx(5.5)), ("strip", pytest.approx(5.3)), ("tbar", pytest.approx(9.2))]
     assert [r["contact_separation"] for r in rows] == ["False", "True", "False"]
+
+
+def test_the_green_envelope_extrapolates_each_direction_from_its_two_finest_cells(tmp_path):
+    """Synthetic probes whose load exceeds a point on Green's envelope by 2·h/B in H (the corner's wedge)
+    on cells 0.1 and 0.05 m: the plot's table extrapolates them back onto the envelope (λ = 1)."""
+    from dsmv.analytic.bearing import green_vertical
+
+    sweep = tmp_path / "sweep"
+    cases = [(0.1, 0.5), (0.05, 0.5), (0.1, 1.0), (0.05, 1.0)]  # (cell, true h)
+    for job, (cell, h) in enumerate(cases):
+        job_dir = sweep / str(job)
+        (job_dir / ".hydra").mkdir(parents=True)
+        (job_dir / ".hydra" / "overrides.yaml").write_text("[]\n")
+        v = green_vertical(h) if h < 1.0 else 0.0
+        metrics = {"end_horizontal_factor": h + 2 * cell, "end_vertical_factor": v, "wall_s": 1.0}
+        (job_dir / "result.json").write_text(json.dumps({"status": "ok", "message": "", "metrics": metrics}))
+        down = 0.05 if h < 1.0 else 0.0
+        (job_dir / "config_resolved.yaml").write_text(
+            f"geometry: {{kind: strip, width_m: 1.0, contact_length_m: 1.0}}\nsoil: {{su0_pa: 10000.0}}\n"
+            f"landing: {{kind: push, velocity_m_s: {down}, horizontal_velocity_m_s: 0.0866}}\n"
+            f"mesh: {{cell_size_m: {cell}}}\n")
+    assert studies.green_envelope(sweep, sweep / "green_envelope.png") == sweep / "green_envelope.png"
+    rows = _read_csv(sweep / "green_envelope.csv")
+    extrapolated = [r for r in rows if float(r["cell_size_m"]) == 0.0]
+    assert len(extrapolated) == 2
+    for row in extrapolated:
+        assert float(row["lambda"]) == pytest.approx(1.0, abs=1e-9)
