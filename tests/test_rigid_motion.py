@@ -185,12 +185,15 @@ def test_a_symmetric_landing_stays_upright_bit_for_bit(compose_cfg):
     (["landing.cg_offset_m=[0.1,0,0]", "solver.contact_separation=false", "solver.remap=true"], "solver.remap"),
     (["solver=cel3d", "landing.free=[z,x]"], "solver.remap"),  # small strain so far
     (["landing=push", "landing.lateral_velocity_m_s=0.1", "solver.remap=false"], "landing.lateral_velocity_m_s"),
-    (["landing.pitch_rate_rad_s=0.1"], "landing.pitch_rate_rad_s"),  # a drop touches down without turning
+    (["landing.pitch_rate_rad_s=0.1"], "landing.pitch_rate_rad_s"),  # a drop's turn must be free
+    (["solver=analytic_dynamic", "landing.cg_offset_m=[0.1,0,0]"], "landing.cg_offset_m"),  # vertical models
+    (["solver=analytic_energy", "landing.free=[z,ry]"], "landing.free"),
 ])
 def test_motions_the_solvers_cannot_honour_are_refused_by_key(compose_cfg, overrides, key):
     with pytest.raises(ConfigError) as refused:  # the scene's own check, then the solver's
         scene = build_scene(compose_cfg(["solver=cel2d", "solver.progress=off", *overrides]))
-        registry.load("solvers", scene.solver.name, "solver.name").check_capabilities(scene)
+        solver = registry.load("solvers", scene.solver.name, "solver.name")
+        getattr(solver, "check_capabilities", getattr(solver, "check_scene", None))(scene)
     assert refused.value.path == key
 
 

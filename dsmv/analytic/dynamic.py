@@ -248,6 +248,10 @@ class AnalyticDynamicSolver:
         if scene.landing.kind == "push":
             raise ConfigError("landing.kind", "push", "the dynamic model lands bodies; a push is solver=analytic_energy")
         refuse_a_bent_profile(scene.soil, "the dynamic model")
+        if scene.landing.moves_beyond_vertical:
+            key = scene.landing.beyond_vertical_key
+            raise ConfigError(key, scene.landing.model_dump()[key.split(".")[1]], "the dynamic model lands a body vertically; "
+                              "a body that slides or turns runs in solver=cel2d or cel3d")
 
     def __init__(self, scene: Scene, config: AnalyticDynamicConfig | None = None, check: bool = True):
         if check:  # off only for fast_landing, an estimate for another solver

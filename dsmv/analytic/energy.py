@@ -144,6 +144,10 @@ class AnalyticEnergySolver:
             raise ConfigError("geometry.kind", scene.geometry.kind,
                               "the energy method models tracks, strips and plates; use solver=cel2d for this body")
         refuse_a_bent_profile(scene.soil, "the energy method")
+        if scene.landing.moves_beyond_vertical:
+            key = scene.landing.beyond_vertical_key
+            raise ConfigError(key, scene.landing.model_dump()[key.split(".")[1]], "the energy method lands a body vertically; "
+                              "a body that slides or turns runs in solver=cel2d or cel3d")
 
     def __init__(self, scene: Scene, config: AnalyticEnergyConfig | None = None, check: bool = True):
         if check:  # off only for energy_estimate
