@@ -191,7 +191,7 @@ def test_a_symmetric_landing_stays_upright_bit_for_bit(compose_cfg):
 ])
 def test_motions_the_solvers_cannot_honour_are_refused_by_key(compose_cfg, overrides, key):
     with pytest.raises(ConfigError) as refused:  # the scene's own check, then the solver's
-        scene = build_scene(compose_cfg(["solver=cel2d", "solver.progress=off", *overrides]))
+        scene = build_scene(compose_cfg(["solver=cel2d", *overrides]))
         solver = registry.load("solvers", scene.solver.name, "solver.name")
         getattr(solver, "check_capabilities", getattr(solver, "check_scene", None))(scene)
     assert refused.value.path == key
