@@ -18,7 +18,7 @@ from dsmv.cel.body import nodes_touching, solid_cells
 from dsmv.cel.contact import fixed_velocities, touchdown_mass
 from dsmv.cel.kernels.nodes import apply_fixed, apply_ties, gather_travel, nodal_mass, tie_reactions, update_velocities
 from dsmv.cel.layout import (
-    B_TIME, B_VEL, B_VX, B_VY, B_WX, B_WY, B_WZ, N_BODY, Cells, Contact, Mesh2D, Nodes, corner_offsets, structured_corners,
+    B_SINKAGE, B_TIME, B_VEL, B_VX, B_VY, B_WX, B_WY, B_WZ, N_BODY, Cells, Contact, Mesh2D, Nodes, corner_offsets, structured_corners,
 )
 
 NX, NY, NZ = 4, 1, 3  # a slab one cell thick across y
@@ -196,6 +196,7 @@ def test_the_controller_steers_chunks_for_any_state():
     def advance(n):
         body[B_TIME] += n * 0.01
         body[1] += n * 0.01 * body[B_VEL]  # the grid's offset (m)
+        body[B_SINKAGE] = -body[1]  # the middle of the base, upright
         return n, 0
 
     run = C.Run(state=None, body=body, energy=np.zeros(10))

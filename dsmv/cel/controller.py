@@ -39,7 +39,8 @@ import numpy as np
 from dsmv.cel import ledger
 from dsmv.cel.kernels.common import all_finite
 from dsmv.cel.layout import (
-    B_FCOUNT, B_MAXDISP, B_OFFSET, B_ROT_X, B_ROT_Y, B_ROT_Z, B_TIME, B_VEL, FORCE_SLOTS, FREEDOMS, POSE_SLOTS,
+    B_FCOUNT, B_MAXDISP, B_OFFSET, B_ROT_X, B_ROT_Y, B_ROT_Z, B_SINKAGE, B_TIME, B_VEL, FORCE_SLOTS, FREEDOMS,
+    POSE_SLOTS,
 )
 from dsmv.cel.stepper import AT_REST, NOT_FINITE, OUTRAN, RUNNING
 
@@ -73,8 +74,8 @@ class Run:
 
     @property
     def travel_m(self) -> float:
-        """How far the body has gone since the start (m, down +)."""
-        return -float(self.body[B_OFFSET])
+        """How far the middle of the body's base has gone down since the start (m, down +)."""
+        return float(self.body[B_SINKAGE])
 
     @property
     def sinkage_m(self) -> float:

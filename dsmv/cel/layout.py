@@ -241,6 +241,10 @@ class Params(NamedTuple):
     inertia_x: float = 0.0  # the body's rotational inertia about axes through its centre of gravity
     inertia_y: float = 0.0  # (kg·m² per unit thickness in plane strain, where only y turns)
     inertia_z: float = 0.0
+    base_x: float = 0.0     # the middle of the body's base from its centre of gravity, across and along (m)
+    base_y: float = 0.0
+    base_half_x: float = 0.0  # the base's half width and half length (m): its lowest point as it turns
+    base_half_y: float = 0.0
 
 
 # the body's mutable state, a float array: time (s), offset of the grid (m, up +), velocity (m/s,
@@ -254,11 +258,13 @@ class Params(NamedTuple):
 # then the body's other freedoms (:data:`FREEDOMS`), each with the slots of the vertical one above: its
 # velocity (m/s, rad/s: v_x, v_y, ω_x, ω_y, ω_z), its displacement (m, rad), the sum of the soil's
 # force or moment on the body over the chunk (N, N·m about the centre of gravity) and the adhesive
-# pull of the last step; and the largest rotation (rad) and horizontal displacement (m) so far
+# pull of the last step; and the largest rotation (rad) and horizontal displacement (m) so far, the
+# sinkage of the middle of the base now (m; B_OFFSET is the centre of gravity's travel, B_MAXDISP the
+# base's deepest sinkage) and the deepest sinkage of the base's lowest point (m)
 (B_VX, B_VY, B_WX, B_WY, B_WZ, B_OFFSET_X, B_OFFSET_Y, B_ROT_X, B_ROT_Y, B_ROT_Z,
  B_HSUM_X, B_HSUM_Y, B_MSUM_X, B_MSUM_Y, B_MSUM_Z, B_PULL_X, B_PULL_Y, B_PULL_RX, B_PULL_RY, B_PULL_RZ,
- B_MAXROT, B_MAXSLIDE) = range(15, 37)
-N_BODY = 37
+ B_MAXROT, B_MAXSLIDE, B_SINKAGE, B_MAXEDGE) = range(15, 39)
+N_BODY = 39
 
 #: the rigid body's six freedoms, in this order everywhere (config, bitmask ``Params.free``, slots)
 FREEDOMS = ("x", "y", "z", "rx", "ry", "rz")

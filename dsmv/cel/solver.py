@@ -36,7 +36,7 @@ from dsmv.cel.config import CelConfig
 from dsmv.cel.contact import ContactRules, touchdown_mass
 from dsmv.cel.kernels import DimensionKernels, for_dimension
 from dsmv.cel.layout import (
-    B_INFLOW, B_MAXROT, B_MAXSLIDE, B_TIME, B_VEL, FREEDOMS, N_BODY, POSE_SLOTS,
+    B_INFLOW, B_MAXEDGE, B_MAXROT, B_MAXSLIDE, B_TIME, B_VEL, FREEDOMS, N_BODY, POSE_SLOTS,
     VELOCITY_SLOTS, CellRows, Cells, Inflow, Nodes, Params, SoilLawKernel, freedom_mask,
 )
 from dsmv.cel.state import Elastic, geostatic_state, hourglass_factor, step_parameters
@@ -556,14 +556,17 @@ class CelSolver:
         return tuple(name for name, (_, q) in C.MOTION_COLUMNS.items() if FREEDOMS[q] in self.model_freedoms)
 
     def _motion_metrics(self, body, history, metrics, units) -> None:
-        """A body that may slide or turn: its largest rotation and displacement in plan, where it ended
+        """A body that may slide or turn: its largest rotation and displacement in plan, the deepest sinkage
+        of its base's lowest point (``max_edge_sinkage_m``; ``max_sinkage_m`` is the middle's), where it ended
         (each column's last value), the largest force and moment on it, and the loads at the end (the
         mean over the last twentieth of the history: a probe's limit load), for a push also as factors
         V/(A·su0), H/(A·su0) and M/(A·B·su0) of the resistance (against +x and +ry)."""
         end = slice(-max(1, len(history["time_s"]) // 20), None)
         metrics |= {"max_rotation_deg": math.degrees(body[B_MAXROT]), "max_horizontal_displacement_m": body[B_MAXSLIDE],
+                    "max_edge_sinkage_m": self.start().sinkage_m + float(body[B_MAXEDGE]),
                     "end_force_n": float(history["force_n"][end].mean())}
-        units |= {"max_rotation_deg": "deg", "max_horizontal_displacement_m": "m", "end_force_n": "N"}
+        units |= {"max_rotation_deg": "deg", "max_horizontal_displacement_m": "m", "max_edge_sinkage_m": "m",
+                  "end_force_n": "N"}
         if self.scene.landing.kind == "push":  # the probe's end load as bearing factors, resistance +
             area, su0 = self.contact_area_m2(), self.scene.soil.su0_pa
             metrics |= {"end_vertical_factor": metrics["end_force_n"] / (area * su0),
@@ -763,6 +766,9 @@ class CelSolver:
             law_active=self.law.active or not cfg.economies.skip_inactive_law, skip_void=cfg.economies.skip_void,
             separation=self.contact_separation(), free=freedom_mask(self.moving_freedoms()),
             **{f"inertia_{axis}": inertia / scale for axis, inertia in zip("xyz", self.rotational_inertia_kg_m2())},
+            base_x=-landing.cg_offset_m[0], base_y=-landing.cg_offset_m[1] if self.dim == 3 else 0.0,
+            base_half_x=0.5 * scene.geometry.width_m,
+            base_half_y=0.5 * (scene.geometry.contact_length_m or 0.0) if self.dim == 3 else 0.0,
             tresca=cfg.yield_surface == "tresca" or (cfg.yield_surface == "auto" and self.axisym),
         )
         nodal_mass(mesh, cells, rho, nodes.mass)

@@ -28,8 +28,8 @@ from dsmv.cel.kernels.nodes import (
     split_mass_kinetic_change, split_masses, tie_reactions,
 )
 from dsmv.cel.layout import (
-    B_FCOUNT, B_MAXDISP, B_MAXROT, B_MAXSLIDE, B_OFFSET, B_OFFSET_X, B_OFFSET_Y, B_REMAP_OFFSET, B_REMAPS, B_ROT_X,
-    B_ROT_Y, B_ROT_Z, B_STEP, B_TIME, B_VEL, FORCE_SLOTS, POSE_SLOTS, PULL_SLOTS, VELOCITY_SLOTS,
+    B_FCOUNT, B_MAXDISP, B_MAXEDGE, B_MAXROT, B_MAXSLIDE, B_OFFSET, B_OFFSET_X, B_OFFSET_Y, B_REMAP_OFFSET, B_REMAPS, B_ROT_X,
+    B_ROT_Y, B_ROT_Z, B_SINKAGE, B_STEP, B_TIME, B_VEL, FORCE_SLOTS, POSE_SLOTS, PULL_SLOTS, VELOCITY_SLOTS,
 )
 from dsmv.cel.ledger import E_BODY_GRAV, E_FRICTION, E_PUSH, E_REMAP_ELASTIC, E_REMAP_KINETIC, E_SOIL_GRAV
 
@@ -144,14 +144,20 @@ def hold_nodes(cells, nodes, contact, par, body, energy, momentum_before, moment
 @njit(**INLINE)
 def advance_clock(par, body):
     """The end of a step's Lagrangian phase: the body's pose and the grid (which follows its vertical
-    motion) move on, time and the step count advance, and the deepest sinkage, the largest rotation
-    and the largest horizontal displacement are kept."""
+    motion) move on, time and the step count advance, and the deepest sinkage (of the middle of the
+    base, and of its lowest point), the largest rotation and the largest horizontal displacement are
+    kept."""
     for q in range(6):
         body[POSE_SLOTS[q]] += body[VELOCITY_SLOTS[q]] * par.dt
     body[B_TIME] += par.dt
     body[B_STEP] += 1.0
-    if -body[B_OFFSET] > body[B_MAXDISP]:
-        body[B_MAXDISP] = -body[B_OFFSET]
+    # the middle of the base moves with the centre of gravity and, turned by θ (small), by (θ × r)_z
+    sinkage = -(body[B_OFFSET] + body[B_ROT_X] * par.base_y - body[B_ROT_Y] * par.base_x)
+    body[B_SINKAGE] = sinkage
+    if sinkage > body[B_MAXDISP]:
+        body[B_MAXDISP] = sinkage
+    edge = sinkage + abs(body[B_ROT_Y]) * par.base_half_x + abs(body[B_ROT_X]) * par.base_half_y
+    body[B_MAXEDGE] = max(body[B_MAXEDGE], edge)
     rotation = math.sqrt(body[B_ROT_X] ** 2 + body[B_ROT_Y] ** 2 + body[B_ROT_Z] ** 2)
     body[B_MAXROT] = max(body[B_MAXROT], rotation)
     body[B_MAXSLIDE] = max(body[B_MAXSLIDE], math.sqrt(body[B_OFFSET_X] ** 2 + body[B_OFFSET_Y] ** 2))
