@@ -286,7 +286,7 @@ def _motion(metrics: dict) -> str:
     if "max_rotation_deg" not in metrics:
         return ""
     return (f", turned {metrics['max_rotation_deg']:.2f}° at most, slid {metrics['max_horizontal_displacement_m']:.4f} m "
-            "at most")
+            f"at most, its base's lowest point {metrics['max_edge_sinkage_m']:.4f} m deep at most")
 
 
 #: the 3D track's max sinkage (grouser tips, cel3d's default mesh) less the 2D cross-section's (cel2d's),
