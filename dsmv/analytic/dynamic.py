@@ -55,8 +55,7 @@ from pydantic import BeforeValidator, Field
 
 from dsmv import registry
 from dsmv.analytic.bearing import PRANDTL_NC
-from dsmv.analytic.energy import skempton_shape_factor
-from dsmv.config.profile import refuse_a_bent_profile
+from dsmv.analytic.energy import refuse_beyond_the_closed_form, skempton_shape_factor
 from dsmv.errors import ConfigError
 from dsmv.results import SolveResult, add_plate_sinkage
 from dsmv.config.location import CONFIG_DIR
@@ -247,11 +246,7 @@ class AnalyticDynamicSolver:
                               "the dynamic model lands tracks and strips; use solver=cel2d for this body")
         if scene.landing.kind == "push":
             raise ConfigError("landing.kind", "push", "the dynamic model lands bodies; a push is solver=analytic_energy")
-        refuse_a_bent_profile(scene.soil, "the dynamic model")
-        if scene.landing.moves_beyond_vertical:
-            key = scene.landing.beyond_vertical_key
-            raise ConfigError(key, scene.landing.model_dump()[key.split(".")[1]], "the dynamic model lands a body vertically; "
-                              "a body that slides or turns runs in solver=cel2d or cel3d")
+        refuse_beyond_the_closed_form(scene, "the dynamic model")
 
     def __init__(self, scene: Scene, config: AnalyticDynamicConfig | None = None, check: bool = True):
         if check:  # off only for fast_landing, an estimate for another solver

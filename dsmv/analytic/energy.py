@@ -69,6 +69,16 @@ def skempton_shape_factor(body) -> float:
     return 1.0 + 0.2 * body.width_m / body.contact_length_m
 
 
+def refuse_beyond_the_closed_form(scene: Scene, model: str) -> None:
+    """What the analytic models' closed forms cannot take, refused in one line naming the key: a bent
+    strength profile, a body that may slide or turn."""
+    refuse_a_bent_profile(scene.soil, model)
+    if scene.landing.moves_beyond_vertical:
+        key = scene.landing.beyond_vertical_key
+        raise ConfigError(key, scene.landing.model_dump()[key.split(".")[1]], f"{model} lands a body vertically; "
+                          "a body that slides or turns runs in solver=cel2d or cel3d")
+
+
 def sinkage_from_energy(weight_n, inertia_kg, velocity_m_s, resistance_area_m2, su0_pa, ks_pa_per_m) -> float:
     """Depth z (m) where the soil has absorbed the touchdown kinetic energy and the work of W.
 
@@ -143,11 +153,7 @@ class AnalyticEnergySolver:
         if scene.geometry.kind not in ("track", "strip", "rectangular_plate", "circular_plate"):
             raise ConfigError("geometry.kind", scene.geometry.kind,
                               "the energy method models tracks, strips and plates; use solver=cel2d for this body")
-        refuse_a_bent_profile(scene.soil, "the energy method")
-        if scene.landing.moves_beyond_vertical:
-            key = scene.landing.beyond_vertical_key
-            raise ConfigError(key, scene.landing.model_dump()[key.split(".")[1]], "the energy method lands a body vertically; "
-                              "a body that slides or turns runs in solver=cel2d or cel3d")
+        refuse_beyond_the_closed_form(scene, "the energy method")
 
     def __init__(self, scene: Scene, config: AnalyticEnergyConfig | None = None, check: bool = True):
         if check:  # off only for energy_estimate
