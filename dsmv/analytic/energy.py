@@ -69,10 +69,11 @@ def skempton_shape_factor(body) -> float:
     return 1.0 + 0.2 * body.width_m / body.contact_length_m
 
 
-def refuse_beyond_the_closed_form(scene: Scene, model: str) -> None:
+def refuse_beyond_the_closed_form(scene: Scene, model: str, bent_profile: bool = False) -> None:
     """What the analytic models' closed forms cannot take, refused in one line naming the key: a bent
-    strength profile, a body that may slide or turn."""
-    refuse_a_bent_profile(scene.soil, model)
+    strength profile (unless the model reads one: ``bent_profile``), a body that may slide or turn."""
+    if not bent_profile:
+        refuse_a_bent_profile(scene.soil, model)
     if scene.landing.moves_beyond_vertical:
         key = scene.landing.beyond_vertical_key
         raise ConfigError(key, scene.landing.model_dump()[key.split(".")[1]], f"{model} lands a body vertically; "
@@ -153,7 +154,7 @@ class AnalyticEnergySolver:
         if scene.geometry.kind not in ("track", "strip", "rectangular_plate", "circular_plate"):
             raise ConfigError("geometry.kind", scene.geometry.kind,
                               "the energy method models tracks, strips and plates; use solver=cel2d for this body")
-        refuse_beyond_the_closed_form(scene, "the energy method")
+        refuse_beyond_the_closed_form(scene, "the energy method", bent_profile=True)
 
     def __init__(self, scene: Scene, config: AnalyticEnergyConfig | None = None, check: bool = True):
         if check:  # off only for energy_estimate
@@ -170,8 +171,10 @@ class AnalyticEnergySolver:
         self.resistance_area_m2 = cfg.bearing_factor * self.shape_factor * self.strength_factor * body.contact_area_m2
 
     def resistance_n(self, depth_m):
-        """Soil resistance R(z) (N) on one track at depth z (m)."""
+        """Soil resistance R(z) (N) on one track at depth z (m): Ra·su(z), su from the soil's profile."""
         soil = self.scene.soil
+        if soil.profile is not None and not soil.strength.straight:
+            return self.resistance_area_m2 * soil.strength.su(depth_m)
         return self.resistance_area_m2 * (soil.su0_pa + soil.ks_pa_per_m * np.asarray(depth_m))
 
     def solve(self, run_dir=None) -> SolveResult:
@@ -208,14 +211,18 @@ class AnalyticEnergySolver:
     def _drop(self, metrics, units) -> SolveResult:
         landing, soil, body = self.scene.landing, self.scene.soil, self.scene.geometry
         weight, mass, v0 = landing.weight_per_track_n, landing.inertia_per_track_kg, landing.velocity_m_s
-        z_max = sinkage_from_energy(weight, mass, v0, self.resistance_area_m2, soil.su0_pa, soil.ks_pa_per_m)
+        z_max = sinkage_in_profile(weight, mass, v0, self.resistance_area_m2, soil.strength)
         metrics["touchdown_kinetic_energy_j"] = 0.5 * mass * v0**2
         units["touchdown_kinetic_energy_j"] = "J"
         if math.isinf(z_max):
-            message = (
-                f"the soil cannot carry the track at any depth: capacity Nc·sc·f·A·su0 = "
-                f"{metrics['static_capacity_n']:.4g} N ≤ wet weight per track {weight:.4g} N and ks = 0"
-            )
+            strength = soil.strength
+            if strength.straight:
+                message = (f"the soil cannot carry the track at any depth: capacity Nc·sc·f·A·su0 = "
+                           f"{metrics['static_capacity_n']:.4g} N ≤ wet weight per track {weight:.4g} N and ks = 0")
+            else:
+                message = (f"the soil cannot carry the track: below {strength.depth[-1]:g} m its strength stays "
+                           f"{strength.intercept[-1]:.4g} Pa, a capacity Nc·sc·f·A·su of "
+                           f"{self.resistance_area_m2 * strength.intercept[-1]:.4g} N ≤ wet weight per track {weight:.4g} N")
             return SolveResult("bearing_failure", message, metrics, units, None)
 
         t_rest, time, depth, velocity = self._trajectory(z_max)
@@ -233,29 +240,90 @@ class AnalyticEnergySolver:
         return result
 
     def _trajectory(self, z_max):
-        """Closed-form motion z(t), v(t) of M·z̈ = W − R(z) from z = 0, v = v0 to rest at z_max."""
+        """Closed-form motion z(t), v(t) of M·z̈ = W − R(z) from z = 0, v = v0 to rest at z_max; in a bent
+        strength profile, segment by segment (:meth:`_trajectory_in_segments`)."""
         landing, soil = self.scene.landing, self.scene.soil
-        mass, v0 = landing.inertia_per_track_kg, landing.velocity_m_s
+        if soil.profile is not None and not soil.strength.straight:
+            return self._trajectory_in_segments(z_max)
+        return self._linear_motion(self.resistance_area_m2 * soil.su0_pa - landing.weight_per_track_n,
+                                   self.resistance_area_m2 * soil.ks_pa_per_m, landing.velocity_m_s, z_max,
+                                   self.config.history_points)
+
+    def _trajectory_in_segments(self, z_max):
+        """The motion through a bent profile: in each segment the resistance is linear in depth, so the
+        closed form holds there, from the speed the body enters it with; it runs until the body leaves
+        the segment (the time found by bisection on the monotone descent) or comes to rest."""
+        landing, strength = self.scene.landing, self.scene.soil.strength
+        weight, area = landing.weight_per_track_n, self.resistance_area_m2
         n = self.config.history_points
-        if z_max == 0.0:
-            zeros = np.zeros(1)
-            return 0.0, zeros, zeros, zeros
-        stiffness = self.resistance_area_m2 * soil.ks_pa_per_m
-        excess = self.resistance_area_m2 * soil.su0_pa - landing.weight_per_track_n
+        bottoms = [*strength.depth[1:], math.inf]
+        times, depths, speeds = [np.zeros(1)], [np.zeros(1)], [np.full(1, landing.velocity_m_s)]
+        top, speed, clock = 0.0, landing.velocity_m_s, 0.0
+        for bottom, slope in zip(bottoms, strength.slope):
+            if bottom <= top:
+                continue
+            excess, stiffness = area * float(strength.su(top)) - weight, area * float(slope)
+            end = min(bottom, z_max)
+            if end >= z_max:  # it comes to rest in this segment
+                t_end, t, z, v = self._linear_motion(excess, stiffness, speed, z_max - top, n)
+            else:  # it passes through: the time at which it has gone the segment's span
+                t_end = self._time_to_cover(excess, stiffness, speed, end - top)
+                t = np.linspace(0.0, t_end, n)
+                z, v = self._state_at(excess, stiffness, speed, t)
+                z[-1] = end - top
+            times.append(clock + t[1:])
+            depths.append(top + z[1:])
+            speeds.append(v[1:])
+            clock, top, speed = clock + t_end, end, float(v[-1])
+            if end >= z_max:
+                break
+        depth = np.concatenate(depths)
+        depth[-1] = z_max  # the end point exactly, free of the round-off in top + (z_max − top)
+        return clock, np.concatenate(times), depth, np.concatenate(speeds)
+
+    def _time_to_cover(self, excess, stiffness, v0, span):
+        """The time M·z̈ = −excess − stiffness·z takes from z = 0 at v0 to z = span, which it reaches
+        moving down: closed form without stiffness, else bisection before the first rest, where z rises
+        monotonically."""
+        mass = self.scene.landing.inertia_per_track_kg
+        accel = -excess / mass
+        if stiffness == 0.0:
+            return span / v0 if accel == 0.0 else (math.sqrt(v0 * v0 + 2.0 * accel * span) - v0) / accel
         omega = math.sqrt(stiffness / mass)
-        if omega == 0.0:  # no ks (or one too small to register, 5e-324): constant deceleration a = (R0 − W)/M
-            decel = excess / mass
-            t_rest = v0 / decel
-            t = np.linspace(0.0, t_rest, n)
-            return t_rest, t, v0 * t - 0.5 * decel * t**2, v0 - decel * t
+        low, high = 0.0, math.atan2(mass * omega * v0, excess) / omega
+        for _ in range(200):
+            mid = 0.5 * (low + high)
+            low, high = (mid, high) if self._state_at(excess, stiffness, v0, mid)[0] < span else (low, mid)
+        return high
+
+    def _state_at(self, excess, stiffness, v0, t):
+        """z(t), v(t) of M·z̈ = −excess − stiffness·z from z = 0, v = v0 (the closed form of :meth:`_linear_motion`)."""
+        mass = self.scene.landing.inertia_per_track_kg
+        omega = math.sqrt(stiffness / mass)
+        accel0 = -excess / mass
+        t = np.asarray(t, dtype=float)
+        if omega == 0.0:
+            return v0 * t + 0.5 * accel0 * t**2, v0 + accel0 * t
         # harmonic motion with ω² = k/M from the touchdown acceleration a0 = (W − R0)/M, written
         # with sin(ωt)/ω and sin²(ωt/2)/ω², which stay exact as ω → 0: the form about
         # z_eq = −excess/k overflows or cancels for a tiny ks (ks = 1e-300 Pa/m gave t_rest = 0,
         # ks = 2e-308 a NaN history; a hypothesis property found it)
-        accel0 = -excess / mass
+        z = accel0 * 2.0 * (np.sin(0.5 * omega * t) / omega) ** 2 + v0 * np.sin(omega * t) / omega
+        return z, accel0 * np.sin(omega * t) / omega + v0 * np.cos(omega * t)
+
+    def _linear_motion(self, excess, stiffness, v0, z_max, n):
+        """The motion of M·z̈ = −excess − stiffness·z from z = 0 at v0 to rest at z_max: (time to rest, t, z, v)."""
+        mass = self.scene.landing.inertia_per_track_kg
+        if z_max == 0.0:
+            zeros = np.zeros(1)
+            return 0.0, zeros, zeros, zeros
+        omega = math.sqrt(stiffness / mass)
+        if omega == 0.0:  # no ks (or one too small to register, 5e-324): constant deceleration a = (R0 − W)/M
+            t_rest = v0 / (excess / mass)
+            t = np.linspace(0.0, t_rest, n)
+            return t_rest, t, *self._state_at(excess, stiffness, v0, t)
         t_rest = math.atan2(mass * omega * v0, excess) / omega  # first v = 0, ωt in (0, π]
         t = np.linspace(0.0, t_rest, n)
-        z = accel0 * 2.0 * (np.sin(0.5 * omega * t) / omega) ** 2 + v0 * np.sin(omega * t) / omega
-        v = accel0 * np.sin(omega * t) / omega + v0 * np.cos(omega * t)
+        z, v = self._state_at(excess, stiffness, v0, t)
         z[-1], v[-1] = z_max, 0.0  # the end point exactly, free of round-off in the phase
         return t_rest, t, z, v
