@@ -267,3 +267,16 @@ def test_binned_scale_by_hand_and_its_record():
     mid, lower, upper = model.predict(rows)
     half = served.half_width_m(pd.DataFrame({"width_m": [1.0, 1.0, 1.0]}), mid, 0.9)
     assert half == pytest.approx((upper - lower) / 2, rel=1e-12)
+
+
+def test_auto_bins_the_scores_once_the_training_runs_fill_each_bin():
+    """train.interval_score=auto: scaled below 8 runs a bin (64 training runs), binned from there on;
+    an explicit score is kept whatever the size."""
+    from dsmv.surrogate.intervals import SCORE_BINS
+    from dsmv.surrogate.train import BINNED_RUNS_PER_BIN, TrainSettings, interval_score
+
+    settings = TrainSettings.model_construct(interval_score="auto")
+    limit = SCORE_BINS * BINNED_RUNS_PER_BIN
+    assert limit == 64
+    assert interval_score(limit - 1, settings) == "scaled" and interval_score(limit, settings) == "binned"
+    assert interval_score(10, TrainSettings.model_construct(interval_score="binned")) == "binned"
