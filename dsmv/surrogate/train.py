@@ -230,7 +230,8 @@ def interval_method(result: "Training", settings: TrainSettings) -> str:
 #: fattens the scores' tail. Measured on the 3D Table 3 runs, random forest, 90 % intervals over 200
 #: re-splits: 40 runs (4.5 a bin) binned over-cover, 0.978, scaled 0.931; 64 runs (7 a bin) both 0.941, binned
 #: wider (0.087 against 0.062 in z/B); 128 runs binned 0.931 (thirds 0.95, 0.91, 0.93), scaled 0.917 (0.91, 0.96,
-#: 0.89); 257 runs binned 0.914, where scaled leaves the shallow third at 0.78 (intervals module docstring)
+#: 0.89); 257 runs binned 0.914 and scaled 0.910 (on the 2D section's runs scaled left the shallow third at
+#: 0.78: the intervals module's docstring)
 BINNED_RUNS_PER_BIN = 8
 
 
