@@ -107,8 +107,11 @@ def test_dsmv_ui_serves_the_store_on_loopback_with_two_processes_until_ctrl_c(tm
     experiment_id = client.create_experiment("dsmv-default_scene")
     client.create_run(experiment_id, run_name="cel2d einav_randolph")
     port = free_port()
+    # as a terminal's foreground command: Ctrl-C at its default, whatever this process inherited (a shell
+    # that runs the suite in the background ignores SIGINT, and its children would inherit that)
     proc = subprocess.Popen([str(BIN / "dsmv"), "ui", "--port", str(port)], cwd=tmp_path, text=True,
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=dict(os.environ, NUMBA_NUM_THREADS="1"))
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=dict(os.environ, NUMBA_NUM_THREADS="1"),
+                           preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         url = next(line.strip() for line in proc.stdout if line.strip().startswith("http"))
         assert url == f"http://127.0.0.1:{port}/#/experiments/{experiment_id}/runs?workflowType=machine_learning"

@@ -83,14 +83,8 @@ def server_command(backend_uri: str, port: int, artifacts: str | Path | None, wo
     return command + (["--artifacts-destination", str(artifacts)] if artifacts is not None else [])
 
 
-#: how long a stopped server may take to finish its requests before it is killed (s): uvicorn's graceful
-#: shutdown waits for open keep-alive connections, which once held a Ctrl-C'd `dsmv ui` for over 30 s
-STOP_GRACE_S = 5.0
-
-
-def stop(process: subprocess.Popen, timeout_s: float = STOP_GRACE_S) -> None:
-    """Stop a server :func:`serve` started, with the processes it started (its own process group): SIGTERM,
-    then SIGKILL once ``timeout_s`` has passed (the SQLite store is transactional: nothing is half-written)."""
+def stop(process: subprocess.Popen, timeout_s: float = 30.0) -> None:
+    """Stop a server :func:`serve` started, with the processes it started (its own process group)."""
     for sig in (signal.SIGTERM, signal.SIGKILL):
         try:
             os.killpg(process.pid, sig)
