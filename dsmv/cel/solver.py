@@ -605,9 +605,19 @@ class CelSolver:
 
     def touchdown(self, state: State) -> None:
         """A drop's touchdown: the body and the soil nodes it meets share momentum (the kinetic energy
-        lost is the touchdown's); the tied nodes start with the body's velocity."""
-        contact, par = state.contact, state.par
+        lost is the touchdown's); the tied nodes start with the body's velocity. A body that may slide
+        or turn shares it in every free freedom (:meth:`share_momentum`)."""
+        contact, par, landing = state.contact, state.par, self.scene.landing
         speed = self.start().velocity_m_s
+        if landing.moves_beyond_vertical:
+            from dsmv.cel.kernels.nodes import apply_ties
+
+            for q, name in enumerate(FREEDOMS):
+                state.body[VELOCITY_SLOTS[q]] = -speed if name == "z" else landing.given_velocity(name)
+            if par.drop:
+                self.share_momentum(state)
+            apply_ties(contact, state.nodes, state.body)
+            return
         v0 = -speed
         if par.drop:
             tied_mass = touchdown_mass(contact, state.nodes.mass)
@@ -618,22 +628,12 @@ class CelSolver:
         up = v.shape[0] - 1
         v[up, contact.node[full]] = v0
         v[:, contact.node[~full]] = v0 * normal[~full, up] * normal[~full].T
-        landing = self.scene.landing
-        if landing.moves_beyond_vertical:  # a body that may slide or turn: the tied nodes move with it
-            from dsmv.cel.kernels.nodes import apply_ties
 
-            for q, name in enumerate(FREEDOMS):
-                if name != "z":
-                    state.body[VELOCITY_SLOTS[q]] = landing.given_velocity(name)
-            if par.drop:
-                self.share_momentum(state, -speed)
-            apply_ties(contact, state.nodes, state.body)
-
-    def share_momentum(self, state: State, v_down: float) -> None:
-        """A drop that may slide or turn: at touchdown the body (velocity ``v_down`` up +, and its drift and
-        turn) and the soil nodes it meets become one rigid unit, their momentum and moment of momentum
-        kept in every free freedom: (M + A)·v = M·v_given, A the tied nodes' inertia. A centre of gravity
-        off the contact's middle starts the body turning. The kinetic energy lost is the touchdown's."""
+    def share_momentum(self, state: State) -> None:
+        """A drop that may slide or turn: at touchdown the body (at the velocities it was given) and the
+        soil nodes it meets become one rigid unit, their momentum and moment of momentum kept in every
+        free freedom: (M + A)·v = M·v_given, A the tied nodes' inertia. A centre of gravity off the
+        contact's middle starts the body turning. The kinetic energy lost is the touchdown's."""
         from dsmv.cel.kernels.nodes import tie_reactions
 
         par, body = state.par, state.body
@@ -641,12 +641,12 @@ class CelSolver:
         tie_reactions(state.contact, state.nodes, 0.0, force, tied)
         free = [q for q in range(6) if (par.free >> q) & 1]
         own = np.diag([par.body_mass] * 3 + [par.inertia_x, par.inertia_y, par.inertia_z])[np.ix_(free, free)]
-        given = np.array([v_down if q == 2 else body[VELOCITY_SLOTS[q]] for q in free])
-        shared = np.linalg.solve(own + tied[np.ix_(free, free)], own @ given)
-        for q, v in zip(free, shared):
-            body[VELOCITY_SLOTS[q]] = v
-        state.touchdown_loss = 0.5 * given @ own @ given - 0.5 * shared @ (own + tied[np.ix_(free, free)]) @ shared
+        united = own + tied[np.ix_(free, free)]
+        given = body[VELOCITY_SLOTS[free]]
+        shared = np.linalg.solve(united, own @ given)
+        body[VELOCITY_SLOTS[free]] = shared
         state.kinetic_in = 0.5 * given @ own @ given
+        state.touchdown_loss = state.kinetic_in - 0.5 * shared @ united @ shared
 
     def hourglass_modes(self, state: State) -> tuple[float, float]:
         return self.kernels.hourglass_modes(state.mesh.corner, state.cells.phi, state.nodes.v, ZIGZAG_FULL_CELL)
