@@ -22,6 +22,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from dsmv.config.scene import FREEDOM_NAMES
+
 
 @dataclass(frozen=True)
 class CellRows:
@@ -266,8 +268,8 @@ class Params(NamedTuple):
  B_MAXROT, B_MAXSLIDE, B_SINKAGE, B_MAXEDGE) = range(15, 39)
 N_BODY = 39
 
-#: the rigid body's six freedoms, in this order everywhere (config, bitmask ``Params.free``, slots)
-FREEDOMS = ("x", "y", "z", "rx", "ry", "rz")
+#: the rigid body's six freedoms, in the config's order everywhere (bitmask ``Params.free``, slots)
+FREEDOMS = FREEDOM_NAMES
 #: per freedom, the body's slot for its velocity, its displacement, its force sum and its adhesive pull
 VELOCITY_SLOTS = np.array([B_VX, B_VY, B_VEL, B_WX, B_WY, B_WZ])
 POSE_SLOTS = np.array([B_OFFSET_X, B_OFFSET_Y, B_OFFSET, B_ROT_X, B_ROT_Y, B_ROT_Z])
