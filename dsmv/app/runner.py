@@ -261,7 +261,7 @@ def _answer(scene: Scene, result: SolveResult) -> str:
     sinkage = result.metrics.get("max_sinkage_m")
     if result.status != "ok" or sinkage is None:  # only an 'ok' run has an answer: say what happened
         return result.message
-    motion = _motion(result.metrics)
+    motion = _motion(result.metrics, scene.landing)
     if scene.landing.kind != "push":
         plates = result.metrics.get("plate_sinkage_m", sinkage)
         where = (f" at the grouser tips, {plates:.4f} m at the plates" if plates != sinkage else
@@ -281,12 +281,19 @@ def _answer(scene: Scene, result: SolveResult) -> str:
     return f"pushed to {sinkage:.4f} m" + (f"; q/su {', '.join(factors)}" if factors else "")
 
 
-def _motion(metrics: dict) -> str:
-    """A body that may slide or turn: how far it did, in words (empty for one that cannot)."""
+def _motion(metrics: dict, landing) -> str:
+    """A body that may slide or turn: how far it did, in words (only the motions it has)."""
     if "max_rotation_deg" not in metrics:
         return ""
-    return (f", turned {metrics['max_rotation_deg']:.2f}° at most, slid {metrics['max_horizontal_displacement_m']:.4f} m "
-            f"at most, its base's lowest point {metrics['max_edge_sinkage_m']:.4f} m deep at most")
+    moves = {n for n in ("x", "y", "rx", "ry", "rz") if n in landing.freedoms or landing.given_velocity(n)}
+    words = []
+    if moves & {"rx", "ry", "rz"}:
+        words.append(f"turned {metrics['max_rotation_deg']:.2f}° at most")
+    if moves & {"x", "y"}:
+        words.append(f"slid {metrics['max_horizontal_displacement_m']:.4f} m at most")
+    if moves & {"rx", "ry", "rz"}:
+        words.append(f"its base's lowest point {metrics['max_edge_sinkage_m']:.4f} m deep at most")
+    return "".join(f", {w}" for w in words)
 
 
 #: the 3D track's max sinkage (grouser tips, cel3d's default mesh) less the 2D cross-section's (cel2d's),

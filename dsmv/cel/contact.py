@@ -336,15 +336,6 @@ def gap_cells(rules: ContactRules, solid, tie_i, tie_j, normal) -> np.ndarray:
     return soil_cells_touching(solid, tie_i[on_face], tie_j[on_face])
 
 
-def touchdown_mass(contact: Contact, mass: np.ndarray) -> float:
-    """The soil mass the body meets at touchdown (kg): fully tied nodes whole, normally tied ones by
-    the share of their normal along the motion."""
-    up = contact.normal.shape[1] - 1
-    share = np.where(contact.full, 1.0, contact.normal[:, up] ** 2)
-    return float((mass[contact.node] * share).sum())
-
-
-
 def wall_share(solid, i, j, k, dx, dy, dz) -> float:
     """Node (i, j, k)'s share of a body's vertical walls (m²): a quarter of each wall face (between a
     body cell and a soil cell, in plan) that it is a corner of."""

@@ -544,7 +544,8 @@ class PushEnd(Tracker):
             travelled = math.sqrt(sum(float(run.body[s]) ** 2 for s in self.pose_slots))
             if travelled >= self.displacement - 1e-12:
                 turned = f", turned {run.turned_deg:.4g}°" if self.rotation_deg is not None else ""
-                return Ending("ok", f"pushed to {run.sinkage_m:.4g} m{turned}")
+                where = f"to {run.sinkage_m:.4g} m" if self.pose_slots == (B_OFFSET,) else f"{travelled:.4g} m"
+                return Ending("ok", f"pushed {where}{turned}")
         if self.rotation_deg is not None and run.turned_deg >= self.rotation_deg - 1e-12:
             return Ending("ok", f"turned to {run.turned_deg:.4g}° at {run.sinkage_m:.4g} m")
         return None

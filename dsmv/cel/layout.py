@@ -187,11 +187,20 @@ class Contact(NamedTuple):
 
 
 class Inflow(NamedTuple):
-    """Soil entering through the base: its state per base cell (rows of q) and the depth at t = 0
-    of the ghost cell below the base (m)."""
+    """Soil entering the grid, which follows the body's translation (the soil beyond is at rest and
+    geostatic). Through the base: its state per base cell (rows of q) and the depth at t = 0 of the
+    ghost cell below the base (m). Through the sides, while the body slides: its state per layer of
+    cells (``side``: rows of q × layers) and the fill of each layer (``side_fill``: the mudline's layer
+    is filled in part), set before each remap from the layers' node heights ``levels`` (m, up the grid)
+    and the mudline's height at t = 0 (``mudline``, m). The defaults close the sides (a model whose
+    inflow is off)."""
 
     ghost: np.ndarray
     depth0: np.ndarray
+    side: np.ndarray = np.zeros((0, 0))
+    side_fill: np.ndarray = np.zeros(0)
+    levels: np.ndarray = np.zeros(1)
+    mudline: float = 0.0
 
 
 class SoilLawKernel(NamedTuple):
@@ -245,6 +254,7 @@ class Params(NamedTuple):
     inertia_z: float = 0.0
     base_x: float = 0.0     # the middle of the body's base from its centre of gravity, across and along (m)
     base_y: float = 0.0
+    base_z: float = 0.0     # and up (m): minus the centre of gravity's height above the base
     base_half_x: float = 0.0  # the base's half width and half length (m): its lowest point as it turns
     base_half_y: float = 0.0
 
@@ -262,11 +272,14 @@ class Params(NamedTuple):
 # force or moment on the body over the chunk (N, N·m about the centre of gravity) and the adhesive
 # pull of the last step; and the largest rotation (rad) and horizontal displacement (m) so far, the
 # sinkage of the middle of the base now (m; B_OFFSET is the centre of gravity's travel, B_MAXDISP the
-# base's deepest sinkage) and the deepest sinkage of the base's lowest point (m)
+# base's deepest sinkage) and the deepest sinkage of the base's lowest point (m); and the horizontal
+# force (x, y) the cells beside the body put on it, as B_BESIDE_N the vertical (N), and its moment
+# about the centre of gravity (N·m)
 (B_VX, B_VY, B_WX, B_WY, B_WZ, B_OFFSET_X, B_OFFSET_Y, B_ROT_X, B_ROT_Y, B_ROT_Z,
  B_HSUM_X, B_HSUM_Y, B_MSUM_X, B_MSUM_Y, B_MSUM_Z, B_PULL_X, B_PULL_Y, B_PULL_RX, B_PULL_RY, B_PULL_RZ,
- B_MAXROT, B_MAXSLIDE, B_SINKAGE, B_MAXEDGE) = range(15, 39)
-N_BODY = 39
+ B_MAXROT, B_MAXSLIDE, B_SINKAGE, B_MAXEDGE, B_BESIDE_X, B_BESIDE_Y, B_BESIDE_MX, B_BESIDE_MY,
+ B_BESIDE_MZ) = range(15, 44)
+N_BODY = 44
 
 #: the rigid body's six freedoms, in the config's order everywhere (bitmask ``Params.free``, slots)
 FREEDOMS = FREEDOM_NAMES

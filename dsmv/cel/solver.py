@@ -33,7 +33,7 @@ from dsmv.cel import controller as C
 from dsmv.cel import cost as cost_model
 from dsmv.cel import ledger
 from dsmv.cel.config import CelConfig
-from dsmv.cel.contact import ContactRules, touchdown_mass
+from dsmv.cel.contact import ContactRules
 from dsmv.cel.kernels import DimensionKernels, for_dimension
 from dsmv.cel.layout import (
     B_INFLOW, B_MAXEDGE, B_MAXROT, B_MAXSLIDE, B_TIME, B_VEL, FREEDOMS, N_BODY, POSE_SLOTS,
@@ -604,49 +604,25 @@ class CelSolver:
         return SoilLawKernel(self.law.compiled(), self.law.packed(), self.law.compiled_evolve())
 
     def touchdown(self, state: State) -> None:
-        """A drop's touchdown: the body and the soil nodes it meets share momentum (the kinetic energy
-        lost is the touchdown's); the tied nodes start with the body's velocity. A body that may slide
-        or turn shares it in every free freedom (:meth:`share_momentum`)."""
-        contact, par, landing = state.contact, state.par, self.scene.landing
+        """The body starts at the velocities it was given (a drop's fall, drift and turn, a push's speeds);
+        a drop and the soil nodes it meets become one rigid unit, their momentum and moment of momentum
+        kept in every free freedom (:func:`~dsmv.cel.stepper.rejoin_ties`; the kinetic energy lost is the
+        touchdown's, and a centre of gravity off the contact's middle starts the body turning); the
+        tied nodes start with the body's velocity."""
+        from dsmv.cel.kernels.nodes import apply_ties
+        from dsmv.cel.stepper import body_inertia, rejoin_ties
+
+        par, body, landing = state.par, state.body, self.scene.landing
         speed = self.start().velocity_m_s
-        if landing.moves_beyond_vertical:
-            from dsmv.cel.kernels.nodes import apply_ties
-
-            for q, name in enumerate(FREEDOMS):
-                state.body[VELOCITY_SLOTS[q]] = -speed if name == "z" else landing.given_velocity(name)
-            if par.drop:
-                self.share_momentum(state)
-            apply_ties(contact, state.nodes, state.body)
+        for q, name in enumerate(FREEDOMS):
+            body[VELOCITY_SLOTS[q]] = -speed if name == "z" else landing.given_velocity(name)
+        if not par.drop:
+            apply_ties(state.contact, state.nodes, body)
             return
-        v0 = -speed
-        if par.drop:
-            tied_mass = touchdown_mass(contact, state.nodes.mass)
-            v0 = par.body_mass * v0 / (par.body_mass + tied_mass)
-            state.touchdown_loss = 0.5 * par.body_mass * speed**2 - 0.5 * (par.body_mass + tied_mass) * v0**2
-        state.body[B_VEL] = v0
-        v, full, normal = state.nodes.v, contact.full, contact.normal
-        up = v.shape[0] - 1
-        v[up, contact.node[full]] = v0
-        v[:, contact.node[~full]] = v0 * normal[~full, up] * normal[~full].T
-
-    def share_momentum(self, state: State) -> None:
-        """A drop that may slide or turn: at touchdown the body (at the velocities it was given) and the
-        soil nodes it meets become one rigid unit, their momentum and moment of momentum kept in every
-        free freedom: (M + A)·v = M·v_given, A the tied nodes' inertia. A centre of gravity off the
-        contact's middle starts the body turning. The kinetic energy lost is the touchdown's."""
-        from dsmv.cel.kernels.nodes import tie_reactions
-
-        par, body = state.par, state.body
-        force, tied = np.zeros(6), np.zeros((6, 6))
-        tie_reactions(state.contact, state.nodes, 0.0, force, tied)
-        free = [q for q in range(6) if (par.free >> q) & 1]
-        own = np.diag([par.body_mass] * 3 + [par.inertia_x, par.inertia_y, par.inertia_z])[np.ix_(free, free)]
-        united = own + tied[np.ix_(free, free)]
-        given = body[VELOCITY_SLOTS[free]]
-        shared = np.linalg.solve(united, own @ given)
-        body[VELOCITY_SLOTS[free]] = shared
-        state.kinetic_in = 0.5 * given @ own @ given
-        state.touchdown_loss = state.kinetic_in - 0.5 * shared @ united @ shared
+        state.kinetic_in = sum(0.5 * body_inertia(par, q) * body[VELOCITY_SLOTS[q]] ** 2 for q in range(6))
+        change = np.zeros(2)
+        rejoin_ties(state.contact, state.nodes, par, body, change)
+        state.touchdown_loss = -change[0]
 
     def hourglass_modes(self, state: State) -> tuple[float, float]:
         return self.kernels.hourglass_modes(state.mesh.corner, state.cells.phi, state.nodes.v, ZIGZAG_FULL_CELL)
@@ -767,6 +743,7 @@ class CelSolver:
             separation=self.contact_separation(), free=freedom_mask(self.moving_freedoms()),
             **{f"inertia_{axis}": inertia / scale for axis, inertia in zip("xyz", self.rotational_inertia_kg_m2())},
             base_x=-landing.cg_offset_m[0], base_y=-landing.cg_offset_m[1] if self.dim == 3 else 0.0,
+            base_z=-landing.cg_offset_m[2],
             base_half_x=0.5 * scene.geometry.width_m,
             base_half_y=0.5 * (scene.geometry.contact_length_m or 0.0) if self.dim == 3 else 0.0,
             tresca=cfg.yield_surface == "tresca" or (cfg.yield_surface == "auto" and self.axisym),
@@ -775,7 +752,10 @@ class CelSolver:
         up = grid.axes[-1]
         ghost = np.zeros((q.shape[0], *shape[:-1]))
         ghost[n_base:] = law_state.reshape(-1, *(1,) * (self.dim - 1))  # soil entering at the base brings it
-        inflow = Inflow(ghost, np.full(shape[:-1], self.mudline - (up[0] - 0.5 * (up[1] - up[0]))))
+        side = np.zeros((q.shape[0], shape[-1]))
+        side[n_base:] = law_state[:, None]  # and soil entering at the sides
+        inflow = Inflow(ghost, np.full(shape[:-1], self.mudline - (up[0] - 0.5 * (up[1] - up[0]))), side,
+                        np.zeros(shape[-1]), np.asarray(up, dtype=float), float(self.mudline))
         state = State(grid, mesh, cells, faces, nodes, body_contact.contact, inflow, par, np.zeros(N_BODY),
                       np.zeros(ledger.N_ENERGY), self.law_kernel(par, len(law_state)), scale,
                       float(rho * (phi * mesh.vol).sum()),

@@ -64,9 +64,10 @@ class Cel2DSolver(CelSolver):
         if beyond_plane:
             raise ConfigError("landing.free" if beyond_plane[0] in landing.freedoms else f"landing.{RATE_KEYS[beyond_plane[0]]}",
                               beyond_plane[0], "plane strain moves in x and z and turns about y (ry): cel3d has the rest")
-        if scene.landing.moves_beyond_vertical and not cls.half_model(scene) and cfg.remap:
-            raise ConfigError("solver.remap", True, "a body that slides or turns runs on the undeformed grid so far "
-                              "(small strain): set solver.remap=false")
+        if landing.turn_key and not cls.half_model(scene) and cfg.remap:
+            raise ConfigError(landing.turn_key, landing.model_dump()[landing.turn_key.split(".")[1]],
+                              "a body that turns runs on the undeformed grid so far (small strain): set "
+                              "solver.remap=false (one that only slides runs with the remap: the grid follows it)")
         if not cls.half_model(scene) and (body.kind in ("cone", "circular_plate") or cfg.mode == "axisymmetric"):
             raise ConfigError("solver.economies.symmetry", False, "the whole section is a plane-strain model: an "
                               "axisymmetric body is its own whole")

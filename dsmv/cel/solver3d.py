@@ -87,9 +87,11 @@ class Cel3DSolver(CelSolver):
             raise ConfigError("geometry.view", body.view, "cel3d models the whole track, its side view included: "
                                                           "leave geometry.view to cel2d")
         landing = scene.landing
-        if landing.moves_beyond_vertical and scene.solver.remap:
-            raise ConfigError("solver.remap", True, "a body that slides or turns runs on the undeformed grid so far "
-                              "(small strain): set solver.remap=false")
+        turning = {n for n in ("rx", "ry", "rz") if n in landing.freedoms or landing.given_velocity(n)}
+        if scene.solver.remap and turning - set(cls.held_in(scene)):
+            raise ConfigError(landing.turn_key, landing.model_dump()[landing.turn_key.split(".")[1]],
+                              "a body that turns runs on the undeformed grid so far (small strain): set "
+                              "solver.remap=false (one that only slides runs with the remap: the grid follows it)")
         if body.kind == "strip":
             beyond_slab = [n for n in ("y", "rx", "rz") if n in landing.freedoms or landing.given_velocity(n)]
             if beyond_slab:
@@ -97,20 +99,28 @@ class Cel3DSolver(CelSolver):
                                   "in x and z and turns about y")
         return ContactRules.of(scene, False)
 
-    def symmetry_planes(self) -> tuple[bool, bool]:
-        """Which vertical mid-planes the model cuts the body on (normal to x, normal to y): those
+    @staticmethod
+    def planes_of(scene: Scene) -> tuple[bool, bool]:
+        """Which vertical mid-planes a scene's model cuts the body on (normal to x, normal to y): those
         ``solver.economies.symmetry`` asks for (quarter: both; half: the one normal to x; full: none) about
         which the landing is symmetric. A strip's slab always has its plane-strain planes."""
-        asked = self.scene.solver.economies.symmetry
-        landing = self.scene.landing
+        asked, landing = scene.solver.economies.symmetry, scene.landing
         return (asked != "full" and landing.symmetric_about("x"),
-                self.slab or (asked == "quarter" and landing.symmetric_about("y")))
+                scene.geometry.kind == "strip" or (asked == "quarter" and landing.symmetric_about("y")))
 
-    def held_by_symmetry(self) -> tuple[str, ...]:
+    @classmethod
+    def held_in(cls, scene: Scene) -> tuple[str, ...]:
         """A symmetry plane holds the slide across it and the turns that would tilt or twist it."""
-        normal_x, normal_y = self.symmetry_planes()
+        normal_x, normal_y = cls.planes_of(scene)
         held = (("x", "ry", "rz") if normal_x else ()) + (("y", "rx", "rz") if normal_y else ())
         return tuple(dict.fromkeys(held))
+
+    def symmetry_planes(self) -> tuple[bool, bool]:
+        """:meth:`planes_of` this solver's scene."""
+        return self.planes_of(self.scene)
+
+    def held_by_symmetry(self) -> tuple[str, ...]:
+        return self.held_in(self.scene)
 
     # ------------------------------------------------------------------ geometry
 

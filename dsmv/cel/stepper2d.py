@@ -33,7 +33,7 @@ def lagrange_step(mesh, cells, faces, nodes, contact, par, body, energy, law):
     if par.separation:  # which face ties hold this step: those the soil would otherwise cross
         ties_that_hold(contact, nodes, par.dt, par.gravity, par.mass_floor, body)
     # the cut cells' arcs (the adhesive pull of the last step is the body's)
-    resistance, v_old = move_body(nodes, contact, par, body, energy, work[2])
+    resistance, v_old = move_body(nodes, contact, par, body, energy, (0.0, 0.0, work[2], 0.0, 0.0, 0.0))
     momentum_before, momentum_after = update_velocities(nodes, par.gravity, par.dt, par.mass_floor)
     hold_nodes(cells, nodes, contact, par, body, energy, momentum_before, momentum_after)
     merge = contact.merge
@@ -82,7 +82,7 @@ def run_steps(n_steps, mesh, cells, faces, nodes, contact, inflow, par, body, en
         # speed, not by the flow): each node's travel through the grid is gathered, and the remap
         # runs once some node has gone par.remap_travel (0: every step). Gathered before the
         # exits, so a run that goes on keeps this step's.
-        travel = gather_travel(nodes, body[B_VEL], par.dt) if par.remap else 0.0
+        travel = gather_travel(nodes, body, par.dt) if par.remap else 0.0
         code = step_failed(par, body, resistance, travel)
         if code != RUNNING:
             return step + 1, code

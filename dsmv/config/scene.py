@@ -339,6 +339,14 @@ class LandingConfig(Schema):
         return "landing.cg_offset_m" if any(self.cg_offset_m[:2]) else None
 
     @property
+    def turn_key(self) -> Optional[str]:
+        """The first landing key that lets the body turn (a rotation among the free freedoms, a rotation
+        rate), or None: a body that only slides keeps its attitude."""
+        if set(self.freedoms) & {"rx", "ry", "rz"}:
+            return "landing.free"
+        return next((f"landing.{RATE_KEYS[n]}" for n in ("rx", "ry", "rz") if self.given_velocity(n)), None)
+
+    @property
     def moves_beyond_vertical(self) -> bool:
         """Whether the body may slide or turn: a freedom other than z, or a speed on one, or its centre of
         gravity off its axis."""

@@ -39,6 +39,9 @@ HOURGLASS = hourglass_vectors(3)
 #: move alike on both faces then feels, per unit thickness, the 2D element's force (ρ·c·√A/4 on
 #: the Q4 mode, which the slab sees as the ζξ vector over both faces, twice over eight nodes)
 HOURGLASS_SCALE = 1.0 / 16.0
+#: what a slab's cells sum: plastic work, hourglass and bulk-viscosity power, the force on the body (x, y,
+#: z) and its moment about the grid's origin
+N_SLAB_SUMS = 9
 #: Jacobi sweeps at most, for a 3×3 symmetric matrix (it converges quadratically: 4–5 suffice)
 JACOBI_SWEEPS = 12
 
@@ -119,11 +122,11 @@ def remap_velocity(v, a, n, n_grid, parent):
 
 
 @njit(**INLINE)
-def remap_divergence(v, nodes8, closed, n_grid, parent, dx, dy, dz, v_body):
+def remap_divergence(v, nodes8, closed, n_grid, parent, dx, dy, dz, v_grid):
     """The volumetric strain rate (1/s) the remap makes of a cell: the net flux of its faces' mean
     velocities, the nodes' as the remap takes them (:func:`remap_velocity`), each closed face (bits of
-    ``closed``, :attr:`~dsmv.cel.layout.Mesh3D.closed`) moving with the body (vertical velocity
-    ``v_body``, m/s) whatever its nodes do, for the remap lets no soil through it."""
+    ``closed``, :attr:`~dsmv.cel.layout.Mesh3D.closed`) moving with the body (its translation ``v_grid``,
+    the grid's velocity (m/s) along x, y and z) whatever its nodes do, for the remap lets no soil through it."""
     div = 0.0
     for a in range(3):
         c = walsh(remap_velocity(v, a, nodes8[0], n_grid, parent), remap_velocity(v, a, nodes8[1], n_grid, parent),
@@ -132,7 +135,7 @@ def remap_divergence(v, nodes8, closed, n_grid, parent, dx, dy, dz, v_body):
                   remap_velocity(v, a, nodes8[7], n_grid, parent), remap_velocity(v, a, nodes8[6], n_grid, parent))
         total, across = c[0], c[1 << a]  # Σ of all eight, Σ upper face − Σ lower face
         lower, upper = 0.125 * (total - across), 0.125 * (total + across)  # the faces' mean velocities
-        on_body = v_body if a == 2 else 0.0
+        on_body = v_grid[a]
         if closed & (1 << 2 * a):
             lower = on_body
         if closed & (1 << 2 * a + 1):
@@ -164,35 +167,50 @@ def strain_from_coefficients(coeff, dx, dy, dz, dt, d):
 
 
 @njit(**INLINE)
-def mean_stress_as_remapped(fn, nodes8, closed, n_grid, parent, mean, wx, wy, wz):
+def mean_stress_as_remapped(fn, nodes8, closed, n_grid, parent, mean, wx, wy, wz, low, size):
     """Move a cell's mean stress m from its own nodes to where the remap sees the cell
     (:func:`remap_divergence`): each corner's share along axis a, −m·w_a·s (w_a = V·φ/(4·d_a), s its
     side), is taken back where the corner's face along a is closed, or moved to the parent where the
-    corner is a split node's copy (horizontally). Returns the closed faces' vertical share, which the
-    body takes (N, up +)."""
-    body_fz = 0.0
+    corner is a split node's copy (horizontally). Returns the closed faces' share, which the body takes:
+    its force along x, y and z (N) and its moment about the grid's origin (N·m; the cell's corners sit at
+    ``low`` + the cell's ``size`` along each axis where the corner is on the upper side)."""
+    fx, fy, fz, mx, my, mz = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     for b in range(8):
         n = nodes8[b]
+        px = low[0] + (size[0] if SIDE[0, b] > 0.0 else 0.0)
+        py = low[1] + (size[1] if SIDE[1, b] > 0.0 else 0.0)
+        pz = low[2] + (size[2] if SIDE[2, b] > 0.0 else 0.0)
         for a in range(3):
             side = SIDE[a, b]
             share = -mean * (wx if a == 0 else (wy if a == 1 else wz)) * side
             if closed & (1 << 2 * a + (1 if side > 0.0 else 0)):
                 fn[a, n] -= share
-                if a == 2:
-                    body_fz += share
+                if a == 0:  # r × (share along a)
+                    fx += share
+                    my += pz * share
+                    mz -= py * share
+                elif a == 1:
+                    fy += share
+                    mz += px * share
+                    mx -= pz * share
+                else:
+                    fz += share
+                    mx += py * share
+                    my -= px * share
             elif a < 2 and n >= n_grid:
                 fn[a, n] -= share
                 fn[a, parent[n - n_grid]] += share
-    return body_fz
+    return fx, fy, fz, mx, my, mz
 
 
 @njit(**INLINE)
-def cell_forces(fn, nodes8, coeff, stress, cell, div, beside, remapped, n_grid, parent, par):
+def cell_forces(fn, nodes8, coeff, stress, cell, low, div, beside, remapped, n_grid, parent, par):
     """One cell's nodal forces, added into ``fn``, from its stress (σxx, σyy, σzz, σxy, σyz, σzx, the
     soil's own, Pa), the cell's fill φ, hourglass factor and edges (``cell``: φ, factor, dx, dy, dz
-    in m), its velocity coefficients ``coeff`` (:func:`corner_coefficients`) and its volumetric strain
-    rate ``div`` (1/s); returns its hourglass and bulk-viscosity power (W) and the vertical force it puts
-    on the body (N, up +) where ``remapped`` (:func:`slab_update`)."""
+    in m), its lowest corner (``low``, m), its velocity coefficients ``coeff`` (:func:`corner_coefficients`) and its volumetric strain
+    rate ``div`` (1/s); returns its hourglass and bulk-viscosity power (W) and the force it puts on the
+    body along x, y and z (N) and its moment about the grid's origin (N·m) where ``remapped``
+    (:func:`slab_update`)."""
     sxx, syy, szz, sxy, syz, szx = stress
     f, hourglass_factor, dx, dy, dz = cell
     rho, c_wave = par.density, par.wave_speed
@@ -233,28 +251,29 @@ def cell_forces(fn, nodes8, coeff, stress, cell, div, beside, remapped, n_grid, 
         fn[a, n5] += f5
         fn[a, n6] += f6
         fn[a, n7] += f7
-    body_fz = 0.0
+    on_body = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     if remapped:
-        body_fz = mean_stress_as_remapped(fn, nodes8, beside, n_grid, parent, (sxx + syy + szz) / 3.0, wx, wy, wz)
-    return hg_power, bv_power, body_fz
+        on_body = mean_stress_as_remapped(fn, nodes8, beside, n_grid, parent, (sxx + syy + szz) / 3.0, wx, wy, wz,
+                                          low, (dx, dy, dz))
+    return hg_power, bv_power, on_body
 
 
 @njit(**JIT)
-def nodal_forces(mesh, cells, nodes, par, v_body, parent, law, work):
+def nodal_forces(mesh, cells, nodes, par, v_grid, parent, law, work):
     """Internal nodal forces (N) from the cell stresses: f_a = −V·φ·σ·∇N_a at the centre; viscous
     hourglass control on the four hourglass vectors (coefficient ``par.hourglass`` times the cell's
     ``hourglass_factor``); linear and quadratic bulk viscosity in compression; in the cells beside the
-    body (moving with vertical velocity ``v_body``, m/s) or with a split node (``parent``: each
+    body (moving with the grid's velocity ``v_grid``: x, y, z, m/s) or with a split node (``parent``: each
     copy's parent) the mean stress as the remap sees the cell (:func:`slab_update`). ``work``
-    accumulates the power of hourglass [0] and bulk viscosity [1] (W) and [2] the vertical force
-    those cells put on the body (N, up +). Cells without soil are skipped. Parallel over slabs
+    accumulates the power of hourglass [0] and bulk viscosity [1] (W), [2:5] the force those cells
+    put on the body along x, y and z (N) and [5:8] its moment about the grid's origin (N·m). Cells without soil are skipped. Parallel over slabs
     (:func:`slabs_in_colours`). A step computes its forces here only where none are ahead of it:
     the stress update computes the next step's (:func:`update_stress_and_forces`). ``law`` is the stress
     update's, unused here: with it both run the same compiled code, so that the forces they give are bit
     for bit the same (compiled apart, fastmath may fuse their multiply-adds differently)."""
-    all_work = np.zeros(4)
-    slabs_in_colours(mesh, cells, nodes, par, v_body, parent, law, False, all_work)
-    for m in range(3):
+    all_work = np.zeros(N_SLAB_SUMS)
+    slabs_in_colours(mesh, cells, nodes, par, v_grid, parent, law, False, all_work)
+    for m in range(N_SLAB_SUMS - 1):
         work[m] += all_work[m + 1]
 
 
@@ -400,11 +419,11 @@ def cell_stress(q, su_cell, cell, d, spin, strength, volume, par, law, s, a, vec
 
 
 @njit(**JIT)
-def slab_update(i, mesh, cells, v, v_body, parent, fn, par, law, stress):
+def slab_update(i, mesh, cells, v, v_grid, parent, fn, par, law, stress):
     """The cells of slab i (all j, k): with ``stress``, their stress update (:func:`update_stress_and_forces`);
     then their nodal forces, added into ``fn``. Returns the slab's plastic work (J), hourglass and
-    bulk-viscosity power (W), and the vertical force its cells beside the body put on the body (N, up
-    +). A slab's cells touch the nodes of planes i and i + 1 only (split nodes included: a copy sits on
+    bulk-viscosity power (W), and the force its cells beside the body put on the body along x, y and z
+    (N) and its moment about the grid's origin (N·m). A slab's cells touch the nodes of planes i and i + 1 only (split nodes included: a copy sits on
     its parent's plane). Containers are read once per slab (a container passed per cell costs a
     reference count per array).
 
@@ -432,7 +451,7 @@ def slab_update(i, mesh, cells, v, v_body, parent, fn, par, law, stress):
     plastic = 0.0
     hg_power = 0.0
     bv_power = 0.0
-    body_fz = 0.0
+    on_body = np.zeros(6)
     dx = x[i + 1] - x[i]
     for j in range(ny):
         dy = y[j + 1] - y[j]
@@ -451,7 +470,7 @@ def slab_update(i, mesh, cells, v, v_body, parent, fn, par, law, stress):
             beside = closed[i, j, k]
             remapped = par.remap and (beside != 0 or split[i, j, k])
             if remapped:
-                div = remap_divergence(v, nodes8, beside, n_grid, parent, dx, dy, dz, v_body)
+                div = remap_divergence(v, nodes8, beside, n_grid, parent, dx, dy, dz, v_grid)
             else:
                 div = coeff[0, 1] * (0.25 / dx) + coeff[1, 2] * (0.25 / dy) + coeff[2, 4] * (0.25 / dz)
             if stressed:
@@ -467,20 +486,21 @@ def slab_update(i, mesh, cells, v, v_body, parent, fn, par, law, stress):
                 plastic += cell_stress(q, su_cell, (i, j, k), d, spin, strength, dx * dy * dz * f, par, law, s, a, vec)
             stress_now = (q[SXX, i, j, k], q[SYY, i, j, k], q[SZZ, i, j, k], q[SXY, i, j, k], q[SYZ, i, j, k],
                           q[SZX, i, j, k])
-            hg, bv, fz = cell_forces(fn, nodes8, coeff, stress_now, (f, hourglass_factor[i, j, k], dx, dy, dz), div,
-                                     beside, remapped, n_grid, parent, par)
+            hg, bv, f6 = cell_forces(fn, nodes8, coeff, stress_now, (f, hourglass_factor[i, j, k], dx, dy, dz),
+                                     (x[i], y[j], z[k]), div, beside, remapped, n_grid, parent, par)
             hg_power += hg
             bv_power += bv
-            body_fz += fz
-    return plastic, hg_power, bv_power, body_fz
+            for m in range(6):
+                on_body[m] += f6[m]
+    return plastic, hg_power, bv_power, on_body[0], on_body[1], on_body[2], on_body[3], on_body[4], on_body[5]
 
 
 @njit(**JIT)
-def update_stress_and_forces(mesh, cells, nodes, par, v_body, parent, law, work):
+def update_stress_and_forces(mesh, cells, nodes, par, v_grid, parent, law, work):
     """Stress update for undrained soil of strength su = (su0 + ks·z0)·f·law(ξ, γ̇, state): Jaumann
     rotation by the spin, elastic trial, return (Tresca with ``par.tresca``, else von Mises √J2 ≤ su).
     ξ accumulates Δε1^p − Δε3^p; ``cells.su`` receives each cell's strength (Pa). Beside the body
-    (vertical velocity ``v_body``, m/s) and in cells with a split node (``parent``: each copy's
+    (moving with the grid's velocity ``v_grid``: x, y, z, m/s) and in cells with a split node (``parent``: each copy's
     parent) the volumetric strain is the remap's (:func:`remap_divergence`). As
     :func:`dsmv.cel.kernels.elements2d.update_stress`, in three dimensions. Tresca's return needs the
     principal axes only where √J2 > su (s1 − s3 ≤ 2·√J2 always).
@@ -488,14 +508,15 @@ def update_stress_and_forces(mesh, cells, nodes, par, v_body, parent, law, work)
     Then, cell by cell while its nodes' velocities are at hand, the nodal forces of the next step
     (:func:`nodal_forces`): they depend on the new stress and on these same velocities, which nothing
     changes before the next step but a remap. ``work`` receives the plastic work [0] (J), and the
-    next step's hourglass [1] and bulk-viscosity power [2] (W) and force on the body [3] (N, up +).
+    next step's hourglass [1] and bulk-viscosity power [2] (W) and force on the body [3:6] (N, along x,
+    y and z) and its moment about the grid's origin [6:9] (N·m).
     Parallel over slabs in two colours as :func:`nodal_forces` (a cell writes only its own state);
     the slabs' sums are added in slab order, so the result does not depend on the number of threads."""
-    slabs_in_colours(mesh, cells, nodes, par, v_body, parent, law, True, work)
+    slabs_in_colours(mesh, cells, nodes, par, v_grid, parent, law, True, work)
 
 
 @njit(**PARALLEL)
-def slabs_in_colours(mesh, cells, nodes, par, v_body, parent, law, stress, work):
+def slabs_in_colours(mesh, cells, nodes, par, v_grid, parent, law, stress, work):
     """:func:`slab_update` over all slabs, into zeroed node forces: in two colours, the even slabs then the
     odd ones, each colour's in :func:`~dsmv.cel.kernels.common.spread_order`. Slabs of one colour share
     no node, so each node sums its cells' forces in the same order whatever the number of threads; the
@@ -504,17 +525,18 @@ def slabs_in_colours(mesh, cells, nodes, par, v_body, parent, law, stress, work)
     nx = cells.phi.shape[0]
     fn = nodes.f
     zero_in_blocks(fn)
-    sums = np.zeros((4, nx))
+    sums = np.zeros((N_SLAB_SUMS, nx))
     for colour in range(2):
         order = spread_order((nx - colour + 1) // 2)
         for s in prange(len(order)):
             i = 2 * order[s] + colour
-            sums[0, i], sums[1, i], sums[2, i], sums[3, i] = slab_update(i, mesh, cells, nodes.v, v_body, parent, fn,
-                                                                         par, law, stress)
-    for m in range(4):
+            slab = slab_update(i, mesh, cells, nodes.v, v_grid, parent, fn, par, law, stress)
+            for m in range(N_SLAB_SUMS):
+                sums[m, i] = slab[m]
+    for m in range(N_SLAB_SUMS):
         work[m] = 0.0
     for i in range(nx):
-        for m in range(4):
+        for m in range(N_SLAB_SUMS):
             work[m] += sums[m, i]
 
 

@@ -255,12 +255,14 @@ def translation_of(dim, a):
 
 
 @njit(**JIT)
-def tie_reactions(contact, nodes, gravity, force, inertia):
+def tie_reactions(contact, nodes, gravity, force, inertia, momentum=False):
     """What the holding tied nodes put on the body, per freedom (:data:`dsmv.cel.layout.FREEDOMS`): their
     force and moment about the centre of gravity (N, N·m; the nodes' forces less their weight) added
     to ``force``, and the inertia they add to the body's motion (kg, kg·m, kg·m²) added to ``inertia``
-    (6 × 6: a node held along its normal n counts m·(nᵀJ)ᵀ(nᵀJ), a fully tied one m·JᵀJ, J its levers)."""
-    f, mass, normal, arm = nodes.f, nodes.mass, contact.normal, contact.arm
+    (6 × 6: a node held along its normal n counts m·(nᵀJ)ᵀ(nᵀJ), a fully tied one m·JᵀJ, J its levers).
+    With ``momentum`` their momentum and moment of momentum m·v instead of their force (kg·m/s,
+    kg·m²/s; ``gravity`` then 0)."""
+    f, mass, normal, arm = (nodes.v if momentum else nodes.f), nodes.mass, contact.normal, contact.arm
     dim = f.shape[0]
     up = dim - 1
     freedoms = model_freedoms(dim)
@@ -270,9 +272,10 @@ def tie_reactions(contact, nodes, gravity, force, inertia):
             continue
         n = np.uint64(contact.node[k])  # unsigned: no wraparound check at each access
         m = mass[n]
+        scale = m if momentum else 1.0
         if contact.full[k]:
             for a in range(dim):
-                fa = f[a, n] - m * gravity if a == up else f[a, n]
+                fa = scale * f[a, n] - m * gravity if a == up else scale * f[a, n]
                 along = translation_of(dim, a)
                 force[along] += fa
                 inertia[along, along] += m
@@ -288,8 +291,8 @@ def tie_reactions(contact, nodes, gravity, force, inertia):
         else:
             fn = 0.0
             for a in range(up):
-                fn += f[a, n] * normal[k, a]
-            fn += (f[up, n] - m * gravity) * normal[k, up]
+                fn += scale * f[a, n] * normal[k, a]
+            fn += (scale * f[up, n] - m * gravity) * normal[k, up]
             for q in freedoms:
                 levers[q] = 0.0
                 for a in range(dim):
@@ -340,50 +343,6 @@ def held_kinetic_energy(contact, nodes):
             for a in range(v.shape[0]):
                 total += 0.5 * mass[n] * v[a, n] ** 2
     return total
-
-
-@njit(**JIT)
-def rejoin_ties(contact, nodes, body, body_mass, drop, energy_out):
-    """After a remap the holding tied nodes move with the body again, and the body pays for it.
-
-    The remap carries momentum into and out of the tied nodes' dual cells, so it leaves them off the
-    body's velocity. Set back to it for free, they would gain momentum from nothing: an energy source
-    (5 % of the energy put in by a 10 m/s landing on a quarter plate four cells wide). They rejoin
-    the body as one rigid unit instead, an inelastic collision: a falling body takes the momentum-
-    conserving velocity (a normal tie counts with n_up², as its inertia does in :func:`tie_reactions`),
-    a pushed body keeps its speed and the push supplies the impulse. The vertical freedom only (a
-    body with others runs on the undeformed grid, without a remap). Sets the body's velocity;
-    adds the kinetic energy change less the push's work (−the collision's loss, J) to
-    ``energy_out[0]`` and the push's work (J) to ``energy_out[1]``.
-    """
-    v, mass, normal = nodes.v, nodes.mass, contact.normal
-    dim = v.shape[0]
-    up = dim - 1
-    v_body = body[B_VEL]
-    v_new = v_body
-    if drop:
-        momentum, inertia = body_mass * v_body, body_mass
-        for k in range(len(contact.node)):
-            if contact.holding[k]:
-                n = np.uint64(contact.node[k])  # unsigned: no wraparound check at each access
-                if contact.full[k]:
-                    momentum += mass[n] * v[up, n]
-                    inertia += mass[n]
-                else:
-                    vn = 0.0
-                    for a in range(dim):
-                        vn += v[a, n] * normal[k, a]
-                    momentum += mass[n] * normal[k, up] * vn
-                    inertia += mass[n] * normal[k, up] ** 2
-        v_new = momentum / inertia
-    kinetic = 0.5 * body_mass * (v_new**2 - v_body**2) if drop else 0.0
-    kinetic -= held_kinetic_energy(contact, nodes)
-    body[B_VEL] = v_new
-    impulse_up = apply_ties(contact, nodes, body)  # on the tied nodes, from the body (kg·m/s)
-    kinetic += held_kinetic_energy(contact, nodes)
-    push_work = 0.0 if drop else impulse_up * v_body
-    energy_out[0] += kinetic - push_work
-    energy_out[1] += push_work
 
 
 @njit(**INLINE)
@@ -474,13 +433,13 @@ def adhesion(contact, cells, nodes, body, dt, mass_floor, energy_slip, pull):
 
 
 @njit(**INLINE)
-def gather_travel_range(v, u, v_grid, dt, start, stop):
+def gather_travel_range(v, u, body, dt, start, stop):
     """:func:`gather_travel` for the nodes start … stop − 1."""
     dim = v.shape[0]
     travel = 0.0
     for a in range(dim):
         va, ua = v[a], u[a]
-        shift = v_grid if a == dim - 1 else 0.0
+        shift = body[VELOCITY_SLOTS[translation_of(dim, a)]]
         for k in range(start, stop):
             ua[k] += (va[k] - shift) * dt
             travel = max(travel, abs(ua[k]))
@@ -488,21 +447,22 @@ def gather_travel_range(v, u, v_grid, dt, start, stop):
 
 
 @njit(**JIT)
-def gather_travel(nodes, v_grid, dt):
-    """Each node's travel through the grid, which moves with the body at ``v_grid`` (m/s), gathered
-    since the last remap; returns the largest component (m)."""
-    return gather_travel_range(nodes.v, nodes.travel, v_grid, dt, 0, nodes.v.shape[1])
+def gather_travel(nodes, body, dt):
+    """Each node's travel through the grid, which follows the body's translation (its velocity in
+    ``body``; a turn is drawn, not followed), gathered since the last remap; returns the largest
+    component (m)."""
+    return gather_travel_range(nodes.v, nodes.travel, body, dt, 0, nodes.v.shape[1])
 
 
 @njit(**PARALLEL)
-def gather_travel_in_blocks(nodes, v_grid, dt):
+def gather_travel_in_blocks(nodes, body, dt):
     """:func:`gather_travel` in parallel over blocks of :data:`NODE_BLOCK` nodes (3D); the largest is
     the same in any order."""
     n = nodes.v.shape[1]
     n_blocks = (n + NODE_BLOCK - 1) // NODE_BLOCK
     largest = np.zeros(n_blocks)
     for b in prange(n_blocks):
-        largest[b] = gather_travel_range(nodes.v, nodes.travel, v_grid, dt, b * NODE_BLOCK,
+        largest[b] = gather_travel_range(nodes.v, nodes.travel, body, dt, b * NODE_BLOCK,
                                          min(n, (b + 1) * NODE_BLOCK))
     return largest.max() if n_blocks > 0 else 0.0
 

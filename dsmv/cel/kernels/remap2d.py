@@ -22,13 +22,15 @@ def advect_cells(axis, mesh, cells, faces, ux, uy, dt, par, inflow, audit):
     the mean normal velocity of its two nodes. Soil volume moves by the
     donor–acceptor rule; each transported quantity moves with it at the donor's value plus
     a van Leer limited slope when ``order`` = 2. Domain edges are closed, except the base
-    (axis 1, face 0) when ``par.inflow``: soil enters there in the state ``inflow.ghost[k, i]``.
+    (axis 1, face 0) when ``par.inflow``: soil enters there in the state ``inflow.ghost[k, i]``; and
+    the sides (axis 0), where the grid follows a body that slides: the soil beyond enters in the state
+    ``inflow.side[k, j]``, filled ``inflow.side_fill[j]``, and leaves freely.
     The faces' ``flux[face, line]`` receives the signed soil volume through each face (for the momentum
     sweep). The body takes part of the grid: the faces' aperture is the open fraction of each
     face (0 next to a cell inside the body), ``open_frac`` that of each cell (a cell the body's
     surface cuts holds at most that much soil); the Hirt–Nichols rule works on the fill of the
-    open part, φ / open_frac. Returns the soil volume
-    that entered through the base (m³). ``audit[0]``
+    open part, φ / open_frac. Returns the net soil volume
+    that entered through the base and the sides (m³). ``audit[0]``
     accumulates the change of stored elastic energy the sweep makes (J), inflow included.
     """
     x, y, vol = mesh.x, mesh.y, mesh.vol
@@ -36,6 +38,7 @@ def advect_cells(axis, mesh, cells, faces, ux, uy, dt, par, inflow, audit):
     flux = faces.flux_x if axis == 0 else faces.flux_y
     aperture = faces.aperture_x if axis == 0 else faces.aperture_y
     ghost, bottom_inflow = inflow.ghost, par.inflow and axis == 1
+    side_open = par.inflow and axis == 0 and not par.axisymmetric  # the grid follows a body that slides
     order, axisym, phi_min, shear_mod, bulk_mod = par.advection_order, par.axisymmetric, par.phi_min, par.shear, par.bulk
     nx, ny = phi.shape
     nq = q.shape[0]
@@ -69,16 +72,24 @@ def advect_cells(axis, mesh, cells, faces, ux, uy, dt, par, inflow, audit):
                     for k in range(nq):
                         qflux[k, face] = dvol * ghost[k, i]
                     boundary += dvol
+                elif side_open:  # the far-field soil, at rest, enters the grid that slides under it
+                    signed = dvol * inflow.side_fill[j]
+                    flux[face, line] = signed
+                    for k in range(nq):
+                        qflux[k, face] = signed * inflow.side[k, j]
+                    boundary += abs(signed)
                 continue
-            if acceptor < 0 or acceptor >= n_cells:
+            leaving = acceptor < 0 or acceptor >= n_cells
+            if leaving and not side_open:
                 continue  # closed edges: symmetry plane, rollers, base; soil near the top ends a run
             di = donor if axis == 0 else i
             dj = j if axis == 0 else donor
             phi_d = phi[di, dj]
             if phi_d <= phi_min:
                 continue
-            ai = acceptor if axis == 0 else i
-            aj = j if axis == 0 else acceptor
+            # soil leaving through a side goes on into soil like the donor's
+            ai = di if leaving else (acceptor if axis == 0 else i)
+            aj = dj if leaving else (j if axis == 0 else acceptor)
             open_d, open_a = open_frac[di, dj], open_frac[ai, aj]
             fill_d, fill_a = phi_d / open_d, phi[ai, aj] / open_a
             along, across = 0.0, 0.0
@@ -89,6 +100,8 @@ def advect_cells(axis, mesh, cells, faces, ux, uy, dt, par, inflow, audit):
             moved = soil_through_face(fill_d, fill_a, dvol, open_d * vol[di, dj], along, across)
             signed = moved if un > 0.0 else -moved
             flux[face, line] = signed
+            if leaving:
+                boundary -= moved
             courant = moved / (phi_d * vol[di, dj])
             if axis == 0:
                 li, lj, hi_, hj = max(di - 1, 0), dj, min(di + 1, nx - 1), dj
@@ -249,7 +262,7 @@ def share_merged_fill(cells, merge):
 def remap_sweeps(mesh, cells, faces, nodes, par, inflow, first, audit):
     """Both sweeps, the axis ``first`` first, with the gathered travel as velocity × time (Δt = 1):
     the cell state, then the momentum of the structured nodes (split nodes keep theirs). Returns
-    the soil volume that entered at the base (m³)."""
+    the net soil volume that entered at the base and the sides (m³)."""
     nxn, nyn = len(mesh.x), len(mesh.y)
     n = mesh.n_grid
     ux = nodes.travel[0, :n].reshape((nxn, nyn))

@@ -4,7 +4,8 @@ The 2D sweeps (:mod:`dsmv.cel.kernels.remap2d`) along three axes. A sweep along 
 through the faces normal to a, line by line; the lines (the cells of one (j, k), (i, k) or (i, j))
 are independent, so each sweep runs them in parallel and sums their audits in line order, the same
 for any number of threads. Faces are indexed [face along a, first other axis, second other axis].
-Soil enters through the base (axis 2, face 0) in the ghost state; the other edges are closed.
+Soil enters through the base (axis 2, face 0) in the ghost state, and through the sides while the
+grid follows a body that slides; the other edges are closed.
 
 References: Benson (1992) CMAME 99 (operator split, dual-mesh momentum remap); van Leer (1977)
 (MUSCL); Hirt & Nichols (1981) (donor–acceptor volume fluxes).
@@ -41,11 +42,14 @@ def face_travel(axis, u, f, la, lb):
 
 
 @njit(**JIT)
-def line_fluxes(axis, la, lb, mesh, cells, phi0, u, aperture, ghost, par, line_flux, qflux):
+def line_fluxes(axis, la, lb, mesh, cells, phi0, u, aperture, inflow, par, line_flux, qflux):
     """The face fluxes of line (la, lb) of a sweep along ``axis``: soil volume by donor–acceptor into
     ``line_flux``, the state at the donor's value plus a van Leer slope into ``qflux``. The interface's
     normal is read from ``phi0``, the fills before the sweep: a neighbouring line may be updating its
-    own. Returns the soil volume entered at the base (m³)."""
+    own. Soil enters through the base in the ghost state (``inflow.ghost``) and, where the grid follows
+    a body that slides, through the sides (axes 0 and 1) in the far field's state per layer
+    (``inflow.side``, filled ``inflow.side_fill``), and leaves through them freely. Returns the net
+    soil volume entered (m³)."""
     x, y, z, vol = mesh.x, mesh.y, mesh.z, mesh.vol
     phi, q, open_frac = cells.phi, cells.q, cells.open_frac
     nx, ny, nz = phi.shape
@@ -54,6 +58,7 @@ def line_fluxes(axis, la, lb, mesh, cells, phi0, u, aperture, ghost, par, line_f
     nq = q.shape[0]
     order, phi_min = par.advection_order, par.phi_min
     inflow_here = par.inflow and axis == 2  # soil enters through the base
+    side_open = par.inflow and axis < 2  # and through the sides of a grid that follows a sliding body
     entered = 0.0
     for face in range(n_faces):
         un = face_travel(axis, u, face, la, lb)
@@ -72,16 +77,24 @@ def line_fluxes(axis, la, lb, mesh, cells, phi0, u, aperture, ghost, par, line_f
             if face == 0 and inflow_here and un > 0.0:
                 line_flux[face] = dvol
                 for m in range(nq):
-                    qflux[m, face] = dvol * ghost[m, la, lb]
+                    qflux[m, face] = dvol * inflow.ghost[m, la, lb]
                 entered += dvol
+            elif side_open:  # the far-field soil, at rest, enters the grid that slides under it (layer lb)
+                signed = dvol * inflow.side_fill[lb]
+                line_flux[face] = signed
+                for m in range(nq):
+                    qflux[m, face] = signed * inflow.side[m, lb]
+                entered += abs(signed)
             continue
-        if acceptor < 0 or acceptor >= n_cells:
+        leaving = acceptor < 0 or acceptor >= n_cells
+        if leaving and not side_open:
             continue  # closed edges: symmetry planes, rollers, base; soil near the top ends a run
         di, dj, dk = cell_of(axis, donor, la, lb)
         phi_d = phi[di, dj, dk]
         if phi_d <= phi_min:
             continue
-        ai, aj, ak = cell_of(axis, acceptor, la, lb)
+        # soil leaving through a side goes on into soil like the donor's
+        ai, aj, ak = cell_of(axis, donor if leaving else acceptor, la, lb)
         open_d, open_a = open_frac[di, dj, dk], open_frac[ai, aj, ak]
         fill_d, fill_a = phi_d / open_d, phi[ai, aj, ak] / open_a
         along, across = 0.0, 0.0
@@ -93,6 +106,8 @@ def line_fluxes(axis, la, lb, mesh, cells, phi0, u, aperture, ghost, par, line_f
         moved = soil_through_face(fill_d, fill_a, dvol, open_d * vol[di, dj, dk], along, across)
         signed = moved if un > 0.0 else -moved
         line_flux[face] = signed
+        if leaving:
+            entered -= moved
         courant = moved / (phi_d * vol[di, dj, dk])
         lo_c, hi_c = max(donor - 1, 0), min(donor + 1, n_cells - 1)
         li, lj, lk = cell_of(axis, lo_c, la, lb)
@@ -159,24 +174,24 @@ def apply_line(axis, la, lb, phi, q, vol, line_flux, qflux, flux, par):
 
 
 @njit(**JIT)
-def advect_line(axis, la, lb, mesh, cells, phi0, u, aperture, flux, ghost, par):
+def advect_line(axis, la, lb, mesh, cells, phi0, u, aperture, flux, inflow, par):
     """One line of a sweep of the cell state along ``axis`` (:func:`dsmv.cel.kernels.remap2d.advect_cells`,
-    in 3D): its face fluxes, the limit on diverging outflow, its cells updated. Returns (soil volume
-    entered at the base, elastic energy change)."""
+    in 3D): its face fluxes, the limit on diverging outflow, its cells updated. Returns (net soil volume
+    entered, elastic energy change)."""
     la, lb = np.int64(la), np.int64(lb)  # a parallel loop's index is unsigned: mixed with int64 it would unify to float
     n_faces = (cells.phi.shape[0], cells.phi.shape[1], cells.phi.shape[2])[axis] + 1
     qflux = np.zeros((cells.q.shape[0], n_faces))
     line_flux = np.zeros(n_faces)
-    entered = line_fluxes(axis, la, lb, mesh, cells, phi0, u, aperture, ghost, par, line_flux, qflux)
+    entered = line_fluxes(axis, la, lb, mesh, cells, phi0, u, aperture, inflow, par, line_flux, qflux)
     limit_line_outflow(axis, la, lb, cells.phi, mesh.vol, line_flux, qflux)
     return entered, apply_line(axis, la, lb, cells.phi, cells.q, mesh.vol, line_flux, qflux, flux, par)
 
 
 @njit(**PARALLEL)
-def advect_cells(axis, mesh, cells, aperture, flux, u, par, ghost, audit):
+def advect_cells(axis, mesh, cells, aperture, flux, u, par, inflow, audit):
     """One sweep of the cell state along ``axis`` with the gathered travel ``u`` (node array of that
     axis' component, m); ``flux`` receives the signed soil volume through each face (m³). Returns the
-    soil volume that entered at the base (m³); ``audit[0]`` accumulates the elastic energy change (J)."""
+    net soil volume that entered (m³); ``audit[0]`` accumulates the elastic energy change (J)."""
     n_a, n_b = flux.shape[1], flux.shape[2]
     entered = np.zeros((n_a, n_b))
     elastic = np.zeros((n_a, n_b))
@@ -184,7 +199,7 @@ def advect_cells(axis, mesh, cells, aperture, flux, u, par, ghost, audit):
     for la in prange(n_a):
         for lb in range(n_b):
             entered[la, lb], elastic[la, lb] = advect_line(axis, la, lb, mesh, cells, phi0, u, aperture, flux,
-                                                           ghost, par)
+                                                           inflow, par)
     total = 0.0
     for la in range(n_a):
         for lb in range(n_b):
@@ -272,9 +287,9 @@ def advect_momentum(axis, flux, rho, mass, v, order, mass_floor, audit):
 
 
 @njit(**JIT)
-def remap_sweeps(mesh, cells, faces, nodes, par, ghost, reverse, audit):
+def remap_sweeps(mesh, cells, faces, nodes, par, inflow, reverse, audit):
     """The three sweeps, x, y, z or (``reverse``) z, y, x, with the gathered travel: the cell state, then the momentum of the structured nodes (split nodes keep
-    theirs). Returns the soil volume that entered at the base (m³). Each sweep is called with its
+    theirs). Returns the net soil volume that entered (m³). Each sweep is called with its
     axis as a constant, so the compiler specialises its branches."""
     shape = (len(mesh.x), len(mesh.y), len(mesh.z))
     n = mesh.n_grid
@@ -286,12 +301,12 @@ def remap_sweeps(mesh, cells, faces, nodes, par, ghost, reverse, audit):
     for sweep in range(3):
         axis = 2 - sweep if reverse else sweep
         if axis == 0:
-            entered += advect_cells(0, mesh, cells, faces.aperture_x, faces.flux_x, ux, par, ghost, audit)
+            entered += advect_cells(0, mesh, cells, faces.aperture_x, faces.flux_x, ux, par, inflow, audit)
             advect_momentum(0, faces.flux_x, par.density, mass, v, par.advection_order, par.mass_floor, audit)
         elif axis == 1:
-            entered += advect_cells(1, mesh, cells, faces.aperture_y, faces.flux_y, uy, par, ghost, audit)
+            entered += advect_cells(1, mesh, cells, faces.aperture_y, faces.flux_y, uy, par, inflow, audit)
             advect_momentum(1, faces.flux_y, par.density, mass, v, par.advection_order, par.mass_floor, audit)
         else:
-            entered += advect_cells(2, mesh, cells, faces.aperture_z, faces.flux_z, uz, par, ghost, audit)
+            entered += advect_cells(2, mesh, cells, faces.aperture_z, faces.flux_z, uz, par, inflow, audit)
             advect_momentum(2, faces.flux_z, par.density, mass, v, par.advection_order, par.mass_floor, audit)
     return entered
