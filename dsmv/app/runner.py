@@ -21,7 +21,7 @@ from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
-from dsmv import registry
+from dsmv import registry, safety
 from dsmv.app import interrupts, ui
 from dsmv.app.joblog import job_output
 from dsmv.config.scene import Scene, build_scene
@@ -127,9 +127,12 @@ def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, sweep_dir: Path | None, caug
             except Exception as error:  # a bug: keep everything, report it, exit non-zero below
                 result = SolveResult("failed", f"{type(error).__name__}: {error}")
                 error_text = traceback.format_exc()
+            safety.assess(scene, result, track_sinkage_bound(scene, result))
             files = write_outputs(scene, result, run_dir)
             if tracker is not None:
-                tracker.finish(result, files, error_text, note=f"{result.status}: {_answer(scene, result)}")
+                judged = safety.verdict(scene.safety, result)
+                tracker.finish(result, files, error_text, note=f"{result.status}: {_answer(scene, result)}",
+                               tags={"dsmv.safety": judged} if judged else None)
             end_status = None
     except KeyboardInterrupt:  # a second signal while the outputs were being written
         end_status = "KILLED"
@@ -312,6 +315,16 @@ def is_cross_section(scene: Scene) -> bool:
     return scene.solver.name in ("cel2d", "cel2d_check") or flat_section
 
 
+def track_sinkage_bound(scene: Scene, result: SolveResult) -> float | None:
+    """For a 2D cross-section's landing with the grousers the difference was measured with: the most the
+    3D track sinks by it (the section + the largest measured difference, m); None for anything else."""
+    sinkage = result.metrics.get("max_sinkage_m")
+    if (sinkage is None or scene.landing.kind == "push" or not is_cross_section(scene)
+            or scene.geometry.grouser_height_m != SECTION_TO_TRACK_M["grouser_height_m"]):
+        return None
+    return sinkage + SECTION_TO_TRACK_M["largest"]
+
+
 def track_estimate(scene: Scene, result: SolveResult, overrides: list[str] = ()) -> str | None:
     """For a 2D cross-section's landing: the 3D track's max sinkage it implies, with its measured spread,
     and the command that computes it; None for anything else."""
@@ -346,6 +359,8 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
     if assumed:
         print(f"  assumed : {', '.join(assumed)} (provisional: no published source)")
     print(f"  message : {result.message}")
+    if (judged := safety.verdict(scene.safety, result)) is not None:
+        print(f"  safety  : {judged}")
     if (estimate := track_estimate(scene, result, overrides)) is not None:
         print(f"  3D track: {estimate}")
     m = result.metrics

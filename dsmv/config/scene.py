@@ -395,6 +395,15 @@ class OutputConfig(Schema):
     field_frames: Count = Field(20, ge=1, description="evenly spaced frames: N to 2N of them, plus the deepest (-)")
 
 
+class SafetyConfig(Schema):
+    """The limits a landing is judged against (``safety``; null: not judged; :mod:`dsmv.safety`)."""
+
+    max_sinkage_m: Optional[Number] = Field(None, gt=0, description="deepest sinkage allowed (m)")
+    max_tilt_deg: Optional[Number] = Field(None, gt=0, description="largest rotation allowed (°)")
+    max_slide_m: Optional[Number] = Field(None, gt=0, description="largest horizontal displacement allowed (m)")
+    max_deceleration_g: Optional[Number] = Field(None, gt=0, description="hardest stop allowed (g)")
+
+
 #: the sweep-level plots an experiment can ask for with ``sweep_plot: <name>`` (drawn by
 #: :data:`dsmv.post.plots.SWEEP_PLOT_MAKERS`)
 SWEEP_PLOTS = ("fall_cone", "one_at_a_time", "compare_analytic", "mesh_study", "section_factors", "bearing_curves",
@@ -433,6 +442,7 @@ class Scene:
     mesh: MeshConfig
     solver: BaseModel
     output: OutputConfig
+    safety: SafetyConfig = SafetyConfig()
 
     @property
     def config_hash(self) -> str:
@@ -530,6 +540,7 @@ def build_scene(cfg: DictConfig | dict) -> Scene:
     mesh = _validate(MeshConfig, settle_mesh(cfg, _group(container, "mesh"), solver_cls), "mesh")
 
     output = _validate(OutputConfig, container.get("output", {}), "output")
+    safety = _validate(SafetyConfig, container.get("safety") or {}, "safety")
     study = str(container.get("study", "default"))
     if not isinstance(container.get("resume", False), bool):
         raise ConfigError("resume", container["resume"], "must be true or false")
@@ -538,7 +549,7 @@ def build_scene(cfg: DictConfig | dict) -> Scene:
 
     objective_config(container)  # not part of the scene either: a wrong objective fails before the run
     build_tracking(cfg)  # not part of the scene, but a wrong store fails here too
-    scene = Scene(study, soil, geometry, landing, mesh, solver, output)
+    scene = Scene(study, soil, geometry, landing, mesh, solver, output, safety)
     check_touchdown_speed(scene)
     if geometry.kind in getattr(solver_cls, "bodies", ()):  # a solver that meshes the body
         check_core_cells(scene)

@@ -154,14 +154,16 @@ class JobTracker:
             record_job_run(self.run_dir, self._run_id, reused=False)
         return self._run_id
 
-    def finish(self, result: SolveResult, files: list[Path], error: str | None = None, note: str = "") -> None:
+    def finish(self, result: SolveResult, files: list[Path], error: str | None = None, note: str = "",
+               tags: dict | None = None) -> None:
         """Log the outcome and close the run: FINISHED unless the code raised. ``note`` becomes the run's
-        description in the MLflow UI (the summary's answer line)."""
+        description in the MLflow UI (the summary's answer line); ``tags`` are logged besides."""
         now = int(time.time() * 1000)
         metrics = [(k, float(v), now, 0) for k, v in result.metrics.items()]
         if result.history is not None:
             metrics += _history_metrics(result.history, now)
-        tags = {"dsmv.status": result.status, "dsmv.message": result.message[:5000]}
+        tags = {"dsmv.status": result.status, "dsmv.message": result.message[:5000]} | {
+            k: str(v)[:5000] for k, v in (tags or {}).items()}
         if error:
             tags["dsmv.error"] = error[:5000]
         if note:
