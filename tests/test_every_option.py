@@ -73,6 +73,8 @@ def run_or_refuse(cfg):
 
 # ---------------------------------------------------------------------------- the scene's groups
 
+#: a track alone, and two as a vehicle (the 2D section and the fast models land one of its tracks)
+TRACKS = ("track_pioneer_i", "vehicle_pioneer_i")
 BODIES = list(itertools.product(group_options("geometry"), group_options("landing"), group_options("solver")))
 
 
@@ -83,13 +85,13 @@ def refused_key(geometry: str, landing: str, solver: str) -> str | None:
     if solver == "analytic_energy" and geometry in ("tbar", "fall_cone_30deg"):
         return "geometry.kind"  # the energy method models tracks, strips and plates
     fast_model = solver in ("analytic_dynamic", "analytic_dynamic_3d")  # the section's and the 3D track's
-    if fast_model and geometry not in ("track_pioneer_i", "strip"):
+    if fast_model and geometry not in (*TRACKS, "strip"):
         return "geometry.kind"  # the fast landing model was measured on tracks and strips
     if fast_model and landing == "push":
         return "landing.kind"  # it lands bodies; a push is the energy method's
     if solver == "cel2d" and geometry == "rectangular_plate":
         return "geometry.kind"  # a rectangle is a 3D body (a circle is axisymmetric in 2D)
-    if solver == "cel3d" and geometry not in ("strip", "track_pioneer_i", *PLATES):
+    if solver == "cel3d" and geometry not in ("strip", *TRACKS, *PLATES):
         return "geometry.kind"  # the 3D solver runs strips (as slabs), plates and the track
     return None
 

@@ -18,7 +18,7 @@ LAYERS = [
     {"soil_law"},
     {"analytic"},
     {"cel"},
-    {"post"},
+    {"post", "safety"},
     {"tracking"},
     {"surrogate"},
     {"app", "__main__"},

@@ -356,6 +356,8 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
     print(f"\ndsmv: {result.status} — {what}")
     print(f"  scene   : {scene.label}, solver {scene.solver.name}")
     assumed = registry.load("soil_laws", scene.soil.law, "soil.law")(scene.soil).assumptions()
+    if (gauge := getattr(scene.geometry, "gauge_m", None)) is not None:  # the study gives no vehicle
+        assumed = [*assumed, f"geometry.gauge_m = {gauge:g} m"]
     if assumed:
         print(f"  assumed : {', '.join(assumed)} (provisional: no published source)")
     print(f"  message : {result.message}")
@@ -368,7 +370,7 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
         whole, notes = m.get("cells_whole_body", m["cells"]), []
         if whole != m["cells"]:
             notes.append(f"{whole:,.0f} for the whole {'section' if scene.solver.name == 'cel2d' else 'body'}")
-            if scene.geometry.kind == "track" and scene.solver.name == "cel3d":
+            if scene.geometry.kind == "track" and scene.solver.name == "cel3d" and scene.geometry.gauge_m is None:
                 notes.append(f"the reference study's track: {REFERENCE_TRACK_ELEMENTS / 1e6:.2f} M elements")
         extent = f" ({'; '.join(notes)})" if notes else ""
         print(f"  model   : {m['cells']:,.0f} cells{extent}, {m['steps']:,.0f} steps, {m['wall_s']:.1f} s, "

@@ -188,15 +188,32 @@ class TrackBody:
         x, y, z = self.pose.to_body(x, y, z)
         return (np.abs(x) <= self.half_width * (1 + ON_BOUNDARY)) & self.side.inside(y, z)
 
-    def extra_solid(self, grid, solid: np.ndarray) -> None:
-        """The grousers, across the whole width (drawn as cells on an upright track only)."""
+    def extra_solid(self, grid, solid: np.ndarray, centre_x: float = 0.0) -> None:
+        """The grousers, across the whole width (drawn as cells on an upright track only); with
+        ``centre_x``, those of the two tracks centred at ±centre_x (a vehicle's)."""
         if self.side.grouser <= 0:
             return
         if not self.pose.upright:
             raise NotImplementedError("grousers as cells on a pitched or rolled track: use geometry.grousers=trapped_soil")
         columns, rows = self.side.grouser_cells(grid.y, grid.z)
-        across = np.abs(0.5 * (grid.x[:-1] + grid.x[1:])) <= self.half_width
+        across = np.abs(np.abs(0.5 * (grid.x[:-1] + grid.x[1:])) - centre_x) <= self.half_width
         solid[np.ix_(np.nonzero(across)[0], np.nonzero(columns)[0], np.nonzero(rows)[0])] = True
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    """Two tracks side by side, their centres ``gauge`` apart across x (±gauge/2), joined rigidly: the
+    frame above them stays clear of the soil and is not drawn."""
+
+    track: TrackBody
+    gauge: float
+
+    def inside(self, x, y, z):
+        return self.track.inside(np.abs(x) - 0.5 * self.gauge, y, z)
+
+    def extra_solid(self, grid, solid: np.ndarray) -> None:
+        """Each track's grousers, across its own width."""
+        self.track.extra_solid(grid, solid, 0.5 * self.gauge)
 
 
 def inside_nodes(shape, grid) -> np.ndarray:

@@ -9,6 +9,7 @@ the mudline keeps the core size, since that is where soil heaves.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,6 +33,17 @@ def graded_coordinates(start: float, core_end: float, far_end: float, h: float, 
             break
         coords.append(coords[-1] + sign * size)
     return np.asarray(coords)
+
+
+def axis_through(centre: float, core_end: float, far_end: float, h: float, ratio: float, h_max: float):
+    """Node coordinates from 0 with a node line at ``centre``, uniform h from there on to ``core_end``
+    and graded to ``far_end`` (:func:`graded_coordinates`); uniform h between 0 and the centre too, but
+    for the cell at 0, which takes what is left (more than h/2, at most 3h/2): a body centred off the
+    symmetry plane (a vehicle's track) keeps its edges on node lines."""
+    inward = max(0, int(math.floor((centre - 0.5 * h) / h)))
+    between = centre - h * np.arange(inward, -1, -1)
+    beyond = graded_coordinates(centre, core_end, far_end, h, ratio, h_max)[1:]
+    return np.concatenate([[0.0], between, beyond])
 
 
 @dataclass(frozen=True)

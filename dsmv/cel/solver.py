@@ -173,12 +173,13 @@ class CelSolver:
 
     def rotational_inertia_kg_m2(self) -> tuple[float, float, float]:
         """The body's inertia about x, y and z through its centre of gravity, per track (kg·m²):
-        ``landing.rotational_inertia_kg_m2``, else a uniform box B wide, L long and as high as a track's
-        sprockets (else B): m·(L² + height²)/12, m·(B² + height²)/12, m·(B² + L²)/12."""
+        ``landing.rotational_inertia_kg_m2``, else a uniform box B wide (a vehicle: across its tracks), L
+        long and as high as a track's sprockets (else B): m·(L² + height²)/12, m·(B² + height²)/12,
+        m·(B² + L²)/12."""
         landing, body = self.scene.landing, self.scene.geometry
         if landing.rotational_inertia_kg_m2 is not None:
             return tuple(landing.rotational_inertia_kg_m2)
-        B, L = body.width_m, body.contact_length_m or body.width_m
+        B, L = 2.0 * self.half_span_m(), body.contact_length_m or body.width_m
         height = 2.0 * body.sprocket_radius_m if body.kind == "track" else B
         m = self.start().inertia_kg
         return m * (L**2 + height**2) / 12.0, m * (B**2 + height**2) / 12.0, m * (B**2 + L**2) / 12.0
@@ -214,6 +215,10 @@ class CelSolver:
         if self.cone:
             return 2.0 * travel * math.tan(math.radians(0.5 * body.apex_angle_deg))
         return body.contact_length_m if self.longitudinal else body.width_m
+
+    def half_span_m(self) -> float:
+        """Half the body's width across x (m)."""
+        return 0.5 * self.scene.geometry.width_m
 
     def contact_area_m2(self) -> float:
         """The area a bearing factor refers to: B·L in plane strain, π·B²/4 in axisymmetry (m²)."""
@@ -744,7 +749,7 @@ class CelSolver:
             **{f"inertia_{axis}": inertia / scale for axis, inertia in zip("xyz", self.rotational_inertia_kg_m2())},
             base_x=-landing.cg_offset_m[0], base_y=-landing.cg_offset_m[1] if self.dim == 3 else 0.0,
             base_z=-landing.cg_offset_m[2],
-            base_half_x=0.5 * scene.geometry.width_m,
+            base_half_x=self.half_span_m(),
             base_half_y=0.5 * (scene.geometry.contact_length_m or 0.0) if self.dim == 3 else 0.0,
             tresca=cfg.yield_surface == "tresca" or (cfg.yield_surface == "auto" and self.axisym),
         )

@@ -19,10 +19,10 @@ import math
 
 import numpy as np
 
-from dsmv.cel.body import Box, Disc, TrackBody, TrackSideView
+from dsmv.cel.body import Box, Disc, TrackBody, TrackSideView, Vehicle
 from dsmv.cel.config import Cel3DConfig
 from dsmv.cel.contact import ContactRules, build_plate_contact
-from dsmv.cel.grid import Grid3D, build_grid_3d
+from dsmv.cel.grid import Grid3D, axis_through, build_grid_3d
 from dsmv.cel.layout import Faces3D, Mesh3D, split_cells
 from dsmv.cel.solver import CelSolver, State, in_sweep
 from dsmv.errors import ConfigError
@@ -148,8 +148,18 @@ class Cel3DSolver(CelSolver):
         if body.kind == "circular_plate":
             return Disc(0.5 * body.width_m)
         if body.kind == "track":
-            return TrackBody(0.5 * body.width_m, TrackSideView.of(body, self.h))
+            track = TrackBody(0.5 * body.width_m, TrackSideView.of(body, self.h))
+            return track if self.gauge_m is None else Vehicle(track, self.gauge_m)
         return Box(0.5 * body.width_m, self.half_length_m())
+
+    @property
+    def gauge_m(self) -> float | None:
+        """A vehicle's distance between its tracks' centres (m), or None for one track alone."""
+        return getattr(self.scene.geometry, "gauge_m", None)
+
+    def half_span_m(self) -> float:
+        """Half the body's width across x (m): B/2, or a vehicle's from its middle to its tracks' outer edges."""
+        return 0.5 * self.scene.geometry.width_m + 0.5 * (self.gauge_m or 0.0)
 
     def build(self):
         """The grid: a uniform core around the body, graded outwards in all three directions."""
@@ -160,34 +170,45 @@ class Cel3DSolver(CelSolver):
         margin = cfg.core_margin_widths * B
         self.mudline = self.mudline_m(h)
         half_length = self.half_length_m() if not self.slab else 0.5 * B
-        core = (h * math.ceil((0.5 * B + margin) / h), h * math.ceil((half_length + margin) / h))
-        far = (max(cfg.domain_half_width_widths * B, core[0] + h),
+        beside = 0.5 * (self.gauge_m or 0.0)  # a vehicle's track centres stand off the middle
+        core = (h * math.ceil((beside + 0.5 * B + margin) / h), h * math.ceil((half_length + margin) / h))
+        far = (max(beside + cfg.domain_half_width_widths * B, core[0] + h),
                max(half_length + (cfg.domain_half_width_widths - 0.5) * B, core[1] + h))
         grid = build_grid_3d(h=h, core=core, far=far, core_depth=margin,
                              depth=max(cfg.domain_depth_widths * B, margin + h),
                              void_height=self.mudline + 1.3 * travel + 0.25 * B + 3 * h,
                              ratio=scene.mesh.growth_ratio,
                              h_max=scene.mesh.max_cell_size_m, slab=self.slab)
+        if self.gauge_m is not None:  # each track's edges on node lines, wherever its centre falls
+            beside_core = h * math.ceil((0.5 * B + margin) / h)
+            grid = Grid3D(axis_through(beside, beside + beside_core, far[0], h, scene.mesh.growth_ratio,
+                                       scene.mesh.max_cell_size_m), grid.y, grid.z, h)
         mirrored = tuple(not plane for plane in self.symmetry_planes())  # the axes modelled on both sides
         grid = Grid3D(*(np.concatenate([-a[:0:-1], a]) if both else a for a, both in zip((grid.x, grid.y), mirrored)),
                          grid.z, grid.h)
         self.grid, self.h, self.n_half, self.travel = grid, h, n_half, travel
         return grid
 
-    def model_scale(self) -> float:
-        """Model quantities → per track: four quarters of a plate (two halves, one whole); a strip slab is
-        half the section (or the whole) over one cell of thickness, per contact length L."""
+    def mirrors(self) -> float:
+        """The model's copies in the whole body: four quarters, two halves, one whole."""
         normal_x, normal_y = self.symmetry_planes()
+        return (2.0 if normal_x else 1.0) * (2.0 if normal_y else 1.0)
+
+    def model_scale(self) -> float:
+        """Model quantities → per track: four quarters of a plate (two halves, one whole), a vehicle's
+        share of them per each of its two tracks; a strip slab is half the section (or the whole) over
+        one cell of thickness, per contact length L."""
+        normal_x, _ = self.symmetry_planes()
         if self.slab:
             return (2.0 if normal_x else 1.0) * self.scene.geometry.contact_length_m / self.h
-        return (2.0 if normal_x else 1.0) * (2.0 if normal_y else 1.0)
+        return self.mirrors() / (2.0 if self.gauge_m is not None else 1.0)
 
     def whole_body_cells(self, cells: float) -> float:
         """The cells the whole body would take on this grid: the quarter model mirrored twice, the half
         once (a strip slab is its own whole)."""
         if self.slab:
             return cells
-        return cells * self.model_scale()
+        return cells * self.mirrors()
 
     def contact_area_m2(self) -> float:
         """The area the bearing factor refers to (m²): the footprint the body's cells press, per track

@@ -19,7 +19,7 @@ from typing import Annotated, Any, Literal, Optional, Union
 
 from omegaconf import DictConfig, OmegaConf, open_dict
 from omegaconf.errors import OmegaConfBaseException
-from pydantic import BaseModel, BeforeValidator, Field, model_validator
+from pydantic import BaseModel, BeforeValidator, Field, ValidationInfo, field_validator, model_validator
 
 from dsmv import registry
 from dsmv.config.location import CONFIG_DIR
@@ -164,6 +164,17 @@ class TrackGeometry(BodyConfig):
         "how the side view (longitudinal, 3D) models the grousers: trapped_soil, the soil between them "
         "moves with the track (a flat base at their tips, the same on every mesh) | cells, a column of "
         "core cells at every pitch, at least one cell high"))
+    gauge_m: Optional[Number] = Field(None, gt=0, description=(
+        "a vehicle: the distance between its two tracks' centres (m), the weight shared by them "
+        "(landing.n_tracks = 2); cel3d lands both as one rigid body; null: one track alone"))
+
+    @field_validator("gauge_m")
+    @classmethod
+    def _tracks_apart(cls, gauge, info: ValidationInfo):
+        width = info.data.get("width_m")
+        if gauge is not None and width is not None and gauge <= width:
+            raise ValueError(f"the tracks' centres must be more than their width B = {width:g} m apart")
+        return gauge
 
 
 class StripGeometry(BodyConfig):
@@ -468,14 +479,18 @@ class Scene:
             motion += f", free in {', '.join(landing.freedoms)}"
         if any(landing.cg_offset_m):
             motion += f", centre of gravity {tuple(landing.cg_offset_m)} m off"
-        return f"{self.soil.name} soil ({self.soil.law}), {self.geometry.name}, {motion}"
+        body = self.geometry.name
+        if (gauge := getattr(self.geometry, "gauge_m", None)) is not None:
+            body += f" (two tracks {gauge:g} m apart, each carrying half)"
+        return f"{self.soil.name} soil ({self.soil.law}), {body}, {motion}"
 
     def physics_dict(self) -> dict[str, Any]:
         """What decides a result (what the hash covers), as plain data: display settings excluded."""
         return {
             # a soil without a table keeps the hash it had before tables existed
             "soil": {k: v for k, v in self.soil.model_dump().items() if k != "profile" or v is not None},
-            "geometry": self.geometry.model_dump(),
+            # a lone track keeps the hash it had before vehicles existed
+            "geometry": {k: v for k, v in self.geometry.model_dump().items() if k != "gauge_m" or v is not None},
             # the keys of the body's other freedoms count once they differ from a vertical landing's,
             # so a vertical scene keeps the hash it had before they existed (its runs still resume)
             "landing": {k: v for k, v in self.landing.model_dump().items()
@@ -549,6 +564,9 @@ def build_scene(cfg: DictConfig | dict) -> Scene:
 
     objective_config(container)  # not part of the scene either: a wrong objective fails before the run
     build_tracking(cfg)  # not part of the scene, but a wrong store fails here too
+    if getattr(geometry, "gauge_m", None) is not None and landing.n_tracks != 2:
+        raise ConfigError("landing.n_tracks", landing.n_tracks, f"a vehicle ({geometry.name}: geometry.gauge_m set) "
+                          "stands on two tracks that share its weight: 2")
     scene = Scene(study, soil, geometry, landing, mesh, solver, output, safety)
     check_touchdown_speed(scene)
     if geometry.kind in getattr(solver_cls, "bodies", ()):  # a solver that meshes the body
