@@ -137,6 +137,9 @@ CHECKS = (
     Check("track_3d", "The track in 3D (cel3d): default landing, max sinkage (m), no exact answer", "max_sinkage_m",
           None, "its own value extrapolated from the three meshes", ("solver=cel3d",),
           (0.0375, 0.075, 0.15), None, 0.6),  # B/16, B/8, B/4 across the track's 0.6 m
+    Check("vehicle_3d", "The vehicle on two tracks 2.6 m apart (cel3d): default landing, max sinkage per track (m), "
+          "no exact answer", "max_sinkage_m", None, "its own value extrapolated from the three meshes",
+          ("geometry=vehicle_pioneer_i",), (0.0375, 0.075, 0.15), None, 0.6),  # B/16, B/8, B/4 across a track
     Check("landing_tresca", "Default landing on Tresca soil: max sinkage (m), no exact answer", "max_sinkage_m", None,
           "its own value extrapolated from the three finest meshes", ("solver=cel2d", "soil.law=tresca"),
           (0.005, 0.01, 0.02, 0.04), None, 0.6),
