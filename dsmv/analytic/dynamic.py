@@ -10,9 +10,9 @@ and the sinkage is the depth where K reaches zero. The resistance, on the contac
 
     R = A·{ m(z)·Nc·sc·G(κ)·d(z)·f(ξ_op, γ̇_op)·su(z) + ρ'·g·z + ½·Cd·ρ'·v² }
 
-- su(z) = su0 + ks·z, the intact strength at the base's depth.
+- su(z) = su0 + ks·z, the intact strength at the base's depth; or a table's (``soil.profile``).
 - G(κ), κ = ks·B/su(z): the rise of a rough strip's bearing factor with the strength gradient
-  below it (Davis & Booker 1973), q/su0 normalised by the weightless surface value. The table
+  below it (Davis & Booker 1973; a table's at the base's depth), q/su0 normalised by the weightless surface value. The table
   :data:`GRADIENT_FACTOR` is this project's finite-element limit analysis (the midpoints of the
   rigorous brackets of ``python -m dsmv.analytic.limit_analysis --roughness rough --gradient K``,
   each divided by the κ = 0 midpoint): it matches Davis & Booker's chart where the two overlap.
@@ -55,6 +55,7 @@ from pydantic import BeforeValidator, Field
 
 from dsmv import registry
 from dsmv.analytic.bearing import PRANDTL_NC
+from dsmv.config.profile import StrengthSegments
 from dsmv.analytic.energy import refuse_beyond_the_closed_form, skempton_shape_factor
 from dsmv.errors import ConfigError
 from dsmv.results import SolveResult, add_plate_sinkage
@@ -142,6 +143,17 @@ class Landing:
     gravity_m_s2: np.ndarray      # g (m/s²)
     shape_factor: np.ndarray      # sc (-)
     grouser_height_m: np.ndarray | float = 0.0  # gh: grousers cut in first (the 3D track), 0: a flat base
+    strength: StrengthSegments | None = None  # a bent strength table shared by all (None: su0 + ks·z)
+
+
+def strength_at(landing: Landing, depth_m):
+    """su at the base's depth (Pa) and its gradient there (Pa/m): the straight line's su0 + ks·z and ks,
+    or a table's, the gradient that of the segment below the base. (The table's mean gradient over the
+    width B below the base, where the mechanism reaches, read the CCZ box-core landing 19 % deeper than
+    the 2D CEL, the local one 6 %, as the straight line's default landing reads.)"""
+    if landing.strength is None:
+        return landing.su0_pa + landing.ks_pa_per_m * depth_m, landing.ks_pa_per_m
+    return landing.strength.su(depth_m), landing.strength.gradient(depth_m)
 
 
 def resistance(landing: Landing, depth_m, speed_m_s, factor: Callable, c: Coefficients,
@@ -149,8 +161,8 @@ def resistance(landing: Landing, depth_m, speed_m_s, factor: Callable, c: Coeffi
     """R(z, v) (N) per track: the module's formula at depth z (m) and speed v (m/s)."""
     b, z, v = landing.width_m, np.asarray(depth_m, dtype=float), np.asarray(speed_m_s, dtype=float)
     bearing_on = z - landing.grouser_height_m  # how far the base has gone since it began to bear (m)
-    su = landing.su0_pa + landing.ks_pa_per_m * z
-    bearing = bearing_factor * landing.shape_factor * gradient_factor(landing.ks_pa_per_m * b / su)
+    su, gradient = strength_at(landing, z)
+    bearing = bearing_factor * landing.shape_factor * gradient_factor(gradient * b / su)
     bearing = bearing * (1.0 + c.depth_coefficient * np.sqrt(z / b))
     elastic_depth = c.elastic_coefficient * bearing_factor * b * landing.su0_pa / landing.youngs_modulus_pa
     mobilised = -np.expm1(-bearing_on / elastic_depth) if c.elastic_coefficient > 0.0 else 1.0
@@ -179,9 +191,10 @@ def sinkage(landing: Landing, factor: Callable, c: Coefficients, bearing_factor:
     Midpoint steps in depth of B/1000 on dK/dz = W − R(z, v); the rest depth is found by linear
     interpolation of K between the last two steps. With ``history``, also the (depth, speed) of
     every step (2D arrays, steps × landings; speed 0 after rest)."""
-    fields_ = {f.name: np.asarray(getattr(landing, f.name), dtype=float) for f in fields(Landing)}
+    fields_ = {f.name: np.asarray(getattr(landing, f.name), dtype=float) for f in fields(Landing)
+               if f.name != "strength"}
     shape = np.broadcast_shapes(*(a.shape for a in fields_.values()))
-    lb = cut_in(Landing(**{k: np.broadcast_to(a, shape) for k, a in fields_.items()}))
+    lb = cut_in(Landing(**{k: np.broadcast_to(a, shape) for k, a in fields_.items()}, strength=landing.strength))
     step = lb.width_m / STEPS_PER_WIDTH
     kinetic = 0.5 * lb.inertia_kg * lb.velocity_m_s**2
     at_rest = REST_SPEED_FRACTION**2 * kinetic
@@ -226,8 +239,7 @@ def default_config() -> AnalyticDynamicConfig:
 
 def fast_landing(scene: Scene, shape_factor: str = "plane_strain") -> "AnalyticDynamicSolver":
     """The fast landing model of a track or strip scene run by another solver, with the default
-    coefficients: ``plane_strain`` for the 2D section, ``skempton`` for the whole track in 3D. An estimate
-    for that solver: a bent strength profile is read as its first segment's line."""
+    coefficients: ``plane_strain`` for the 2D section, ``skempton`` for the whole track in 3D."""
     return AnalyticDynamicSolver(scene, default_config().model_copy(update={"shape_factor": shape_factor}),
                                  check=False)
 
@@ -246,7 +258,7 @@ class AnalyticDynamicSolver:
                               "the dynamic model lands tracks and strips; use solver=cel2d for this body")
         if scene.landing.kind == "push":
             raise ConfigError("landing.kind", "push", "the dynamic model lands bodies; a push is solver=analytic_energy")
-        refuse_beyond_the_closed_form(scene, "the dynamic model")
+        refuse_beyond_the_closed_form(scene, "the dynamic model", bent_profile=True)
 
     def __init__(self, scene: Scene, config: AnalyticDynamicConfig | None = None, check: bool = True):
         if check:  # off only for fast_landing, an estimate for another solver
@@ -265,7 +277,8 @@ class AnalyticDynamicSolver:
             velocity_m_s=landing.velocity_m_s, width_m=body.width_m, area_m2=body.contact_area_m2,
             su0_pa=soil.su0_pa, ks_pa_per_m=soil.ks_pa_per_m, density_kg_m3=soil.density_kg_m3,
             youngs_modulus_pa=soil.youngs_modulus_pa, gravity_m_s2=landing.gravity_m_s2, shape_factor=shape,
-            grouser_height_m=body.grouser_height_m if cfg.grousers and body.kind == "track" else 0.0)
+            grouser_height_m=body.grouser_height_m if cfg.grousers and body.kind == "track" else 0.0,
+            strength=soil.strength if soil.profile is not None and not soil.strength.straight else None)
         law = registry.load("soil_laws", soil.law, "soil.law")(soil)
         state = law.initial_state()
         self.factor = lambda xi, rate: law.strength_factor(xi, rate, *(np.full(np.shape(xi), s) for s in state))

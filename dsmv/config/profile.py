@@ -42,6 +42,11 @@ class StrengthSegments(NamedTuple):
         k = np.searchsorted(self.depth, z, side="right") - 1
         return self.intercept[k] + self.slope[k] * z
 
+    def gradient(self, depth_m) -> np.ndarray:
+        """dsu/dz at the depths given (Pa/m): the slope of the segment below each (0 below the last point)."""
+        z = np.asarray(depth_m, dtype=float)
+        return self.slope[np.searchsorted(self.depth, z, side="right") - 1]
+
     @property
     def straight(self) -> bool:
         """Whether the profile is one straight line su0 + ks·z down to its last point (a table of points
