@@ -88,3 +88,22 @@ def verdict(safety: SafetyConfig, result) -> str | None:
     if result.status == "bearing_failure":
         head += ": the soil does not stop the body"
     return f"{head} — {'; '.join(parts)}" if parts else head
+
+
+def sweep_tally(rows: list[dict]) -> str | None:
+    """A sweep's verdicts in one phrase ("3 of 12 judged landings unsafe: sinkage 2, deceleration 1, the
+    soil did not stop the body 1"), from its jobs' metrics (``safe``, ``safety_margin_*``); None when
+    no job was judged."""
+    def number(row, key):
+        value = row.get(key)
+        return None if value in (None, "") else float(value)
+
+    judged = [row for row in rows if number(row, "safe") is not None]
+    if not judged:
+        return None
+    unsafe = [row for row in judged if number(row, "safe") == 0.0]
+    causes = [(what, sum((number(row, f"safety_margin_{what}") or 0.0) < 0.0 for row in unsafe))
+              for _key, what, _metric, _unit in JUDGED]
+    causes.append(("the soil did not stop the body", sum(row.get("status") == "bearing_failure" for row in unsafe)))
+    by = ", ".join(f"{what} {count}" for what, count in causes if count)
+    return f"{len(unsafe)} of {len(judged)} judged landings unsafe" + (f": {by}" if by else "")

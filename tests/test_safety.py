@@ -78,3 +78,21 @@ def test_the_cross_section_is_judged_by_the_most_the_3d_track_sinks_and_the_verd
     assert result["metrics"]["judged_sinkage_m"] == pytest.approx(section + 0.0685, rel=1e-12)
     assert result["metrics"]["safe"] == 0.0 and result["units"]["max_deceleration_g"] == "g"
     assert 0.0 < result["metrics"]["max_deceleration_g"] < 15.0
+
+
+def test_a_sweep_tallies_its_verdicts(run_cli):
+    """Each job is judged; the sweep says how many of its judged landings were unsafe, and by what (from
+    the jobs' metrics in sweep_summary.csv, as strings there; a bearing failure is unsafe)."""
+    from dsmv.safety import sweep_tally
+
+    rows = [{"status": "ok", "safe": "1.0", "safety_margin_sinkage": "0.02"},
+            {"status": "ok", "safe": "0.0", "safety_margin_sinkage": "-0.01", "safety_margin_deceleration": "-2"},
+            {"status": "bearing_failure", "safe": "0.0"},
+            {"status": "unstable"}]
+    assert sweep_tally(rows) == ("2 of 3 judged landings unsafe: sinkage 1, deceleration 1, "
+                                 "the soil did not stop the body 1")
+    assert sweep_tally([{"status": "ok"}]) is None
+    done = run_cli("dsmv", "-m", "landing.velocity_m_s=0.5,3", "solver=analytic_dynamic", "safety.max_sinkage_m=0.15",
+                   "tracking=disabled")
+    assert done.returncode == 0, done.stderr
+    assert "dsmv: safety: 1 of 2 judged landings unsafe: sinkage 1" in done.stdout

@@ -17,6 +17,7 @@ from pathlib import Path
 from hydra.experimental.callback import Callback
 from omegaconf import DictConfig, OmegaConf
 
+from dsmv import safety
 from dsmv.app.interrupts import SweepSignals, interrupted, mark
 from dsmv.app.joblog import log_sweep_to, replay_early_output
 from dsmv.config.objective import ObjectiveConfig, objective_config
@@ -79,7 +80,8 @@ class MlflowSweepCallback(Callback):
                 runs.finish_sweep_run(parent, metrics, files, status)
         tally, code = sweep_exit_code([r["status"] for r in rows])
         line = f"dsmv: sweep done: {tally} — see {sweep_dir / SWEEP_SUMMARY_FILE}"
-        for line in [line, *optimum_lines(config, sweep_dir)]:
+        verdicts = safety.sweep_tally(rows)
+        for line in [line, *([f"dsmv: safety: {verdicts}"] if verdicts else []), *optimum_lines(config, sweep_dir)]:
             print(line)
             logging.getLogger("dsmv.sweep").info(line)
         if code != 0:
