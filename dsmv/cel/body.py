@@ -26,12 +26,19 @@ ON_BOUNDARY = 1e-12
 
 @dataclass(frozen=True)
 class FlatBody:
-    """A strip or a track's cross-section: a flat base at y = 0 and vertical walls at |x| = B/2."""
+    """A strip or a track's cross-section: a flat base at y = 0 and vertical walls at |x| = B/2; a
+    vehicle's section (``centre`` > 0): two of them, centred at x = ±centre."""
 
     half_width: float
+    centre: float = 0.0
 
     def inside(self, x, y):
-        return (np.abs(x) <= self.half_width * (1 + ON_BOUNDARY)) & (y >= -ON_BOUNDARY)
+        return (np.abs(np.abs(x) - self.centre) <= self.half_width * (1 + ON_BOUNDARY)) & (y >= -ON_BOUNDARY)
+
+    def edges(self) -> list[tuple[float, float]]:
+        """Each wall: (its x, the side its soil is on: +1 beyond a right wall, −1 beyond a left one)."""
+        centres = (self.centre, -self.centre) if self.centre > 0 else (0.0,)
+        return [(c + side * self.half_width, side) for c in centres for side in (1.0, -1.0)]
 
 
 @dataclass(frozen=True)

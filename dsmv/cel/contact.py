@@ -107,7 +107,7 @@ class ContactRules:
             return Cylinder(0.5 * geometry.width_m)
         if self.longitudinal:
             return TrackSideView.of(geometry, h)
-        return FlatBody(0.5 * geometry.width_m)
+        return FlatBody(0.5 * geometry.width_m, 0.5 * (getattr(geometry, "gauge_m", None) or 0.0))
 
 
 @dataclass
@@ -157,15 +157,17 @@ def _ties(rules: ContactRules, shape, grid: Grid2D, j_base: int, solid: np.ndarr
     elif rules.flat_faced:
         half = shape.half_width
         xs, ys = grid.x[tie_i], grid.y[tie_j]
-        on_base = (tie_j == j_base) & (np.abs(xs) < half - 1e-12)
-        on_side = (tie_j > j_base) & np.isclose(np.abs(xs), half) & ~inside
+        centre = np.sign(xs) * shape.centre  # the track each node belongs to (a vehicle's: ±centre)
+        off = xs - centre
+        on_base = (tie_j == j_base) & (np.abs(off) < half - 1e-12)
+        on_side = (tie_j > j_base) & np.isclose(np.abs(off), half) & ~inside
         normal[on_base, 1] = -1.0
-        normal[on_side, 0] = np.sign(xs[on_side])  # the whole section has a wall on either side
+        normal[on_side, 0] = np.sign(off[on_side])  # the whole section has a wall on either side
         full = ~(on_base | on_side)
         if rules.alpha > 0.0:  # each node's share of the base (x) or of the wall (y)
             xg, yg = grid.x, grid.y
-            left = np.where(tie_i > 0, xs - xg[np.maximum(tie_i - 1, 0)], 0.0)
-            right = np.minimum(xg[np.minimum(tie_i + 1, grid.nx)], half) - xs
+            left = np.where(tie_i > 0, xs - np.maximum(xg[np.maximum(tie_i - 1, 0)], centre - half), 0.0)
+            right = np.minimum(xg[np.minimum(tie_i + 1, grid.nx)], centre + half) - xs
             below = ys - yg[np.maximum(tie_j - 1, 0)]
             above = np.where(tie_j < grid.ny, yg[np.minimum(tie_j + 1, grid.ny)] - ys, 0.0)
             radius = xs if rules.axisymmetric else 1.0
@@ -197,8 +199,8 @@ def split_corners(rules: ContactRules, shape, grid: Grid2D, j_base: int, solid: 
     half = shape.half_width
     wall_share = 0.5 * (grid.y[j_base + 1] - grid.y[j_base]) if j_base < grid.ny else 0.0
     radius = half if rules.axisymmetric else 1.0
-    for side in (1.0, -1.0):
-        (i_corner,) = np.nonzero(np.isclose(grid.x, side * half))
+    for edge, side in shape.edges():
+        (i_corner,) = np.nonzero(np.isclose(grid.x, edge))
         if len(i_corner) == 0:
             continue
         i_corner = int(i_corner[0])

@@ -217,8 +217,8 @@ class CelSolver:
         return body.contact_length_m if self.longitudinal else body.width_m
 
     def half_span_m(self) -> float:
-        """Half the body's width across x (m)."""
-        return 0.5 * self.scene.geometry.width_m
+        """Half the body's width across x (m): B/2, or a vehicle's from its middle to its tracks' outer walls."""
+        return 0.5 * self.scene.geometry.width_m + 0.5 * (getattr(self.scene.geometry, "gauge_m", None) or 0.0)
 
     def contact_area_m2(self) -> float:
         """The area a bearing factor refers to: B·L in plane strain, π·B²/4 in axisymmetry (m²)."""

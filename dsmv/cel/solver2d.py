@@ -17,7 +17,7 @@ import numpy as np
 
 from dsmv.cel.config import Cel2DConfig
 from dsmv.cel.contact import ContactRules, build_contact
-from dsmv.cel.grid import Grid2D, build_grid_2d
+from dsmv.cel.grid import Grid2D, axis_through, build_grid_2d
 from dsmv.cel.layout import Faces2D, Mesh2D, split_cells
 from dsmv.cel.solver import CelSolver
 from dsmv.errors import ConfigError
@@ -71,6 +71,9 @@ class Cel2DSolver(CelSolver):
         if not cls.half_model(scene) and (body.kind in ("cone", "circular_plate") or cfg.mode == "axisymmetric"):
             raise ConfigError("solver.economies.symmetry", False, "the whole section is a plane-strain model: an "
                               "axisymmetric body is its own whole")
+        if getattr(body, "gauge_m", None) is not None and getattr(body, "view", "") == "longitudinal":
+            raise ConfigError("geometry.view", body.view, "a vehicle's section is its cross-section, both tracks "
+                              "side by side: the longitudinal view shows one track")
         if body.kind in ("cone", "circular_plate") and cfg.mode == "plane_strain":
             raise ConfigError("solver.mode", cfg.mode, f"a {body.kind.replace('_', ' ')} is axisymmetric: 'auto' or "
                                                        "'axisymmetric'")
@@ -87,12 +90,14 @@ class Cel2DSolver(CelSolver):
         B = self.characteristic_width_m(travel)
         half = 0.5 * B
         h, n_half = self.core_cell_size(half)
-        core_half_width = h * math.ceil((half + cfg.core_margin_widths * B) / h)
+        beside = 0.5 * (getattr(scene.geometry, "gauge_m", None) or 0.0)  # a vehicle's tracks stand off the middle
+        core_half_width = h * math.ceil((beside + half + cfg.core_margin_widths * B) / h)
+        far_half_width = max(beside + cfg.domain_half_width_widths * B, core_half_width + h)
         self.mudline = self.mudline_m(h)
         grid = build_grid_2d(
             h=h,
             core_half_width=core_half_width,
-            half_width=max(cfg.domain_half_width_widths * B, core_half_width + h),
+            half_width=far_half_width,
             core_depth=cfg.core_margin_widths * B,
             depth=max(cfg.domain_depth_widths * B, cfg.core_margin_widths * B + h),
             void_height=self.mudline + 1.3 * travel + 0.25 * B + 3 * h,
@@ -101,6 +106,10 @@ class Cel2DSolver(CelSolver):
             # a deep body (a T-bar) needs the uniform core only around itself
             core_height=B + cfg.core_margin_widths * B if self.circular else None,
         )
+        if beside > 0.0:  # each track's walls on node lines, wherever its centre falls
+            grid = Grid2D(axis_through(beside, beside + h * math.ceil((half + cfg.core_margin_widths * B) / h),
+                                       far_half_width, h, scene.mesh.growth_ratio, scene.mesh.max_cell_size_m),
+                          grid.y, h)
         if not self.half_model(scene):  # the whole section: the half grid and its mirror image
             grid = Grid2D(np.concatenate([-grid.x[:0:-1], grid.x]), grid.y, grid.h)
         self.grid, self.h, self.n_half, self.travel = grid, h, n_half, travel
@@ -121,7 +130,8 @@ class Cel2DSolver(CelSolver):
         if self.axisym:
             return 2.0 * math.pi
         body = self.scene.geometry
-        return (2.0 if self.half_model(self.scene) else 1.0) * (
+        tracks = 2.0 if getattr(body, "gauge_m", None) is not None else 1.0  # a vehicle's section holds both
+        return (2.0 if self.half_model(self.scene) else 1.0) / tracks * (
             body.width_m if self.longitudinal else body.contact_length_m)
 
     def mesh_and_faces(self, grid, body_contact):

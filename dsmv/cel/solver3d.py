@@ -157,9 +157,6 @@ class Cel3DSolver(CelSolver):
         """A vehicle's distance between its tracks' centres (m), or None for one track alone."""
         return getattr(self.scene.geometry, "gauge_m", None)
 
-    def half_span_m(self) -> float:
-        """Half the body's width across x (m): B/2, or a vehicle's from its middle to its tracks' outer edges."""
-        return 0.5 * self.scene.geometry.width_m + 0.5 * (self.gauge_m or 0.0)
 
     def build(self):
         """The grid: a uniform core around the body, graded outwards in all three directions."""
