@@ -78,3 +78,18 @@ def test_the_vehicle_s_2d_section_holds_both_tracks(compose_cfg):
     whole_solver, whole = land(compose_cfg, *bonded, "solver.economies.symmetry=false")
     assert solver.half_model(solver.scene) and not whole_solver.half_model(whole_solver.scene)
     assert whole.metrics["max_sinkage_m"] == pytest.approx(half.metrics["max_sinkage_m"], rel=5e-9)  # 1.4e-9
+
+
+def test_the_vehicle_s_fields_and_figure_show_both_tracks(run_cli, tmp_path):
+    """The contour figure of a vehicle's section draws both tracks: its core window is found from the cell
+    size most cells have, though the axis opens with a leftover cell at the middle plane."""
+    done = run_cli("dsmv", "geometry=vehicle_pioneer_i", "solver=cel2d", "output.fields=true", "tracking=disabled")
+    assert done.returncode == 0, done.stderr
+    (figure,) = tmp_path.glob("runs/outputs/*/*/fields_max_sinkage.png")
+    assert figure.stat().st_size > 10_000
+    from dsmv.cel.fields import read_frame
+    from dsmv.post.plots import _core_window
+
+    frame = read_frame(figure.with_name("fields") / "max_sinkage.vtu")
+    half_width, _bottom, _top = _core_window(frame)
+    assert half_width >= 0.5 * 2.6 + 0.5 * 0.6  # the window reaches past the track's outer wall

@@ -170,7 +170,10 @@ def _core_window(frame):
     """The grid's uniform core (where the solver expects the soil to deform), capped just above the soil (m)."""
     x = frame.x[frame.x >= 0.0] if is_whole_section(frame) else frame.x  # the half beside the axis
     dx, dy = np.diff(x), np.diff(frame.y)
-    h = dx[0]  # the core starts at the symmetry axis (a graded axis may close with a smaller cell)
+    # the core's cell size: the one most cells across have (a graded axis may close with a smaller cell,
+    # a vehicle's axis opens with one at its middle plane)
+    sizes, counts = np.unique(np.round(dx, 12), return_counts=True)
+    h = sizes[counts.argmax()]
     core_x = np.nonzero(np.isclose(dx, h, rtol=1e-6))[0]
     core_y = np.nonzero(np.isclose(dy, h, rtol=1e-6))[0]
     soil_rows = np.nonzero((frame.cells["volume_fraction"] >= SOIL_LEVEL).any(axis=0))[0]
