@@ -47,7 +47,8 @@ def judged(safety: SafetyConfig) -> list[tuple[str, float, str, str]]:
 def assess(scene, result, track_sinkage_m: float | None = None) -> None:
     """After a run: a drop's ``max_deceleration_g``, then for each limit set its margin
     (``safety_margin_<what>``, the limit less the answer) and the verdict ``safe`` (1 or 0), into the
-    result's metrics. The sinkage judged (``judged_sinkage_m``) is ``max_sinkage_m``, or for a track's 2D
+    result's metrics. The sinkage judged (``judged_sinkage_m``) is the base's deepest: ``max_sinkage_m``,
+    or its lowest point's ``max_edge_sinkage_m`` for a body that may turn; for a track's 2D
     cross-section ``track_sinkage_m``, the most the 3D track sinks by the section's estimate. An answer
     the run does not give (a turn its scene cannot make) is 0; a run that did not end ``ok`` or
     ``bearing_failure`` is not judged, and a bearing failure is unsafe."""
@@ -57,8 +58,9 @@ def assess(scene, result, track_sinkage_m: float | None = None) -> None:
     limits = judged(scene.safety)
     if not limits or result.status not in ("ok", "bearing_failure"):
         return
-    if "max_sinkage_m" in metrics:
-        metrics["judged_sinkage_m"] = metrics["max_sinkage_m"] if track_sinkage_m is None else track_sinkage_m
+    if "max_sinkage_m" in metrics:  # a body that may turn: its base's lowest point
+        deepest = max(metrics["max_sinkage_m"], metrics.get("max_edge_sinkage_m", 0.0))
+        metrics["judged_sinkage_m"] = deepest if track_sinkage_m is None else track_sinkage_m
         units["judged_sinkage_m"] = "m"
     for what, limit, metric, unit in limits:
         if metric in metrics or result.status == "ok":
@@ -66,6 +68,16 @@ def assess(scene, result, track_sinkage_m: float | None = None) -> None:
             units[f"safety_margin_{what}"] = {"°": "deg"}.get(unit, unit)
     exceeded = any(metrics.get(f"safety_margin_{what}", 0.0) < 0 for what, *_ in limits)
     metrics["safe"], units["safe"] = float(result.status == "ok" and not exceeded), "-"
+
+
+def sinkage_judged(metrics: dict) -> str:
+    """Which sinkage the verdict judged, in words, when it is not the middle of the base's."""
+    judged = metrics.get("judged_sinkage_m")
+    if judged is None or judged == metrics.get("max_sinkage_m"):
+        return ""
+    if judged == metrics.get("max_edge_sinkage_m"):
+        return " (the base's lowest point)"
+    return " (the 3D track's, at most, from the section)"
 
 
 def verdict(safety: SafetyConfig, result) -> str | None:
@@ -80,8 +92,7 @@ def verdict(safety: SafetyConfig, result) -> str | None:
             continue
         gap = "" if unit == "°" else " "
         value = metrics.get(metric, 0.0)
-        whose = " (the 3D track's, at most, from the section)" if value != metrics.get(metric.replace(
-            "judged_", "max_"), value) else ""
+        whose = sinkage_judged(metrics) if what == "sinkage" else ""
         parts.append(f"{what} {value:.3g}{gap}{unit}{whose} {'>' if margin < 0 else '≤'} {limit:g}{gap}{unit} "
                      f"(margin {margin:.2g}{gap}{unit})")
     head = "safe" if metrics["safe"] else "unsafe"

@@ -96,3 +96,12 @@ def test_a_sweep_tallies_its_verdicts(run_cli):
                    "tracking=disabled")
     assert done.returncode == 0, done.stderr
     assert "dsmv: safety: 1 of 2 judged landings unsafe: sinkage 1" in done.stdout
+
+
+def test_a_body_that_turns_is_judged_by_its_base_s_lowest_point(compose_cfg):
+    """A tilted base sinks deeper at its edge than at its middle: the verdict judges the edge."""
+    scene = build_scene(compose_cfg(["solver=analytic_dynamic", "safety.max_sinkage_m=0.1"]))
+    result = _result(max_edge_sinkage_m=0.11, max_rotation_deg=2.0)
+    assess(scene, result)
+    assert result.metrics["judged_sinkage_m"] == 0.11 and result.metrics["safe"] == 0.0
+    assert "sinkage 0.11 m (the base's lowest point) > 0.1 m" in verdict(scene.safety, result)

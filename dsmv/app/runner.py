@@ -269,6 +269,8 @@ def _answer(scene: Scene, result: SolveResult) -> str:
         plates = result.metrics.get("plate_sinkage_m", sinkage)
         where = (f" at the grouser tips, {plates:.4f} m at the plates" if plates != sinkage else
                  " of the 2D cross-section" if is_cross_section(scene) else "")
+        if getattr(scene.geometry, "gauge_m", None) is not None:
+            where += ", each track"
         if "max_sinkage_error_m" in result.metrics:  # solver.error_estimate: the mesh's share of doubt
             return (f"max sinkage {sinkage:.4f} m{where}; extrapolated {result.metrics['max_sinkage_extrapolated_m']:.4f} m "
                     f"± {result.metrics['max_sinkage_error_m']:.4f} m (mesh){motion}")
