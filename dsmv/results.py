@@ -78,8 +78,11 @@ def write_result(run_dir: Path, result: SolveResult, solver: str, soil_law: str,
 
 
 def history_columns(history: dict[str, np.ndarray]) -> tuple[str, ...]:
-    """The columns a history has: :data:`HISTORY_COLUMNS`, then those of :data:`OPTIONAL_HISTORY_COLUMNS` it holds."""
-    return HISTORY_COLUMNS + tuple(c for c in OPTIONAL_HISTORY_COLUMNS if c in history)
+    """The columns a history has: :data:`HISTORY_COLUMNS`, then those of :data:`OPTIONAL_HISTORY_COLUMNS`
+    it holds, then any other it holds in its order (a body that slides or turns: its loads, rotation and
+    displacement, :data:`dsmv.cel.controller.MOTION_COLUMNS`)."""
+    optional = tuple(c for c in OPTIONAL_HISTORY_COLUMNS if c in history)
+    return HISTORY_COLUMNS + optional + tuple(c for c in history if c not in HISTORY_COLUMNS + optional)
 
 
 def add_plate_sinkage(result: SolveResult, grouser_height_m: float) -> None:

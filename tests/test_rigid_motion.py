@@ -258,7 +258,7 @@ def test_a_drifting_touchdown_keeps_the_momentum_and_the_audit_closes(compose_cf
         0.5 * scene.landing.mass_kg * (1.0**2 + 0.3**2), rel=1e-12)
 
 
-def test_the_summary_says_how_far_the_body_turned_and_which_symmetry_it_used(run_cli):
+def test_the_summary_says_how_far_the_body_turned_and_which_symmetry_it_used(run_cli, tmp_path):
     done = run_cli("dsmv", "solver=cel2d", "mesh=coarse", "solver.remap=false", "landing.free=[z,x,ry]",
                    "landing.cg_offset_m=[0.1,0,0.3]", "tracking=disabled", "output.plots=false")
     assert done.returncode == 0, done.stderr
@@ -266,6 +266,10 @@ def test_the_summary_says_how_far_the_body_turned_and_which_symmetry_it_used(run
     assert turned and float(turned[1]) > 1.0 and float(turned[2]) > 0.0
     assert "symmetry: none: the landing is not symmetric" in done.stdout
     assert "free in z, x, ry, centre of gravity (0.1, 0.0, 0.3) m off" in done.stdout
+    (history,) = tmp_path.glob("runs/outputs/*/*/history.csv")  # the motion's columns, beside the fall's
+    header = history.read_text().splitlines()[0].split(",")
+    assert header[:4] == ["time_s", "sinkage_m", "velocity_m_s", "force_n"]
+    assert {"horizontal_force_n", "moment_n_m", "rotation_deg", "horizontal_displacement_m"} <= set(header)
 
 
 # --------------------------------------------------------------------------- sliding with the remap
