@@ -123,10 +123,20 @@ def test_a_landing_mirrored_tilts_and_slides_mirrored(compose_cfg):
         runs.append(result)
     right, left = runs
     assert abs(right.metrics["rotation_deg"]) > 0.01 and abs(right.metrics["horizontal_displacement_m"]) > 1e-5
+    # until the fall stops the two are mirror images to round-off; after it, while the tilt goes on (the
+    # run ends once it has slowed too), the explicit landing carries the last bits further (the
+    # rotation and slide measured 5e-6 apart at 12.7°), and the rest (slower than a threshold) may fall
+    # a step apart
+    n = min(len(left.history["time_s"]), len(right.history["time_s"]))
+    assert abs(len(left.history["time_s"]) - len(right.history["time_s"])) <= 1
+    fell = int(np.argmax(right.history["velocity_m_s"] <= 0.0))
+    assert 0 < fell < n
     for name in ("rotation_deg", "horizontal_displacement_m", "moment_n_m", "horizontal_force_n"):
         scale = np.abs(right.history[name]).max()
-        assert np.abs(left.history[name] + right.history[name]).max() <= 1e-9 * scale, name
-    assert left.metrics["max_sinkage_m"] == pytest.approx(right.metrics["max_sinkage_m"], rel=1e-12)
+        mirrored = np.abs(left.history[name][:n] + right.history[name][:n])
+        assert mirrored[:fell].max() <= 1e-9 * scale, name
+        if name in ("rotation_deg", "horizontal_displacement_m"):
+            assert mirrored.max() <= 2e-5 * scale, name
 
 
 @pytest.mark.parametrize("ratio", [2.0, 4.0])
@@ -365,8 +375,9 @@ def test_the_3d_slab_slides_with_the_remap_as_the_plane_strain_section(compose_c
 
 def test_a_drifting_landing_slides_in_large_deformation(compose_cfg):
     """A strip dropped at 1 m/s drifting 0.3 m/s, the soil parting from it where it pulls away, the grid
-    following it down and sideways: it comes to rest having slid less than its drift would carry it
-    unresisted in the time it took, the soil mass kept and the energy audit closed (measured 0.25 %)."""
+    following it down and sideways: it comes to rest, its slide too (a drift outlasts the fall: at rest
+    it slides slower than 1 % of its touchdown speed), having slid less than its drift would carry it
+    unresisted in the time it took, the soil mass kept and the energy audit closed."""
     scene = build_scene(compose_cfg(["solver=cel2d", "geometry=strip", "soil.law=tresca", "solver.progress=off",
                                      "mesh.cell_size_m=0.1", "landing.velocity_m_s=1.0", "landing.mass_kg=1000",
                                      "landing.free=[z,x]", "landing.horizontal_velocity_m_s=0.3"]))
@@ -374,4 +385,7 @@ def test_a_drifting_landing_slides_in_large_deformation(compose_cfg):
     assert result.status == "ok", result.message
     slid, took = result.metrics["max_horizontal_displacement_m"], result.history["time_s"][-1]
     assert 0.0 < slid < 0.3 * took
+    time, slide = result.history["time_s"], result.history["horizontal_displacement_m"]
+    # the last sample's mean slide speed: the run ends at the first step under 0.01 m/s
+    assert abs(slide[-1] - slide[-2]) / (time[-1] - time[-2]) < 0.02
     assert result.metrics["mass_error"] < 1e-14 and result.metrics["energy_error"] < 0.01

@@ -257,6 +257,7 @@ class Params(NamedTuple):
     base_z: float = 0.0     # and up (m): minus the centre of gravity's height above the base
     base_half_x: float = 0.0  # the base's half width and half length (m): its lowest point as it turns
     base_half_y: float = 0.0
+    rest_speed: float = 0.0  # a drop whose fall has stopped is at rest once it slides and turns (its edge) slower (m/s)
 
 
 # the body's mutable state, a float array: time (s), offset of the grid (m, up +), velocity (m/s,
@@ -274,12 +275,12 @@ class Params(NamedTuple):
 # sinkage of the middle of the base now (m; B_OFFSET is the centre of gravity's travel, B_MAXDISP the
 # base's deepest sinkage) and the deepest sinkage of the base's lowest point (m); and the horizontal
 # force (x, y) the cells beside the body put on it, as B_BESIDE_N the vertical (N), and its moment
-# about the centre of gravity (N·m)
+# about the centre of gravity (N·m); 1.0 once a drop's fall has stopped
 (B_VX, B_VY, B_WX, B_WY, B_WZ, B_OFFSET_X, B_OFFSET_Y, B_ROT_X, B_ROT_Y, B_ROT_Z,
  B_HSUM_X, B_HSUM_Y, B_MSUM_X, B_MSUM_Y, B_MSUM_Z, B_PULL_X, B_PULL_Y, B_PULL_RX, B_PULL_RY, B_PULL_RZ,
  B_MAXROT, B_MAXSLIDE, B_SINKAGE, B_MAXEDGE, B_BESIDE_X, B_BESIDE_Y, B_BESIDE_MX, B_BESIDE_MY,
- B_BESIDE_MZ) = range(15, 44)
-N_BODY = 44
+ B_BESIDE_MZ, B_FELL) = range(15, 45)
+N_BODY = 45
 
 #: the rigid body's six freedoms, in the config's order everywhere (bitmask ``Params.free``, slots)
 FREEDOMS = FREEDOM_NAMES

@@ -749,6 +749,9 @@ class CelSolver:
             **{f"inertia_{axis}": inertia / scale for axis, inertia in zip("xyz", self.rotational_inertia_kg_m2())},
             base_x=-landing.cg_offset_m[0], base_y=-landing.cg_offset_m[1] if self.dim == 3 else 0.0,
             base_z=-landing.cg_offset_m[2],
+            # a drifting drop is at rest once it also slides slower than 1 % of its speed at touchdown
+            rest_speed=0.01 * max(start.velocity_m_s, math.hypot(landing.horizontal_velocity_m_s,
+                                                                landing.lateral_velocity_m_s)),
             base_half_x=self.half_span_m(),
             base_half_y=0.5 * (scene.geometry.contact_length_m or 0.0) if self.dim == 3 else 0.0,
             tresca=cfg.yield_surface == "tresca" or (cfg.yield_surface == "auto" and self.axisym),

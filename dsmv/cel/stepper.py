@@ -28,8 +28,9 @@ from dsmv.cel.kernels.nodes import (
     split_mass_kinetic_change, split_masses, tie_reactions,
 )
 from dsmv.cel.layout import (
-    B_FCOUNT, B_MAXDISP, B_MAXEDGE, B_MAXROT, B_MAXSLIDE, B_OFFSET, B_OFFSET_X, B_OFFSET_Y, B_REMAP_OFFSET, B_REMAPS, B_ROT_X,
-    B_ROT_Y, B_ROT_Z, B_SINKAGE, B_STEP, B_TIME, B_VEL, FORCE_SLOTS, POSE_SLOTS, PULL_SLOTS, VELOCITY_SLOTS,
+    B_FCOUNT, B_FELL, B_MAXDISP, B_MAXEDGE, B_MAXROT, B_MAXSLIDE, B_OFFSET, B_OFFSET_X, B_OFFSET_Y, B_REMAP_OFFSET,
+    B_REMAPS, B_ROT_X, B_ROT_Y, B_ROT_Z, B_SINKAGE, B_STEP, B_TIME, B_VEL, FORCE_SLOTS, POSE_SLOTS, PULL_SLOTS,
+    VELOCITY_SLOTS,
 )
 from dsmv.cel.ledger import E_BODY_GRAV, E_FRICTION, E_PUSH, E_REMAP_ELASTIC, E_REMAP_KINETIC, E_SOIL_GRAV
 
@@ -237,8 +238,21 @@ def remap_due(par, travel):
 
 @njit(**INLINE)
 def came_to_rest(par, body, v_old):
-    """A dropped body that was moving down and no longer does."""
-    return par.drop and body[B_VEL] >= 0.0 and v_old < 0.0
+    """A dropped body that was moving down and no longer does. One that may slide or turn (a drift
+    outlasts the fall) is at rest once, its fall stopped before, it also slides and turns no faster than
+    ``par.rest_speed`` (its edge's speed for a turn) while its fall stops again or it moves up or down
+    no faster either."""
+    stopped_now = par.drop and body[B_VEL] >= 0.0 and v_old < 0.0
+    if stopped_now:
+        body[B_FELL] = 1.0
+    if body[B_FELL] == 0.0 or not (stopped_now or abs(body[B_VEL]) <= par.rest_speed):
+        return False
+    for q in range(6):
+        if q != 2 and is_free(par, q):
+            speed = abs(body[VELOCITY_SLOTS[q]]) * (1.0 if q < 3 else par.base_half_x + par.base_half_y)
+            if speed > par.rest_speed:
+                return False
+    return True
 
 
 @njit(**INLINE)
