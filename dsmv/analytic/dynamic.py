@@ -12,9 +12,9 @@ and the sinkage is the depth where K reaches zero. The resistance, on the contac
 
 - su(z) = su0 + ks·z, the intact strength at the base's depth; or a table's (``soil.profile``).
 - G(κ), κ = ks·B/su(z): the rise of a rough strip's bearing factor with the strength gradient
-  below it (Davis & Booker 1973; a table's at the base's depth), q/su0 normalised by the weightless surface value. The table
-  :data:`GRADIENT_FACTOR` is this project's finite-element limit analysis (the midpoints of the
-  rigorous brackets of ``python -m dsmv.analytic.limit_analysis --roughness rough --gradient K``,
+  below it (Davis & Booker 1973; a table's at the base's depth), q/su0 normalised by the weightless
+  surface value. The table :data:`GRADIENT_FACTOR` is this project's finite-element limit analysis
+  (the midpoints of the rigorous brackets of ``python -m dsmv.analytic.limit_analysis --roughness rough --gradient K``,
   each divided by the κ = 0 midpoint): it matches Davis & Booker's chart where the two overlap.
 - d(z) = 1 + a·√(z/B): the rise with embedment and the heave beside the body. Salgado et al. (2004)
   give a ≈ 0.27 for a strip wished in place; a landing also heaves the soil beside it, and a is

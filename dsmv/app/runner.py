@@ -269,7 +269,7 @@ def _answer(scene: Scene, result: SolveResult) -> str:
         plates = result.metrics.get("plate_sinkage_m", sinkage)
         where = (f" at the grouser tips, {plates:.4f} m at the plates" if plates != sinkage else
                  " of the 2D cross-section" if is_cross_section(scene) else "")
-        if getattr(scene.geometry, "gauge_m", None) is not None:
+        if scene.geometry.vehicle:
             where += ", each track"
         if "max_sinkage_error_m" in result.metrics:  # solver.error_estimate: the mesh's share of doubt
             return (f"max sinkage {sinkage:.4f} m{where}; extrapolated {result.metrics['max_sinkage_extrapolated_m']:.4f} m "
@@ -358,8 +358,8 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
     print(f"\ndsmv: {result.status} — {what}")
     print(f"  scene   : {scene.label}, solver {scene.solver.name}")
     assumed = registry.load("soil_laws", scene.soil.law, "soil.law")(scene.soil).assumptions()
-    if (gauge := getattr(scene.geometry, "gauge_m", None)) is not None:  # the study gives no vehicle
-        assumed = [*assumed, f"geometry.gauge_m = {gauge:g} m"]
+    if scene.geometry.vehicle:  # the study gives no vehicle
+        assumed = [*assumed, f"geometry.gauge_m = {scene.geometry.gauge_m:g} m"]
     if assumed:
         print(f"  assumed : {', '.join(assumed)} (provisional: no published source)")
     print(f"  message : {result.message}")
@@ -372,7 +372,7 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
         whole, notes = m.get("cells_whole_body", m["cells"]), []
         if whole != m["cells"]:
             notes.append(f"{whole:,.0f} for the whole {'section' if scene.solver.name == 'cel2d' else 'body'}")
-            if scene.geometry.kind == "track" and scene.solver.name == "cel3d" and scene.geometry.gauge_m is None:
+            if scene.geometry.kind == "track" and scene.solver.name == "cel3d" and not scene.geometry.vehicle:
                 notes.append(f"the reference study's track: {REFERENCE_TRACK_ELEMENTS / 1e6:.2f} M elements")
         extent = f" ({'; '.join(notes)})" if notes else ""
         print(f"  model   : {m['cells']:,.0f} cells{extent}, {m['steps']:,.0f} steps, {m['wall_s']:.1f} s, "

@@ -107,7 +107,7 @@ class ContactRules:
             return Cylinder(0.5 * geometry.width_m)
         if self.longitudinal:
             return TrackSideView.of(geometry, h)
-        return FlatBody(0.5 * geometry.width_m, 0.5 * (getattr(geometry, "gauge_m", None) or 0.0))
+        return FlatBody(0.5 * geometry.width_m, geometry.track_offset_m)
 
 
 @dataclass

@@ -34,6 +34,7 @@ from dsmv.cel import cost as cost_model
 from dsmv.cel import ledger
 from dsmv.cel.config import CelConfig
 from dsmv.cel.contact import ContactRules
+from dsmv.cel.grid import axis_through
 from dsmv.cel.kernels import DimensionKernels, for_dimension
 from dsmv.cel.layout import (
     B_INFLOW, B_MAXEDGE, B_MAXROT, B_MAXSLIDE, B_TIME, B_VEL, FREEDOMS, N_BODY, POSE_SLOTS,
@@ -218,7 +219,27 @@ class CelSolver:
 
     def half_span_m(self) -> float:
         """Half the body's width across x (m): B/2, or a vehicle's from its middle to its tracks' outer walls."""
-        return 0.5 * self.scene.geometry.width_m + 0.5 * (getattr(self.scene.geometry, "gauge_m", None) or 0.0)
+        return 0.5 * self.scene.geometry.width_m + self.scene.geometry.track_offset_m
+
+    def tracks_axis(self, h: float, beside_m: float, far_m: float) -> np.ndarray:
+        """A vehicle's axis across its tracks (x ≥ 0): uniform cells h from its track's centre to
+        ``beside_m`` beyond it, graded to ``far_m`` (:func:`~dsmv.cel.grid.axis_through`), so each
+        track's walls sit on node lines wherever its centre falls."""
+        offset, mesh = self.scene.geometry.track_offset_m, self.scene.mesh
+        return axis_through(offset, offset + h * math.ceil(beside_m / h), far_m, h, mesh.growth_ratio,
+                            mesh.max_cell_size_m)
+
+    @classmethod
+    def refuse_a_turn_with_the_remap(cls, scene: Scene, held: tuple[str, ...]) -> None:
+        """A turn is drawn into the grid, and that drawing is not built: with the remap, a turn that the
+        model's symmetry planes do not hold (``held``) is refused in one line. A slide runs: the grid
+        follows it."""
+        landing = scene.landing
+        turning = {n for n in ("rx", "ry", "rz") if n in landing.freedoms or landing.given_velocity(n)}
+        if scene.solver.remap and turning - set(held):
+            raise ConfigError(landing.turn_key, landing.model_dump()[landing.turn_key.split(".")[1]],
+                              "a body that turns runs on the undeformed grid so far (small strain): set "
+                              "solver.remap=false (one that only slides runs with the remap: the grid follows it)")
 
     def contact_area_m2(self) -> float:
         """The area a bearing factor refers to: B·L in plane strain, π·B²/4 in axisymmetry (m²)."""

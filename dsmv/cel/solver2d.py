@@ -17,7 +17,7 @@ import numpy as np
 
 from dsmv.cel.config import Cel2DConfig
 from dsmv.cel.contact import ContactRules, build_contact
-from dsmv.cel.grid import Grid2D, axis_through, build_grid_2d
+from dsmv.cel.grid import Grid2D, build_grid_2d
 from dsmv.cel.layout import Faces2D, Mesh2D, split_cells
 from dsmv.cel.solver import CelSolver
 from dsmv.errors import ConfigError
@@ -64,14 +64,11 @@ class Cel2DSolver(CelSolver):
         if beyond_plane:
             raise ConfigError("landing.free" if beyond_plane[0] in landing.freedoms else f"landing.{RATE_KEYS[beyond_plane[0]]}",
                               beyond_plane[0], "plane strain moves in x and z and turns about y (ry): cel3d has the rest")
-        if landing.turn_key and not cls.half_model(scene) and cfg.remap:
-            raise ConfigError(landing.turn_key, landing.model_dump()[landing.turn_key.split(".")[1]],
-                              "a body that turns runs on the undeformed grid so far (small strain): set "
-                              "solver.remap=false (one that only slides runs with the remap: the grid follows it)")
+        cls.refuse_a_turn_with_the_remap(scene, ("x", "ry") if cls.half_model(scene) else ())
         if not cls.half_model(scene) and (body.kind in ("cone", "circular_plate") or cfg.mode == "axisymmetric"):
             raise ConfigError("solver.economies.symmetry", False, "the whole section is a plane-strain model: an "
                               "axisymmetric body is its own whole")
-        if getattr(body, "gauge_m", None) is not None and getattr(body, "view", "") == "longitudinal":
+        if body.vehicle and getattr(body, "view", "") == "longitudinal":
             raise ConfigError("geometry.view", body.view, "a vehicle's section is its cross-section, both tracks "
                               "side by side: the longitudinal view shows one track")
         if body.kind in ("cone", "circular_plate") and cfg.mode == "plane_strain":
@@ -90,7 +87,7 @@ class Cel2DSolver(CelSolver):
         B = self.characteristic_width_m(travel)
         half = 0.5 * B
         h, n_half = self.core_cell_size(half)
-        beside = 0.5 * (getattr(scene.geometry, "gauge_m", None) or 0.0)  # a vehicle's tracks stand off the middle
+        beside = scene.geometry.track_offset_m  # a vehicle's tracks stand off its middle
         core_half_width = h * math.ceil((beside + half + cfg.core_margin_widths * B) / h)
         far_half_width = max(beside + cfg.domain_half_width_widths * B, core_half_width + h)
         self.mudline = self.mudline_m(h)
@@ -106,10 +103,8 @@ class Cel2DSolver(CelSolver):
             # a deep body (a T-bar) needs the uniform core only around itself
             core_height=B + cfg.core_margin_widths * B if self.circular else None,
         )
-        if beside > 0.0:  # each track's walls on node lines, wherever its centre falls
-            grid = Grid2D(axis_through(beside, beside + h * math.ceil((half + cfg.core_margin_widths * B) / h),
-                                       far_half_width, h, scene.mesh.growth_ratio, scene.mesh.max_cell_size_m),
-                          grid.y, h)
+        if scene.geometry.vehicle:
+            grid = Grid2D(self.tracks_axis(h, half + cfg.core_margin_widths * B, far_half_width), grid.y, h)
         if not self.half_model(scene):  # the whole section: the half grid and its mirror image
             grid = Grid2D(np.concatenate([-grid.x[:0:-1], grid.x]), grid.y, grid.h)
         self.grid, self.h, self.n_half, self.travel = grid, h, n_half, travel
@@ -130,7 +125,7 @@ class Cel2DSolver(CelSolver):
         if self.axisym:
             return 2.0 * math.pi
         body = self.scene.geometry
-        tracks = 2.0 if getattr(body, "gauge_m", None) is not None else 1.0  # a vehicle's section holds both
+        tracks = 2.0 if body.vehicle else 1.0  # a vehicle's section holds both
         return (2.0 if self.half_model(self.scene) else 1.0) / tracks * (
             body.width_m if self.longitudinal else body.contact_length_m)
 

@@ -22,7 +22,7 @@ import numpy as np
 from dsmv.cel.body import Box, Disc, TrackBody, TrackSideView, Vehicle
 from dsmv.cel.config import Cel3DConfig
 from dsmv.cel.contact import ContactRules, build_plate_contact
-from dsmv.cel.grid import Grid3D, axis_through, build_grid_3d
+from dsmv.cel.grid import Grid3D, build_grid_3d
 from dsmv.cel.layout import Faces3D, Mesh3D, split_cells
 from dsmv.cel.solver import CelSolver, State, in_sweep
 from dsmv.errors import ConfigError
@@ -87,11 +87,7 @@ class Cel3DSolver(CelSolver):
             raise ConfigError("geometry.view", body.view, "cel3d models the whole track, its side view included: "
                                                           "leave geometry.view to cel2d")
         landing = scene.landing
-        turning = {n for n in ("rx", "ry", "rz") if n in landing.freedoms or landing.given_velocity(n)}
-        if scene.solver.remap and turning - set(cls.held_in(scene)):
-            raise ConfigError(landing.turn_key, landing.model_dump()[landing.turn_key.split(".")[1]],
-                              "a body that turns runs on the undeformed grid so far (small strain): set "
-                              "solver.remap=false (one that only slides runs with the remap: the grid follows it)")
+        cls.refuse_a_turn_with_the_remap(scene, cls.held_in(scene))
         if body.kind == "strip":
             beyond_slab = [n for n in ("y", "rx", "rz") if n in landing.freedoms or landing.given_velocity(n)]
             if beyond_slab:
@@ -149,13 +145,8 @@ class Cel3DSolver(CelSolver):
             return Disc(0.5 * body.width_m)
         if body.kind == "track":
             track = TrackBody(0.5 * body.width_m, TrackSideView.of(body, self.h))
-            return track if self.gauge_m is None else Vehicle(track, self.gauge_m)
+            return Vehicle(track, body.gauge_m) if body.vehicle else track
         return Box(0.5 * body.width_m, self.half_length_m())
-
-    @property
-    def gauge_m(self) -> float | None:
-        """A vehicle's distance between its tracks' centres (m), or None for one track alone."""
-        return getattr(self.scene.geometry, "gauge_m", None)
 
 
     def build(self):
@@ -167,7 +158,7 @@ class Cel3DSolver(CelSolver):
         margin = cfg.core_margin_widths * B
         self.mudline = self.mudline_m(h)
         half_length = self.half_length_m() if not self.slab else 0.5 * B
-        beside = 0.5 * (self.gauge_m or 0.0)  # a vehicle's track centres stand off the middle
+        beside = scene.geometry.track_offset_m  # a vehicle's track centres stand off its middle
         core = (h * math.ceil((beside + 0.5 * B + margin) / h), h * math.ceil((half_length + margin) / h))
         far = (max(beside + cfg.domain_half_width_widths * B, core[0] + h),
                max(half_length + (cfg.domain_half_width_widths - 0.5) * B, core[1] + h))
@@ -176,10 +167,8 @@ class Cel3DSolver(CelSolver):
                              void_height=self.mudline + 1.3 * travel + 0.25 * B + 3 * h,
                              ratio=scene.mesh.growth_ratio,
                              h_max=scene.mesh.max_cell_size_m, slab=self.slab)
-        if self.gauge_m is not None:  # each track's edges on node lines, wherever its centre falls
-            beside_core = h * math.ceil((0.5 * B + margin) / h)
-            grid = Grid3D(axis_through(beside, beside + beside_core, far[0], h, scene.mesh.growth_ratio,
-                                       scene.mesh.max_cell_size_m), grid.y, grid.z, h)
+        if scene.geometry.vehicle:
+            grid = Grid3D(self.tracks_axis(h, 0.5 * B + margin, far[0]), grid.y, grid.z, h)
         mirrored = tuple(not plane for plane in self.symmetry_planes())  # the axes modelled on both sides
         grid = Grid3D(*(np.concatenate([-a[:0:-1], a]) if both else a for a, both in zip((grid.x, grid.y), mirrored)),
                          grid.z, grid.h)
@@ -198,7 +187,7 @@ class Cel3DSolver(CelSolver):
         normal_x, _ = self.symmetry_planes()
         if self.slab:
             return (2.0 if normal_x else 1.0) * self.scene.geometry.contact_length_m / self.h
-        return self.mirrors() / (2.0 if self.gauge_m is not None else 1.0)
+        return self.mirrors() / (2.0 if self.scene.geometry.vehicle else 1.0)
 
     def whole_body_cells(self, cells: float) -> float:
         """The cells the whole body would take on this grid: the quarter model mirrored twice, the half

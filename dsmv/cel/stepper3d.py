@@ -6,7 +6,8 @@ over blocks of nodes), the boundary conditions, the stress update, which compute
 nodal forces in the same pass over the cells (they need the new stress and the velocities it used;
 reading each cell once instead of twice); then, once some node has travelled ``par.remap_travel``,
 the Eulerian phase in three directional sweeps whose order alternates (x, y, z, then z, y, x)
-(:mod:`dsmv.cel.kernels.remap3d`), with soil entering at the base as the grid moves down with the body, and at the sides while it slides.
+(:mod:`dsmv.cel.kernels.remap3d`), with soil entering at the base as the grid moves down with the body,
+and at the sides while it slides.
 """
 
 from __future__ import annotations

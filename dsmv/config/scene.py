@@ -149,6 +149,16 @@ class BodyConfig(Schema):
         """Interface shear limit as a fraction α of su: rough 1, smooth 0."""
         return {"rough": 1.0, "smooth": 0.0}.get(self.roughness, self.roughness)
 
+    @property
+    def vehicle(self) -> bool:
+        """Two tracks side by side (a track with ``gauge_m``)."""
+        return getattr(self, "gauge_m", None) is not None
+
+    @property
+    def track_offset_m(self) -> float:
+        """How far each track's centre stands off the body's middle across x (m): half a vehicle's gauge, else 0."""
+        return 0.5 * self.gauge_m if self.vehicle else 0.0
+
 
 class TrackGeometry(BodyConfig):
     """The Pioneering-I track (section 2.3 of the reference study)."""
@@ -480,8 +490,8 @@ class Scene:
         if any(landing.cg_offset_m):
             motion += f", centre of gravity {tuple(landing.cg_offset_m)} m off"
         body = self.geometry.name
-        if (gauge := getattr(self.geometry, "gauge_m", None)) is not None:
-            body += f" (two tracks {gauge:g} m apart, each carrying half)"
+        if self.geometry.vehicle:
+            body += f" (two tracks {self.geometry.gauge_m:g} m apart, each carrying half)"
         return f"{self.soil.name} soil ({self.soil.law}), {body}, {motion}"
 
     def physics_dict(self) -> dict[str, Any]:
@@ -564,7 +574,7 @@ def build_scene(cfg: DictConfig | dict) -> Scene:
 
     objective_config(container)  # not part of the scene either: a wrong objective fails before the run
     build_tracking(cfg)  # not part of the scene, but a wrong store fails here too
-    if getattr(geometry, "gauge_m", None) is not None and landing.n_tracks != 2:
+    if geometry.vehicle and landing.n_tracks != 2:
         raise ConfigError("landing.n_tracks", landing.n_tracks, f"a vehicle ({geometry.name}: geometry.gauge_m set) "
                           "stands on two tracks that share its weight: 2")
     scene = Scene(study, soil, geometry, landing, mesh, solver, output, safety)

@@ -119,8 +119,8 @@ CHECKS = (
           "end_horizontal_factor", 1.0, "Green (1954): H = B·su, the strip slides along its base",
           (*SMALL_STRAIN, "landing.velocity_m_s=0", "landing.horizontal_velocity_m_s=0.1", "landing.displacement_m=0.05"),
           (0.025, 0.05, 0.1), (0.05, 0.1, 0.2), 1.0),
-    Check("slide_followed", "Rough strip slid sideways 0.5 B, the grid following it (large deformation), whole section, "
-          "H/(B·su) at its end", "end_horizontal_factor", None,
+    Check("slide_followed", "Rough strip slid sideways 0.5 B, the grid following it (large deformation), "
+          "whole section, H/(B·su) at its end", "end_horizontal_factor", None,
           "its own value extrapolated; Green's B·su for a slide along the base, before any soil is ploughed",
           ("experiment=verify_prandtl", "hydra.mode=RUN", "solver.contact_separation=false", "landing.velocity_m_s=0",
            "landing.horizontal_velocity_m_s=0.1", "landing.displacement_m=0.5"),

@@ -207,10 +207,10 @@ def mean_stress_as_remapped(fn, nodes8, closed, n_grid, parent, mean, wx, wy, wz
 def cell_forces(fn, nodes8, coeff, stress, cell, low, div, beside, remapped, n_grid, parent, par):
     """One cell's nodal forces, added into ``fn``, from its stress (σxx, σyy, σzz, σxy, σyz, σzx, the
     soil's own, Pa), the cell's fill φ, hourglass factor and edges (``cell``: φ, factor, dx, dy, dz
-    in m), its lowest corner (``low``, m), its velocity coefficients ``coeff`` (:func:`corner_coefficients`) and its volumetric strain
-    rate ``div`` (1/s); returns its hourglass and bulk-viscosity power (W) and the force it puts on the
-    body along x, y and z (N) and its moment about the grid's origin (N·m) where ``remapped``
-    (:func:`slab_update`)."""
+    in m), its lowest corner (``low``, m), its velocity coefficients ``coeff`` (:func:`corner_coefficients`)
+    and its volumetric strain rate ``div`` (1/s); returns its hourglass and bulk-viscosity power (W) and
+    the force it puts on the body along x, y and z (N) and its moment about the grid's origin (N·m)
+    where ``remapped`` (:func:`slab_update`)."""
     sxx, syy, szz, sxy, syz, szx = stress
     f, hourglass_factor, dx, dy, dz = cell
     rho, c_wave = par.density, par.wave_speed
@@ -266,7 +266,8 @@ def nodal_forces(mesh, cells, nodes, par, v_grid, parent, law, work):
     body (moving with the grid's velocity ``v_grid``: x, y, z, m/s) or with a split node (``parent``: each
     copy's parent) the mean stress as the remap sees the cell (:func:`slab_update`). ``work``
     accumulates the power of hourglass [0] and bulk viscosity [1] (W), [2:5] the force those cells
-    put on the body along x, y and z (N) and [5:8] its moment about the grid's origin (N·m). Cells without soil are skipped. Parallel over slabs
+    put on the body along x, y and z (N) and [5:8] its moment about the grid's origin (N·m). Cells
+    without soil are skipped. Parallel over slabs
     (:func:`slabs_in_colours`). A step computes its forces here only where none are ahead of it:
     the stress update computes the next step's (:func:`update_stress_and_forces`). ``law`` is the stress
     update's, unused here: with it both run the same compiled code, so that the forces they give are bit
@@ -423,7 +424,8 @@ def slab_update(i, mesh, cells, v, v_grid, parent, fn, par, law, stress):
     """The cells of slab i (all j, k): with ``stress``, their stress update (:func:`update_stress_and_forces`);
     then their nodal forces, added into ``fn``. Returns the slab's plastic work (J), hourglass and
     bulk-viscosity power (W), and the force its cells beside the body put on the body along x, y and z
-    (N) and its moment about the grid's origin (N·m). A slab's cells touch the nodes of planes i and i + 1 only (split nodes included: a copy sits on
+    (N) and its moment about the grid's origin (N·m). A slab's cells touch the nodes of planes i and
+    i + 1 only (split nodes included: a copy sits on
     its parent's plane). Containers are read once per slab (a container passed per cell costs a
     reference count per array).
 
@@ -451,7 +453,7 @@ def slab_update(i, mesh, cells, v, v_grid, parent, fn, par, law, stress):
     plastic = 0.0
     hg_power = 0.0
     bv_power = 0.0
-    on_body = np.zeros(6)
+    fx, fy, fz, mx, my, mz = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0  # the force and moment on the body
     dx = x[i + 1] - x[i]
     for j in range(ny):
         dy = y[j + 1] - y[j]
@@ -490,9 +492,10 @@ def slab_update(i, mesh, cells, v, v_grid, parent, fn, par, law, stress):
                                      (x[i], y[j], z[k]), div, beside, remapped, n_grid, parent, par)
             hg_power += hg
             bv_power += bv
-            for m in range(6):
-                on_body[m] += f6[m]
-    return plastic, hg_power, bv_power, on_body[0], on_body[1], on_body[2], on_body[3], on_body[4], on_body[5]
+            if remapped:  # only the cells beside the body pass it anything
+                fx, fy, fz = fx + f6[0], fy + f6[1], fz + f6[2]
+                mx, my, mz = mx + f6[3], my + f6[4], mz + f6[5]
+    return plastic, hg_power, bv_power, fx, fy, fz, mx, my, mz
 
 
 @njit(**JIT)
