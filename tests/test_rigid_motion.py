@@ -192,7 +192,8 @@ def test_a_symmetric_landing_stays_upright_bit_for_bit(compose_cfg):
     (["landing=push", "landing.velocity_m_s=0"], "landing.velocity_m_s"),
     (["landing=push", "landing.velocity_m_s=0", "landing.roll_rate_rad_s=0.1"], "landing.rotation_deg"),
     (["geometry=fall_cone_30deg", "landing.cg_offset_m=[0.01,0,0]"], "landing.cg_offset_m"),  # axisymmetric
-    (["landing.free=[z,ry]", "landing.cg_offset_m=[0.1,0,0]"], "landing.free"),  # a turn: small strain so far
+    # a turn redrawn in large deformation is a rough staircase
+    (["landing.free=[z,ry]", "landing.cg_offset_m=[0.1,0,0]", "geometry.roughness=smooth"], "geometry.roughness"),
     (["solver=cel3d", "landing.free=[z,x,ry]", "landing.cg_offset_m=[0.1,0,0]"], "landing.free"),
     (["landing=push", "landing.lateral_velocity_m_s=0.1", "solver.remap=false"], "landing.lateral_velocity_m_s"),
     (["landing.pitch_rate_rad_s=0.1"], "landing.pitch_rate_rad_s"),  # a drop's turn must be free

@@ -6,8 +6,9 @@ the shape. A flat face on a node line is then exact; a curved one is a staircase
 sticks out (cells chosen by their centre stick out by up to 0.7·h and read a rough T-bar 15 %
 high at D/10; inscribed, +1 %). A shape may add cells (``extra_solid``): a track its grousers,
 a circular plate the cells whose centre lies in the circle (its curve is in plan, across the push,
-where the area pressed is what counts). Shapes are symmetric about x = 0 and given in the grid frame,
-which moves with the body: y = 0 at the body's lowest point.
+where the area pressed is what counts). Shapes are symmetric about x = 0 (but a turned one,
+:class:`Turned`) and given in the grid frame, which moves with the body: y = 0 at the body's lowest
+point.
 """
 
 from __future__ import annotations
@@ -39,6 +40,37 @@ class FlatBody:
         """Each wall: (its x, the side its soil is on: +1 beyond a right wall, −1 beyond a left one)."""
         centres = (self.centre, -self.centre) if self.centre > 0 else (0.0,)
         return [(c + side * self.half_width, side) for c in centres for side in (1.0, -1.0)]
+
+
+@dataclass(frozen=True)
+class Turned:
+    """A plane-strain shape turned by ``angle`` (rad) about ``pivot`` (x, y in the grid frame, m): the
+    body as it turns about its centre of gravity, which the grid follows. The sign is the model's:
+    a positive turn about y lowers the +x side (x' = x cos θ + y sin θ, y' = −x sin θ + y cos θ about
+    the pivot)."""
+
+    shape: object
+    angle: float
+    pivot: tuple[float, float]
+
+    @property
+    def symmetric(self) -> bool:
+        """Whether the turned shape is still its own mirror image about x = 0."""
+        return self.angle == 0.0 and self.pivot[0] == 0.0
+
+    def inside(self, x, y):
+        if self.angle == 0.0:
+            return self.shape.inside(x, y)
+        c, s = math.cos(self.angle), math.sin(self.angle)
+        dx, dy = x - self.pivot[0], y - self.pivot[1]  # back to the upright body: turned by −θ
+        return self.shape.inside(self.pivot[0] + c * dx - s * dy, self.pivot[1] + s * dx + c * dy)
+
+    def extra_solid(self, grid: Grid2D, solid: np.ndarray) -> None:
+        """Turned, the body also takes the cells whose centre it holds: a staircase inscribed in a tilted
+        base would leave its rising side a cell's row of nearly empty cells from the soil it holds,
+        its ties gone; by centres the staircase lies as much outside the face as inside."""
+        if self.angle != 0.0:
+            solid |= self.inside(0.5 * (grid.x[:-1, None] + grid.x[1:, None]), 0.5 * (grid.y[None, :-1] + grid.y[None, 1:]))
 
 
 @dataclass(frozen=True)
@@ -241,7 +273,7 @@ def solid_cells(shape, grid) -> np.ndarray:
     On a 2D grid that spans both sides of the axis (the whole section), the half grid x ≥ 0 is
     rasterised and mirrored, so the two halves are exact mirror images (a 3D grid's mirrored axes
     have exactly negated coordinates, and its shapes depend on |x| and |y|)."""
-    if grid.x[0] < 0.0 and len(grid.axes) == 2:
+    if grid.x[0] < 0.0 and len(grid.axes) == 2 and getattr(shape, "symmetric", True):
         half = Grid2D(grid.x[grid.nx // 2:], grid.y, grid.h)
         solid = solid_cells(shape, half)
         return np.concatenate([solid[::-1], solid])

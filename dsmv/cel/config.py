@@ -86,6 +86,9 @@ class Cel2DConfig(CelConfig):
 
     name: Literal["cel2d"]
     mode: Literal["auto", "plane_strain", "axisymmetric"] = Field(description="auto: from the geometry")
+    redraw_fraction: Number = Field(0.25, ge=0, le=1, description=(
+        "a body that turns with the remap is redrawn once its edge has moved this fraction of a core cell "
+        "past its drawing; 0: after every history sample (-)"))
 
 
 class Economies3D(Economies):

@@ -26,7 +26,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from dsmv.cel.body import Cone, Cylinder, FlatBody, TrackSideView, nodes_touching, soil_cells_touching, solid_cells
+from dsmv.cel.body import (
+    Cone, Cylinder, FlatBody, TrackSideView, Turned, nodes_touching, soil_cells_touching, solid_cells,
+)
 from dsmv.cel.grid import Grid2D, Openings
 from dsmv.cel.kernels.common import CUT_OPEN_FLOOR
 from dsmv.cel.layout import Contact, corner_offsets, structured_corners
@@ -43,15 +45,19 @@ class ContactRules:
     roughness: object        # geometry.roughness as given (rough, smooth or α)
     axisymmetric: bool
     separation: bool         # solver.contact_separation
+    turning: bool = False    # a flat-faced body that turns in large deformation: redrawn as a staircase
 
     @classmethod
-    def of(cls, scene, axisymmetric: bool) -> "ContactRules":
+    def of(cls, scene, axisymmetric: bool, draws_turns: bool = False) -> "ContactRules":
         """The rules of a scene. ``solver.contact_separation=auto`` lets the soil part from the body in a
         landing (real contact holds no tension) wherever the faces can let go;
-        a push (the verification cases) keeps the soil tied unless asked."""
+        a push (the verification cases) keeps the soil tied unless asked. ``draws_turns``: the solver
+        redraws a turning body into the grid (cel2d)."""
         body, asked = scene.geometry, scene.solver.contact_separation
         rules = cls(body.kind, getattr(body, "view", "cross_section") == "longitudinal", body.adhesion_factor,
                     body.roughness, axisymmetric, asked is True)
+        if draws_turns and scene.solver.remap and not axisymmetric and turns_in_the_plane(scene):
+            rules = replace(rules, turning=True)
         if asked == "auto":
             landing = scene.landing.kind == "drop"
             rules = replace(rules, separation=rules.separable and landing)
@@ -59,8 +65,9 @@ class ContactRules:
 
     @property
     def flat_faced(self) -> bool:
-        """A flat base and vertical walls: normal ties with adhesion, split corners."""
-        return self.kind in ("strip", "track", "circular_plate") and not self.longitudinal
+        """A flat base and vertical walls: normal ties with adhesion, split corners. A body that turns
+        in large deformation is redrawn as it turns: a staircase, tied fully (decision 0030)."""
+        return self.kind in ("strip", "track", "circular_plate") and not self.longitudinal and not self.turning
 
     @property
     def circular(self) -> bool:
@@ -81,6 +88,10 @@ class ContactRules:
 
     def refusal(self) -> ConfigError | None:
         """What this contact cannot do, as the error to raise (None: it can)."""
+        if self.turning and self.alpha != 1.0:
+            return ConfigError("geometry.roughness", self.roughness,
+                               "a body that turns with the remap is redrawn as a staircase tied to the soil: "
+                               "'rough' only (or solver.remap=false: small strain, any roughness)")
         if self.longitudinal and self.alpha != 1.0:
             return ConfigError("geometry.roughness", self.roughness,
                                "the longitudinal view (plates and grousers) models a rough track only")
@@ -99,8 +110,11 @@ class ContactRules:
                                "tied fully")
         return None
 
-    def shape(self, geometry, h: float):
-        """The body's shape (:mod:`dsmv.cel.body`)."""
+    def shape(self, geometry, h: float, angle: float = 0.0, pivot: tuple[float, float] = (0.0, 0.0)):
+        """The body's shape (:mod:`dsmv.cel.body`); a turning one turned by ``angle`` (rad) about
+        ``pivot`` (its centre of gravity in the grid frame, m)."""
+        if self.turning:
+            return Turned(FlatBody(0.5 * geometry.width_m, geometry.track_offset_m), angle, pivot)
         if self.kind == "cone":
             return Cone(geometry.apex_angle_deg, geometry.width_m)
         if self.circular:
@@ -108,6 +122,14 @@ class ContactRules:
         if self.longitudinal:
             return TrackSideView.of(geometry, h)
         return FlatBody(0.5 * geometry.width_m, geometry.track_offset_m)
+
+
+def turns_in_the_plane(scene) -> bool:
+    """Whether a scene's body may turn about the axis out of the plane (free to, or given a rate) on a
+    model that its symmetry plane does not hold upright: the whole section."""
+    landing = scene.landing
+    turning = "ry" in landing.freedoms or landing.given_velocity("ry") != 0.0
+    return turning and not (scene.solver.economies.symmetry and landing.symmetric_about("x"))
 
 
 @dataclass

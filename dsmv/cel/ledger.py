@@ -13,10 +13,11 @@ import numpy as np
 # accumulators of the compiled loop (J per unit thickness or per radian): plastic, hourglass and
 # bulk-viscosity dissipation, work of the push, of gravity on the body and on the soil, the
 # changes of elastic and kinetic energy that the remap makes, the work lost to slip at a
-# limited-adhesion contact, and the elastic energy gap cells let go
+# limited-adhesion contact, the elastic energy gap cells let go, and the work of redrawing a turning
+# body (the soil energy its moves change: dsmv.cel.turn)
 (E_PLASTIC, E_HOURGLASS, E_BULK, E_PUSH, E_BODY_GRAV, E_SOIL_GRAV, E_REMAP_ELASTIC, E_REMAP_KINETIC,
- E_FRICTION, E_GAP_RELEASE) = range(10)
-N_ENERGY = 10
+ E_FRICTION, E_GAP_RELEASE, E_REDRAW) = range(11)
+N_ENERGY = 11
 
 #: energy put in: metric name → accumulator (None: the touchdown's kinetic energy, given)
 INPUTS = {
@@ -24,6 +25,7 @@ INPUTS = {
     "energy_in_gravity_body_j": E_BODY_GRAV,
     "energy_in_gravity_soil_j": E_SOIL_GRAV,
     "energy_in_push_j": E_PUSH,
+    "energy_in_redraw_j": E_REDRAW,
 }
 
 def audit(energy: np.ndarray, *, kinetic_in: float, kinetic_soil: float, kinetic_body: float,
@@ -32,7 +34,7 @@ def audit(energy: np.ndarray, *, kinetic_in: float, kinetic_soil: float, kinetic
     relative mismatch of the balance.
 
     In: the body's kinetic energy at touchdown, the work of gravity on body and soil, the work
-    of the push. Out: kinetic (soil, body) and elastic energy now, plastic, hourglass and
+    of the push, the work of redrawing a turning body. Out: kinetic (soil, body) and elastic energy now, plastic, hourglass and
     bulk-viscosity dissipation, slip at a limited-adhesion contact, the elastic energy a gap cell
     lets go, the touchdown impact, and what the remap changed (a remap that smooths stress or
     velocity loses energy; soil entering at the base brings its elastic energy).
@@ -60,4 +62,4 @@ def audit(energy: np.ndarray, *, kinetic_in: float, kinetic_soil: float, kinetic
 
 def delivered(energy: np.ndarray, kinetic_in: float) -> float:
     """The energy put in so far, every input counted positive (J in the model's units)."""
-    return kinetic_in + abs(energy[E_BODY_GRAV]) + abs(energy[E_SOIL_GRAV]) + abs(energy[E_PUSH])
+    return kinetic_in + sum(abs(energy[k]) for k in INPUTS.values() if k is not None)

@@ -146,7 +146,7 @@ class CelSolver:
         body = scene.geometry
         if body.kind not in cls.bodies:
             raise ConfigError("geometry.kind", body.kind, f"{cls.name} runs {', '.join(cls.bodies)} bodies")
-        rules = ContactRules.of(scene, cls.is_axisymmetric(scene))
+        rules = ContactRules.of(scene, cls.is_axisymmetric(scene), cls.draws_turns)
         refusal = rules.refusal()
         if refusal is not None:
             raise refusal
@@ -158,6 +158,9 @@ class CelSolver:
                 raise ConfigError(f"landing.{RATE_KEYS[held]}", getattr(landing, RATE_KEYS[held]),
                                   f"a drop's drift or turn at touchdown moves on freely: add {held} to landing.free")
         return rules
+
+    #: whether a body that turns with the remap is redrawn into the grid as it turns (cel2d)
+    draws_turns = False
 
     #: the freedoms a model of this solver has, by name (:data:`dsmv.cel.layout.FREEDOMS`)
     model_freedoms: tuple[str, ...] = FREEDOMS
@@ -195,7 +198,7 @@ class CelSolver:
         self.scene = scene
         self.law = registry.load("soil_laws", scene.soil.law, "soil.law")(scene.soil)
         self.axisym = self.is_axisymmetric(scene)
-        self.rules = ContactRules.of(scene, self.axisym)
+        self.rules = ContactRules.of(scene, self.axisym, self.draws_turns)
         self.cone = self.rules.kind == "cone"
         self.circular = self.rules.circular  # a cylinder (plane strain) or a ball (axisymmetric)
         self.longitudinal = self.rules.longitudinal
@@ -231,15 +234,16 @@ class CelSolver:
 
     @classmethod
     def refuse_a_turn_with_the_remap(cls, scene: Scene, held: tuple[str, ...]) -> None:
-        """A turn is drawn into the grid, and that drawing is not built: with the remap, a turn that the
-        model's symmetry planes do not hold (``held``) is refused in one line. A slide runs: the grid
+        """A solver that does not redraw a turning body (:attr:`draws_turns`) refuses, in one line, a turn
+        with the remap that the model's symmetry planes do not hold (``held``). A slide runs: the grid
         follows it."""
         landing = scene.landing
         turning = {n for n in ("rx", "ry", "rz") if n in landing.freedoms or landing.given_velocity(n)}
         if scene.solver.remap and turning - set(held):
             raise ConfigError(landing.turn_key, landing.model_dump()[landing.turn_key.split(".")[1]],
-                              "a body that turns runs on the undeformed grid so far (small strain): set "
-                              "solver.remap=false (one that only slides runs with the remap: the grid follows it)")
+                              f"{cls.name} runs a body that turns on the undeformed grid (small strain): set "
+                              "solver.remap=false (cel2d redraws a turning body; one that only slides runs with "
+                              "the remap: the grid follows it)")
 
     def contact_area_m2(self) -> float:
         """The area a bearing factor refers to: B·L in plane strain, π·B²/4 in axisymmetry (m²)."""
@@ -316,6 +320,10 @@ class CelSolver:
         B = self.characteristic_width_m(self.travel)
         zigzag = C.Zigzag(lambda: self.hourglass_modes(state))
         trackers = [C.History(-state.body[B_VEL], self.motion_columns(), self.held_by_symmetry()), zigzag]
+        if self.rules.turning:  # after the chunk's history: a redraw moves soil and rejoins the ties
+            from dsmv.cel.turn import Redraw
+
+            trackers.append(Redraw(self, state, cfg.redraw_fraction))
         if scene.output.fields and run_dir is not None:
             trackers.append(C.Fields(self.field_recorder(state), lambda: self.snapshot(state), run_dir))
         v0 = state.body[B_VEL]
@@ -671,6 +679,13 @@ class CelSolver:
 
             state.stepper = compiled_entry(self.kernels.run_steps, (n, *args))
         return state.stepper(n, *args)
+
+    def remap_now(self, state: State) -> None:
+        """The Eulerian phase now, whatever the soil's travel since the last (a redraw needs the soil on
+        the grid)."""
+        swept = np.zeros((len(state.contact.split_node), 2))
+        self.kernels.remap(state.mesh, state.cells, state.faces, state.nodes, state.contact, state.inflow, state.par,
+                           state.body, state.energy, swept)
 
     def field_recorder(self, state: State):
         from dsmv.cel.fields import FieldRecorder

@@ -37,6 +37,9 @@ class Cel2DSolver(CelSolver):
         mode = scene.solver.mode
         return mode == "axisymmetric" or (mode == "auto" and scene.geometry.kind in ("cone", "circular_plate"))
 
+    #: a body that turns with the remap is redrawn as it turns (:mod:`dsmv.cel.turn`)
+    draws_turns = True
+
     #: plane strain moves across (x) and up (z) and turns about the axis out of the plane (y)
     model_freedoms = ("x", "z", "ry")
 
@@ -64,7 +67,6 @@ class Cel2DSolver(CelSolver):
         if beyond_plane:
             raise ConfigError("landing.free" if beyond_plane[0] in landing.freedoms else f"landing.{RATE_KEYS[beyond_plane[0]]}",
                               beyond_plane[0], "plane strain moves in x and z and turns about y (ry): cel3d has the rest")
-        cls.refuse_a_turn_with_the_remap(scene, ("x", "ry") if cls.half_model(scene) else ())
         if not cls.half_model(scene) and (body.kind in ("cone", "circular_plate") or cfg.mode == "axisymmetric"):
             raise ConfigError("solver.economies.symmetry", False, "the whole section is a plane-strain model: an "
                               "axisymmetric body is its own whole")
@@ -110,9 +112,16 @@ class Cel2DSolver(CelSolver):
         self.grid, self.h, self.n_half, self.travel = grid, h, n_half, travel
         return grid
 
-    def body_contact(self, grid):
-        """The body's cells, openings and contact table on ``grid`` (:func:`dsmv.cel.contact.build_contact`)."""
-        return build_contact(self.rules, self.rules.shape(self.scene.geometry, grid.h), grid, grid.row_of(0.0))
+    def body_shape(self, grid, angle: float = 0.0):
+        """The body's shape (:mod:`dsmv.cel.body`); a turning body's turned by ``angle`` (rad, about y)
+        about its centre of gravity."""
+        cg = self.scene.landing.cg_offset_m
+        return self.rules.shape(self.scene.geometry, grid.h, angle, (cg[0], cg[2]))
+
+    def body_contact(self, grid, angle: float = 0.0):
+        """The body's cells, openings and contact table on ``grid`` (:func:`dsmv.cel.contact.build_contact`)
+        at ``angle``."""
+        return build_contact(self.rules, self.body_shape(grid, angle), grid, grid.row_of(0.0))
 
     def whole_body_cells(self, cells: float) -> float:
         """The cells the whole section would take on this grid (the half model mirrored; an

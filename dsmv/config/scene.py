@@ -506,7 +506,9 @@ class Scene:
             "landing": {k: v for k, v in self.landing.model_dump().items()
                         if k not in VERTICAL_LANDING or v != VERTICAL_LANDING[k]},
             "mesh": self.mesh.model_dump(),
-            "solver": self.solver.model_dump(exclude=RESULT_NEUTRAL_SOLVER_KEYS),
+            # how often a turning body is redrawn counts for a body that turns only
+            "solver": self.solver.model_dump(exclude=RESULT_NEUTRAL_SOLVER_KEYS | (
+                set() if self.landing.turn_key else {"redraw_fraction"})),
         }
 
 

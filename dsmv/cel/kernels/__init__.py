@@ -25,6 +25,7 @@ class DimensionKernels(NamedTuple):
     elastic_energy: object      # (phi, q, vol, G, K) -> stored elastic energy (J)
     hourglass_modes: object     # (corner, phi, v, full) -> Σ|hourglass mode|², Σ|linear modes|²
     shear_strain_rates: object  # (mesh, cells, faces, nodes, par, v_body) -> γ̇ per cell (1/s)
+    remap: object               # the Eulerian phase (mesh, cells, faces, nodes, contact, inflow, par, body, energy, swept)
 
 
 def for_dimension(dim: int) -> DimensionKernels:
@@ -35,11 +36,11 @@ def for_dimension(dim: int) -> DimensionKernels:
         from dsmv.cel.kernels import elements2d
 
         return DimensionKernels(stepper2d.run_steps, elements2d.cell_volumes, elements2d.elastic_energy,
-                                elements2d.hourglass_modes, elements2d.shear_strain_rates)
+                                elements2d.hourglass_modes, elements2d.shear_strain_rates, stepper2d.remap)
     if dim == 3:
         from dsmv.cel import stepper3d
         from dsmv.cel.kernels import elements3d
 
         return DimensionKernels(stepper3d.run_steps, elements3d.cell_volumes, elements3d.elastic_energy,
-                                elements3d.hourglass_modes, elements3d.shear_strain_rates)
+                                elements3d.hourglass_modes, elements3d.shear_strain_rates, stepper3d.remap)
     raise ValueError(f"no CEL element kernels for {dim} axes (2 and 3 are available)")
