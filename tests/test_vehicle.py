@@ -93,3 +93,17 @@ def test_the_vehicle_s_fields_and_figure_show_both_tracks(run_cli, tmp_path):
     frame = read_frame(figure.with_name("fields") / "max_sinkage.vtu")
     half_width, _bottom, _top = _core_window(frame)
     assert half_width >= 0.5 * 2.6 + 0.5 * 0.6  # the window reaches past the track's outer wall
+
+
+def test_a_vehicle_heavier_on_one_side_rolls_and_its_mirror_image_rolls_back(compose_cfg):
+    """The vehicle's cross-section on Tresca soil, its centre of gravity 0.3 m towards one track, free to
+    sink, slide and roll in large deformation (the body redrawn as it turns): the heavier side's track
+    sinks deeper, and the mirrored vehicle gives the mirrored answers to round-off."""
+    runs = [land(compose_cfg, "geometry=vehicle_pioneer_i", "solver=cel2d", "soil.law=tresca", "mesh=coarse",
+                 "landing.free=[z,x,ry]", f"landing.cg_offset_m=[{e},0,0]")[1] for e in (0.3, -0.3)]
+    right, left = (r.metrics for r in runs)
+    assert right["max_rotation_deg"] > 0.1
+    assert right["max_sinkage_right_track_m"] > right["max_sinkage_left_track_m"]
+    assert left["max_sinkage_left_track_m"] == pytest.approx(right["max_sinkage_right_track_m"], rel=1e-12)
+    assert left["max_sinkage_right_track_m"] == pytest.approx(right["max_sinkage_left_track_m"], rel=1e-12)
+    assert left["max_rotation_deg"] == pytest.approx(right["max_rotation_deg"], rel=1e-12)

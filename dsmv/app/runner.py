@@ -298,6 +298,9 @@ def _motion(metrics: dict, landing) -> str:
         words.append(f"slid {metrics['max_horizontal_displacement_m']:.4f} m at most")
     if moves & {"rx", "ry", "rz"}:
         words.append(f"its base's lowest point {metrics['max_edge_sinkage_m']:.4f} m deep at most")
+    if "max_sinkage_left_track_m" in metrics:  # a vehicle that may tilt: each track's own
+        words.append("its tracks {:.4f} m (−x) and {:.4f} m (+x) deep at most".format(
+            metrics["max_sinkage_left_track_m"], metrics["max_sinkage_right_track_m"]))
     return "".join(f", {w}" for w in words)
 
 
@@ -334,6 +337,8 @@ def track_estimate(scene: Scene, result: SolveResult, overrides: list[str] = ())
     if result.status != "ok" or sinkage is None or scene.landing.kind == "push" or not is_cross_section(scene):
         return None
     command = " ".join(["dsmv solver=cel3d", *(o for o in overrides if not o.split("=")[0].lstrip("+~").startswith(("solver", "mesh")))])
+    if scene.landing.turn_key and scene.solver.remap:  # cel3d turns a body on the undeformed grid only
+        command += " solver.remap=false"
     offset = SECTION_TO_TRACK_M
     if scene.geometry.grouser_height_m != offset["grouser_height_m"]:
         return (f"not estimated for {scene.geometry.grouser_height_m:g} m grousers (measured with "

@@ -608,6 +608,13 @@ class CelSolver:
                         "end_moment_factor": -float(history["moment_n_m"][end].mean())
                         / (area * self.scene.geometry.width_m * su0)}
             units |= {"end_vertical_factor": "-", "end_horizontal_factor": "-", "end_moment_factor": "-"}
+        if self.scene.geometry.vehicle:  # each track's middle: the base's, turned about y at ± half the gauge
+            middle, turn = np.asarray(history["sinkage_m"]), np.radians(np.asarray(history["rotation_deg"]))
+            for side, sign in (("left", -1.0), ("right", 1.0)):
+                track = middle + np.sin(turn) * sign * self.scene.geometry.track_offset_m
+                metrics |= {f"max_sinkage_{side}_track_m": float(track.max()),
+                            f"final_sinkage_{side}_track_m": float(track[-1])}
+                units |= {f"max_sinkage_{side}_track_m": "m", f"final_sinkage_{side}_track_m": "m"}
         for name in self.motion_columns():
             unit = {"_n": "N", "_m": "N·m" if name.endswith("_n_m") else "m", "eg": "deg"}[name[-2:]]
             if C.MOTION_COLUMNS[name][0] == "reaction":
