@@ -105,3 +105,21 @@ def test_a_landing_off_its_centre_tilts_as_its_mirror_image(compose_cfg):
         a, b = np.asarray(right.history[name]), sign * np.asarray(left.history[name])
         assert np.abs(a - b).max() <= 1e-12 * np.abs(a).max(), name
     assert right.metrics["mass_error"] <= 1e-12
+
+
+def test_a_slide_past_the_uniform_core_on_the_undeformed_grid_ends_out_of_domain(compose_cfg):
+    """Small strain: the grid does not follow the body, so a slide of 1.5 B past a core 1 B beyond it has
+    left the domain it was sized for (before, such a run ended 'ok' at any distance)."""
+    scene = build_scene(compose_cfg([*canonical.PRANDTL_BONDED, "solver.progress=off", "solver.remap=false",
+                                     "landing.velocity_m_s=0", "landing.horizontal_velocity_m_s=1.0",
+                                     "landing.displacement_m=1.5", "mesh.cell_size_m=0.1"]))
+    result = Cel2DSolver(scene).solve()
+    assert result.status == "out_of_domain"
+    assert "slid" in result.message and "solver.core_margin_widths" in result.message
+
+
+def test_a_redrawn_turn_says_so_in_the_summary(run_cli):
+    done = run_cli("dsmv", "landing.free=[z,x,ry]", "landing.cg_offset_m=[0.1,0,0]", "soil.law=tresca", "mesh=coarse",
+                   "tracking=disabled", "output.plots=false")
+    assert done.returncode == 0, done.stderr
+    assert "redrawn into the grid" in done.stdout and "no separation" in done.stdout

@@ -387,6 +387,9 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
                                     "turn across them stay 0" if whole != m["cells"] else
                                     "none: the landing is not symmetric about the body's mid-planes, the whole "
                                     "body is modelled"))
+        if "redraws" in m:
+            print(f"  turn    : redrawn into the grid {m['redraws']:.0f} times as it turned, a rough staircase "
+                  "tied to its soil (no separation: the soil holds it in tension)")
     print(f"  outputs : {run_dir}")
     if tracker is not None:
         uri = tracker.uri

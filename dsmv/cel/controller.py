@@ -39,8 +39,8 @@ import numpy as np
 from dsmv.cel import ledger
 from dsmv.cel.kernels.common import all_finite
 from dsmv.cel.layout import (
-    B_FCOUNT, B_MAXDISP, B_OFFSET, B_ROT_X, B_ROT_Y, B_ROT_Z, B_SINKAGE, B_TIME, B_VEL, FORCE_SLOTS, FREEDOMS,
-    POSE_SLOTS,
+    B_FCOUNT, B_MAXDISP, B_MAXROT, B_MAXSLIDE, B_OFFSET, B_ROT_X, B_ROT_Y, B_ROT_Z, B_SINKAGE, B_TIME, B_VEL,
+    FORCE_SLOTS, FREEDOMS, POSE_SLOTS,
 )
 from dsmv.cel.stepper import AT_REST, NOT_FINITE, OUTRAN, RUNNING
 
@@ -561,6 +561,26 @@ class TravelLimit(Tracker):
         if run.travel_m > self.travel:
             return Ending("out_of_domain", f"the body passed the travel the domain was sized for ({self.travel:.3g} m); "
                                            f"raise solver.initial_travel_m")
+        return None
+
+
+@dataclass
+class MotionLimit(Tracker):
+    """Small strain (no remap): the undeformed grid does not follow the body, so a slide or a turn that
+    carries its edge past the uniform cells around it (``margin_m``; ``reach_m`` the lever of a turn)
+    is out of the domain."""
+
+    margin_m: float
+    reach_m: float
+
+    def after_chunk(self, run: Run) -> Optional[Ending]:
+        slide = float(run.body[B_MAXSLIDE])
+        edge = math.sin(min(float(run.body[B_MAXROT]), 0.5 * math.pi)) * self.reach_m
+        if max(slide, edge) > self.margin_m:
+            moved = f"slid {slide:.3g} m" if slide >= edge else f"turned its edge {edge:.3g} m"
+            return Ending("out_of_domain", f"the body {moved} on the undeformed grid (small strain), past the "
+                                           f"{self.margin_m:.3g} m of uniform cells around it; widen "
+                                           f"solver.core_margin_widths or run with the remap")
         return None
 
 

@@ -224,6 +224,12 @@ class CelSolver:
         """Half the body's width across x (m): B/2, or a vehicle's from its middle to its tracks' outer walls."""
         return 0.5 * self.scene.geometry.width_m + self.scene.geometry.track_offset_m
 
+    def reach_m(self) -> float:
+        """How far the body's farthest point in the x–z plane lies from its centre of gravity (m): the lever
+        that turns an angle about y into a displacement at its edge (its walls counted up to one width)."""
+        cg_x, cg_z = self.scene.landing.cg_offset_m[0], self.scene.landing.cg_offset_m[2]
+        return math.hypot(self.half_span_m() + abs(cg_x), max(abs(cg_z), self.scene.geometry.width_m))
+
     def tracks_axis(self, h: float, beside_m: float, far_m: float) -> np.ndarray:
         """A vehicle's axis across its tracks (x ≥ 0): uniform cells h from its track's centre to
         ``beside_m`` beyond it, graded to ``far_m`` (:func:`~dsmv.cel.grid.axis_through`), so each
@@ -353,6 +359,8 @@ class CelSolver:
             trackers.append(C.PushEnd(landing.displacement_m, tuple(int(POSE_SLOTS[FREEDOMS.index(n)])
                                                                     for n in ("x", "y", "z") if n in driven),
                                       landing.rotation_deg if driven & {"rx", "ry", "rz"} else None))
+        if not cfg.remap and landing.moves_beyond_vertical:
+            trackers.append(C.MotionLimit(cfg.core_margin_widths * B, self.reach_m()))
         trackers.append(C.StepBudget(cfg.max_steps))
         if self.shows_progress():
             trackers.append(C.Progress(self.expected_duration_s(), sys.stderr.isatty()))
@@ -489,6 +497,8 @@ class CelSolver:
         ending, compile_s, wall_s = controller.run(run)
         rest = next((t.rest_time_s for t in trackers if isinstance(t, C.Rest)), None)
         result = self.result(state, run, ending, zigzag.ratio(), rest, compile_s, wall_s)
+        if (redraws := next((t.redraws for t in trackers if hasattr(t, "redraws")), None)) is not None:
+            result.metrics["redraws"], result.units["redraws"] = float(redraws), "-"
         result.metrics["estimated_wall_s"], result.units["estimated_wall_s"] = cost["wall_s"], "s"
         return result
 

@@ -155,15 +155,6 @@ def _mix(phi: np.ndarray, q: np.ndarray, vol: np.ndarray, volume: np.ndarray, st
     phi[cells] += volume[cells] / vol[cells]
 
 
-def drawn_reach_m(solver) -> float:
-    """How far the body's farthest point lies from its centre of gravity in the plane (m): the lever
-    that turns an angle into a displacement at its edge."""
-    landing, body = solver.scene.landing, solver.scene.geometry
-    cg_x, cg_z = landing.cg_offset_m[0], landing.cg_offset_m[2]
-    half = solver.half_span_m()
-    return math.hypot(half + abs(cg_x), max(abs(cg_z), body.width_m))
-
-
 class Redraw(C.Tracker):
     """Redraws a turning body (module docstring) once its edge has moved ``fraction`` of a core cell
     past its drawing; a turn that takes its staircase out of the grid's uniform core ends the run
@@ -171,7 +162,7 @@ class Redraw(C.Tracker):
 
     def __init__(self, solver, state, fraction: float):
         self.solver, self.state = solver, state
-        self.step_rad = fraction * solver.h / drawn_reach_m(solver)
+        self.step_rad = fraction * solver.h / solver.reach_m()
         self.drawn_rad = 0.0
         self.room = room_outside(solver.body_shape(state.grid, 0.0), state.grid, state.cells.solid)
         self.redraws = 0
