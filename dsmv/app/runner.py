@@ -388,8 +388,11 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
                                     "none: the landing is not symmetric about the body's mid-planes, the whole "
                                     "body is modelled"))
         if "redraws" in m:
-            print(f"  turn    : redrawn into the grid {m['redraws']:.0f} times as it turned, a rough staircase "
-                  "tied to its soil (no separation: the soil holds it in tension)")
+            asked = scene.solver.contact_separation
+            parts = asked is True or (asked == "auto" and scene.landing.kind == "drop")
+            print(f"  turn    : redrawn into the grid {m['redraws']:.0f} times as it turned, a rough staircase " + (
+                "whose soil lets go where it pulls away (contact separation)" if parts else
+                "tied to its soil (solver.contact_separation=false: the soil holds it in tension)"))
     print(f"  outputs : {run_dir}")
     if tracker is not None:
         uri = tracker.uri

@@ -65,6 +65,26 @@ class Turned:
         dx, dy = x - self.pivot[0], y - self.pivot[1]  # back to the upright body: turned by −θ
         return self.shape.inside(self.pivot[0] + c * dx - s * dy, self.pivot[1] + s * dx + c * dy)
 
+    def face_normals(self, x, y, h: float) -> np.ndarray:
+        """Per point (x, y) beside the turned body (a flat body's base and walls), the normal into the soil of
+        the face nearest to it, (points, 2); zero at a corner (within h/2 of both faces, as a flat
+        body's corner node holds) and deep inside (over 1.5 h from every face)."""
+        c, s = math.cos(self.angle), math.sin(self.angle)
+        dx, dy = np.asarray(x, float) - self.pivot[0], np.asarray(y, float) - self.pivot[1]
+        xb, yb = self.pivot[0] + c * dx - s * dy, self.pivot[1] + s * dx + c * dy  # in the upright body
+        body = self.shape
+        track = np.sign(xb) * body.centre  # the track each point belongs to (a vehicle's: ±centre)
+        side = np.where(xb >= track, 1.0, -1.0)
+        to_base, to_wall = np.abs(yb), np.abs(body.half_width - np.abs(xb - track))
+        upright = np.zeros((len(xb), 2))
+        base = to_base < to_wall
+        upright[base, 1] = -1.0
+        upright[~base, 0] = side[~base]
+        upright[(np.abs(to_base - to_wall) < 0.5 * h) & (np.maximum(to_base, to_wall) < h)] = 0.0
+        upright[np.minimum(to_base, to_wall) > 1.5 * h] = 0.0
+        # turned with the body: x' = x cos θ + y sin θ, y' = −x sin θ + y cos θ
+        return np.stack([c * upright[:, 0] + s * upright[:, 1], -s * upright[:, 0] + c * upright[:, 1]], axis=1)
+
     def extra_solid(self, grid: Grid2D, solid: np.ndarray) -> None:
         """Turned, the body also takes the cells whose centre it holds: a staircase inscribed in a tilted
         base would leave its rising side a cell's row of nearly empty cells from the soil it holds,

@@ -83,8 +83,9 @@ class ContactRules:
 
     @property
     def separable(self) -> bool:
-        """Faces that may let the soil go: flat ones of any roughness, a smooth cylinder's cut cells."""
-        return self.flat_faced or self.cut_cells
+        """Faces that may let the soil go: flat ones of any roughness, a smooth cylinder's cut cells, a
+        turning flat body's staircase (each node by its nearest face)."""
+        return self.flat_faced or self.cut_cells or self.turning
 
     def refusal(self) -> ConfigError | None:
         """What this contact cannot do, as the error to raise (None: it can)."""
@@ -176,6 +177,8 @@ def _ties(rules: ContactRules, shape, grid: Grid2D, j_base: int, solid: np.ndarr
         normal[:, 0], normal[:, 1] = xs / r, ys / r
         full = inside.copy()
         normal[inside] = 0.0  # inside the body: no face, always tied
+    elif rules.turning:  # tied fully while it holds; with separation it lets go along its nearest face
+        normal = shape.face_normals(grid.x[tie_i], grid.y[tie_j], grid.h)
     elif rules.flat_faced:
         half = shape.half_width
         xs, ys = grid.x[tie_i], grid.y[tie_j]
