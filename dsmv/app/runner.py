@@ -27,6 +27,7 @@ from dsmv.app.joblog import job_output
 from dsmv.config.scene import Scene, build_scene
 from dsmv.errors import DsmvError
 from dsmv.cel import fields
+from dsmv.cel.contact import ContactRules
 from dsmv.post.plots import FIELD_PLOT_FILE, HISTORY_PLOT_FILE, plot_field_contours, plot_history
 from dsmv.results import EXIT_CODES, SolveResult, write_history, write_result
 from dsmv.tracking import runs
@@ -387,9 +388,8 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
                                     "turn across them stay 0" if whole != m["cells"] else
                                     "none: the landing is not symmetric about the body's mid-planes, the whole "
                                     "body is modelled"))
-        if "redraws" in m:
-            asked = scene.solver.contact_separation
-            parts = asked is True or (asked == "auto" and scene.landing.kind == "drop")
+        if "redraws" in m:  # a body redrawn as it turned (cel2d): whether its soil may part from it
+            parts = ContactRules.of(scene, False, draws_turns=True).separation
             print(f"  turn    : redrawn into the grid {m['redraws']:.0f} times as it turned, a rough staircase " + (
                 "whose soil lets go where it pulls away (contact separation)" if parts else
                 "tied to its soil (solver.contact_separation=false: the soil holds it in tension)"))

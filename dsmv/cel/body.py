@@ -58,20 +58,20 @@ class Turned:
         """Whether the turned shape is still its own mirror image about x = 0."""
         return self.angle == 0.0 and self.pivot[0] == 0.0
 
-    def inside(self, x, y):
-        if self.angle == 0.0:
-            return self.shape.inside(x, y)
+    def upright(self, x, y):
+        """Points (x, y) of the grid frame where the upright body has them: turned back by −θ."""
         c, s = math.cos(self.angle), math.sin(self.angle)
-        dx, dy = x - self.pivot[0], y - self.pivot[1]  # back to the upright body: turned by −θ
-        return self.shape.inside(self.pivot[0] + c * dx - s * dy, self.pivot[1] + s * dx + c * dy)
+        dx, dy = x - self.pivot[0], y - self.pivot[1]
+        return self.pivot[0] + c * dx - s * dy, self.pivot[1] + s * dx + c * dy
+
+    def inside(self, x, y):
+        return self.shape.inside(*((x, y) if self.angle == 0.0 else self.upright(x, y)))
 
     def face_normals(self, x, y, h: float) -> np.ndarray:
         """Per point (x, y) beside the turned body (a flat body's base and walls), the normal into the soil of
         the face nearest to it, (points, 2); zero at a corner (within h/2 of both faces, as a flat
         body's corner node holds) and deep inside (over 1.5 h from every face)."""
-        c, s = math.cos(self.angle), math.sin(self.angle)
-        dx, dy = np.asarray(x, float) - self.pivot[0], np.asarray(y, float) - self.pivot[1]
-        xb, yb = self.pivot[0] + c * dx - s * dy, self.pivot[1] + s * dx + c * dy  # in the upright body
+        xb, yb = self.upright(np.asarray(x, float), np.asarray(y, float))
         body = self.shape
         track = np.sign(xb) * body.centre  # the track each point belongs to (a vehicle's: ±centre)
         side = np.where(xb >= track, 1.0, -1.0)
@@ -83,6 +83,7 @@ class Turned:
         upright[(np.abs(to_base - to_wall) < 0.5 * h) & (np.maximum(to_base, to_wall) < h)] = 0.0
         upright[np.minimum(to_base, to_wall) > 1.5 * h] = 0.0
         # turned with the body: x' = x cos θ + y sin θ, y' = −x sin θ + y cos θ
+        c, s = math.cos(self.angle), math.sin(self.angle)
         return np.stack([c * upright[:, 0] + s * upright[:, 1], -s * upright[:, 0] + c * upright[:, 1]], axis=1)
 
     def extra_solid(self, grid: Grid2D, solid: np.ndarray) -> None:

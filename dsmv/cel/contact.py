@@ -66,7 +66,7 @@ class ContactRules:
     @property
     def flat_faced(self) -> bool:
         """A flat base and vertical walls: normal ties with adhesion, split corners. A body that turns
-        in large deformation is redrawn as it turns: a staircase, tied fully (decision 0030)."""
+        in large deformation is redrawn as it turns: a staircase (decision 0030)."""
         return self.kind in ("strip", "track", "circular_plate") and not self.longitudinal and not self.turning
 
     @property
@@ -91,7 +91,7 @@ class ContactRules:
         """What this contact cannot do, as the error to raise (None: it can)."""
         if self.turning and self.alpha != 1.0:
             return ConfigError("geometry.roughness", self.roughness,
-                               "a body that turns with the remap is redrawn as a staircase tied to the soil: "
+                               "a body that turns with the remap is redrawn as a rough staircase: "
                                "'rough' only (or solver.remap=false: small strain, any roughness)")
         if self.longitudinal and self.alpha != 1.0:
             return ConfigError("geometry.roughness", self.roughness,

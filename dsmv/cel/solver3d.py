@@ -148,7 +148,6 @@ class Cel3DSolver(CelSolver):
             return Vehicle(track, body.gauge_m) if body.vehicle else track
         return Box(0.5 * body.width_m, self.half_length_m())
 
-
     def build(self):
         """The grid: a uniform core around the body, graded outwards in all three directions."""
         scene, cfg = self.scene, self.scene.solver

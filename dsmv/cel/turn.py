@@ -7,13 +7,14 @@ Between compiled chunks (:class:`Redraw`), once the body's farthest tied point h
 ``solver.redraw_fraction`` of a core cell past its drawing, the soil is remapped onto the grid and the
 body is redrawn at its angle now:
 
-1. the staircase inscribed in the turned shape (:class:`~dsmv.cel.body.Turned`) and its ties, every
-   node that touches it tied fully (:func:`~dsmv.cel.contact.build_contact`);
-2. the soil of the cells it now covers moves out, volume for volume, to the nearest cells with room,
-   breadth first through the open cells, its state mixed in by volume as the remap mixes
-   (:func:`push_out`): the soil's mass is kept to round-off;
-3. the cells it left are open and void;
-4. the nodal masses follow the fills, and the newly tied soil joins the body as one rigid unit
+1. the cells whose corners or centre lie in the turned shape (:class:`~dsmv.cel.body.Turned`) and
+   their ties, every node that touches them tied fully while it holds; with contact separation a node
+   lets go along the normal of the face nearest to it (:func:`~dsmv.cel.contact.build_contact`);
+2. the soil fitted to the new drawing, volume for volume (:func:`conform`): each cell holds at most
+   its part outside the turned shape (:func:`room_outside`); what the advancing side gives up feeds
+   what the retreating side takes, and only the difference goes to or comes from the nearest free
+   surface: the soil's mass is kept to round-off;
+3. the nodal masses follow the fills, and the newly tied soil joins the body as one rigid unit
    (:func:`~dsmv.cel.stepper.rejoin_ties`).
 
 What the redraw changes in the soil's energy (its elastic energy, its kinetic energy, and the work
