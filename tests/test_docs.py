@@ -76,7 +76,7 @@ def test_every_docs_page_is_in_the_site_nav():
 # --------------------------------------------------------------------------- the commands the guide shows
 
 #: the Hydra apps (dsmv.app.command_line.APPS)
-HYDRA_APPS = ("dsmv", "dsmv-train", "dsmv-predict")
+HYDRA_APPS = ("dsmv", "dsmv-train", "dsmv-predict", "dsmv-calibrate")
 BASH = re.compile(r"^```bash\n(.*?)^```", re.MULTILINE | re.DOTALL)
 
 

@@ -21,6 +21,7 @@ LAYERS = [
     {"post", "safety"},
     {"tracking"},
     {"surrogate"},
+    {"calibration"},
     {"app", "__main__"},
     {"verify"},
     {"testing"},

@@ -393,6 +393,40 @@ def test_exceedance_is_the_share_of_sampled_scenes_over_the_limit(store, tmp_pat
     assert run_predict(config(store, *args, "sinkage_limit_m=1e-9"))["exceedance_probability"] == 1.0
 
 
+def test_calibrated_soil_uncertainty_flows_into_the_exceedance(store, capsys):
+    """dsmv-calibrate's joint draws, read by the exceedance as dsmv-predict reads them: P(z > limit) of the
+    default scene with the calibrated uncertainty beside the default file's, both printed; the default's
+    is dsmv-predict's own answer, the calibrated one that of the written uncertainty= file."""
+    from dsmv.calibration.run import run_calibration
+    from dsmv.config.tree import compose_scene
+    from dsmv.surrogate.model import scene_table
+    from dsmv.surrogate.predict import run_predict
+    from dsmv.surrogate.predictor import load_predictor
+    from dsmv.surrogate.reliability import exceedance, sample_scenes, uncertainty_from
+    from dsmv.testing import compose_config
+
+    uri, folder = store
+    cfg = compose_config("calibrate", "site=synthetic_ccz", f"tracking.uri={uri}", f"paths.runs_dir={folder}",
+                         "calibrate.tests=[{kind: tbar, path: conf/site/tbar_20mm_s.csv}, "
+                         "{kind: tbar, path: conf/site/tbar_0p2mm_s.csv}, {kind: fall_cone, path: conf/site/fall_cones.csv}]",
+                         "calibrate.parameters=[soil.su0_pa,soil.ks_pa_per_m,soil.rate.eta]",
+                         "~calibrate.synthetic.truth.soil.sensitivity", "~calibrate.synthetic.truth.soil.xi95",
+                         "calibrate.bootstrap=30", "calibrate.cel_check=false",
+                         "calibrate.exceedance.sinkage_limit_m=0.1", f"calibrate.exceedance.registered_model={NAME}")
+    out = run_calibration(cfg, folder / "calibration_run")
+    printed = capsys.readouterr().out
+    answers = out["exceedance"]
+    assert "default scene, calibrated uncertainty" in printed and "default scene, default uncertainty" in printed
+    default = run_predict(config(store, "task=exceedance", "verify=false", "plot=false", "sinkage_limit_m=0.1"))
+    assert answers["default"]["probability"] == default["exceedance_probability"]
+    written = OmegaConf.to_container(OmegaConf.load(folder / "calibration_run" / "conf" / "uncertainty" / "synthetic_ccz.yaml"))
+    uncertainty = uncertainty_from({"uncertainty": written})
+    assert sorted(uncertainty.joint.columns) == ["soil.ks_pa_per_m", "soil.rate.eta", "soil.su0_pa"]
+    mid, lower, upper = load_predictor(NAME, uri).interval(sample_scenes(scene_table([compose_scene([])]), uncertainty), 0.9)
+    assert answers["calibrated"]["probability"] == exceedance(mid, lower, upper, 0.1).probability
+    assert answers["calibrated"]["probability"] != answers["default"]["probability"]
+
+
 def test_the_exceedance_histogram_names_the_model_that_drew_it(store, tmp_path, monkeypatch):
     """The title of exceedance.png, read back from the drawn figure: the surrogate in words and by name,
     the registered model and version, and what it was trained on (the metadata dsmv-train records)."""

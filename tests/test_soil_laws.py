@@ -222,6 +222,21 @@ def test_fall_cone_implied_hansbo_factor(compose_cfg):
     assert k_tresca > k_er
 
 
+def test_a_softening_cone_is_given_the_room_to_stop(compose_cfg):
+    """A cone in a sensitive soil without rate effect sinks past 1.5 × Hansbo's K = 0.8 depth, which once
+    sized its domain and ended such a drop as a bearing failure; sized by the soil's measured softening
+    it comes to rest, deeper than that."""
+    from dsmv.cel.solver2d import Cel2DSolver
+
+    scene = build_scene(compose_cfg(["geometry=fall_cone_30deg", "soil.su0_pa=5000", "soil.ks_pa_per_m=0",
+                                     "soil.youngs_modulus_pa=2.5e6", "soil.sensitivity=10", "soil.xi95=5",
+                                     "soil.rate.eta=0", "solver.cone_cells_per_depth=8", "solver.progress=off"]))
+    result = Cel2DSolver(scene).solve()
+    assert result.status == "ok", result.message
+    old_room = 1.5 * (0.8 * scene.landing.mass_kg * 9.81 / 5000.0) ** 0.5
+    assert result.metrics["max_sinkage_m"] > old_room
+
+
 STATEFUL_LAW = '''
 import math
 import numpy as np

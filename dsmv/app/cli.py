@@ -91,18 +91,31 @@ def _remove_refused_run_dir(cfg: DictConfig) -> None:
         remove_unstarted_run_dir(run_dir, hydra_cfg, str(cfg.get("paths", {}).get("runs_dir", run_dir.parent)))
 
 
-def _train_job(cfg: DictConfig) -> None:
-    """One training; a user mistake ends in one line and exit status 2, and leaves no run dir behind."""
+def _job_in_its_run_dir(cfg: DictConfig, target: str, program: str) -> None:
+    """``target`` (``module:function``, called with the config and the run dir); a user mistake ends in
+    one line and exit status 2, and leaves no run dir behind."""
+    import importlib
+
     from hydra.core.hydra_config import HydraConfig
 
     from dsmv.app.runner import fail_user_error
-    from dsmv.surrogate.train import run_training
 
+    module, _, name = target.partition(":")
     try:
-        run_training(cfg, Path(HydraConfig.get().runtime.output_dir))
+        getattr(importlib.import_module(module), name)(cfg, Path(HydraConfig.get().runtime.output_dir))
     except DsmvError as error:
         _remove_refused_run_dir(cfg)
-        fail_user_error(error, "dsmv-train")
+        fail_user_error(error, program)
+
+
+def _train_job(cfg: DictConfig) -> None:
+    """One training (:func:`dsmv.surrogate.train.run_training`)."""
+    _job_in_its_run_dir(cfg, "dsmv.surrogate.train:run_training", "dsmv-train")
+
+
+def _calibrate_job(cfg: DictConfig) -> None:
+    """One calibration (:func:`dsmv.calibration.run.run_calibration`)."""
+    _job_in_its_run_dir(cfg, "dsmv.calibration.run:run_calibration", "dsmv-calibrate")
 
 
 def _predict_job(cfg: DictConfig):
@@ -124,6 +137,16 @@ def train() -> None:
     registry.register_plugin_configs()
     check_app_command_line("dsmv-train", sys.argv[1:])
     _hydra_main(_train_job, "train")()
+
+
+def calibrate() -> None:
+    """``dsmv-calibrate``: fit a soil law's parameters to site tests, with their uncertainty
+    (:mod:`dsmv.calibration`)."""
+    from dsmv.app.command_line import check_app_command_line
+
+    registry.register_plugin_configs()
+    check_app_command_line("dsmv-calibrate", sys.argv[1:])
+    _hydra_main(_calibrate_job, "calibrate")()
 
 
 def predict() -> None:

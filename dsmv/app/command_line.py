@@ -82,6 +82,7 @@ APPS = {
     "dsmv": ("config", "dsmv.config.scene:build_scene"),  # the whole scene, the solver's cost guard included
     "dsmv-train": ("train", "dsmv.surrogate.train:check_config"),
     "dsmv-predict": ("predict", "dsmv.surrogate.predict:check_config"),
+    "dsmv-calibrate": ("calibrate", "dsmv.calibration.run:check_config"),
 }
 
 

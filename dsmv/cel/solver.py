@@ -213,6 +213,15 @@ class CelSolver:
         static = math.sqrt(0.8 * landing.mass_kg * max(landing.gravity_m_s2, 1e-9) / su)
         return max(static, (1.5 * 0.8 * landing.mass_kg * landing.velocity_m_s**2 / su) ** (1 / 3))
 
+    def cone_softening(self) -> float:
+        """The cone's soil's rate-free softening (-), 1 when the law does not soften
+        (:func:`dsmv.analytic.penetrometer.cone_softening`)."""
+        if not getattr(self.law, "softens", False):
+            return 1.0
+        from dsmv.analytic.penetrometer import cone_softening
+
+        return min(cone_softening(self.law), 1.0)
+
     def characteristic_width_m(self, travel: float) -> float:
         """The body's width for sizing the domain (m): B, or a cone's diameter at the expected depth."""
         body = self.scene.geometry
@@ -263,8 +272,8 @@ class CelSolver:
             return scene.solver.initial_travel_m
         if scene.landing.kind == "push":
             return scene.landing.displacement_m
-        if self.cone:
-            return 1.5 * self.hansbo_depth_m()
+        if self.cone:  # a softening soil lets the cone 1/√s deeper (s: its rate-free softening, measured)
+            return 1.5 * self.hansbo_depth_m() / math.sqrt(self.cone_softening())
         estimate = energy_estimate(scene)
         z = sinkage_in_profile(
             scene.landing.weight_per_track_n, scene.landing.inertia_per_track_kg, scene.landing.velocity_m_s,

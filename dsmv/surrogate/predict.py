@@ -365,14 +365,14 @@ def exceedance_answer(cfg: DictConfig, settings: PredictSettings, predictor: Pre
               f"({', '.join(PARAMETERS[k] for k in outside)})")
     out = {"exceedance_probability": answer.probability, "monte_carlo_error": answer.monte_carlo_error,
            "model_low": answer.model_low, "model_high": answer.model_high, "samples": answer.samples,
-           "sinkage_limit_m": limit, "uncertain": sorted(uncertainty.distributions)}
+           "sinkage_limit_m": limit, "uncertain": sorted(uncertainty.keys)}
     if settings.plot and run_dir is not None:
         run_dir.mkdir(parents=True, exist_ok=True)
         out["plot"] = str(plot_exceedance(mid, lower, upper, limit, answer, c, run_dir / "exceedance.png",
                                           predictor.describe()))
         print(f"  plot     : {out['plot']}")
     if settings.verify:
-        key = next(iter(uncertainty.distributions))
+        key = uncertainty.keys[0]
         checks = []
         for quantile in settings.spot_checks:
             row = int(np.argmin(np.abs(mid - np.quantile(mid, quantile))))

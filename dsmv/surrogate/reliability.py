@@ -11,7 +11,10 @@ distributions of the config group ``uncertainty`` (nested as the scene is)::
 
 (``normal``: ``mean`` and ``cov``, truncated at zero; ``lognormal``: ``median`` and ``cov``, the
 coefficient of variation of the variable itself; ``uniform``: ``low`` and ``high``), every other
-scene value as the scene has it. The registered surrogate predicts each scene's sinkage and its
+scene value as the scene has it. Parameters known together, as a calibration knows them
+(``dsmv-calibrate`` writes them), come as joint draws: ``uncertainty.joint: PATH``, a CSV whose
+columns are config keys and whose rows are draws; each sample takes one row at random, so the
+parameters keep their correlations. The registered surrogate predicts each scene's sinkage and its
 interval. The answer:
 
 - P = the fraction of samples whose predicted sinkage exceeds the limit, with its Monte Carlo
@@ -67,6 +70,12 @@ class Uncertainty:
     distributions: dict[str, Distribution]
     samples: int
     seed: int
+    joint: pd.DataFrame | None = None   # columns: config keys; rows: draws taken together
+
+    @property
+    def keys(self) -> list[str]:
+        """The uncertain parameters' config keys: the distributions', then the joint draws'."""
+        return [*self.distributions, *(() if self.joint is None else self.joint.columns)]
 
 
 class UncertaintySettings(Schema):
@@ -94,6 +103,8 @@ def uncertainty_from(container: dict) -> Uncertainty:
     node = dict(container.get("uncertainty") or {})
     settings = _validate(UncertaintySettings, {k: node.pop(k) for k in ("samples", "seed") if k in node},
                          "uncertainty")
+    joint = _joint_draws(node.pop("joint")) if node.get("joint") is not None else None
+    node.pop("joint", None)
     distributions = {}
     for key, data in _flatten(node).items():
         if key not in COLUMNS:
@@ -105,21 +116,50 @@ def uncertainty_from(container: dict) -> Uncertainty:
         if dist.dist == "uniform" and not dist.low < dist.high:
             raise ConfigError(f"uncertainty.{key}", [dist.low, dist.high], "a uniform distribution needs low < high")
         distributions[key] = dist
-    if not distributions:
+    if joint is not None:
+        both = sorted(set(joint.columns) & set(distributions))
+        if both:
+            raise ConfigError(f"uncertainty.{both[0]}", "a distribution and a joint column", "give it one or the other")
+    if not distributions and joint is None:
         raise ConfigError("uncertainty", None, "task=exceedance needs at least one uncertain parameter")
-    return Uncertainty(distributions, settings.samples, settings.seed)
+    return Uncertainty(distributions, settings.samples, settings.seed, joint)
 
 
-def draw(distributions: dict[str, Distribution], samples: int, seed: int) -> dict[str, np.ndarray]:
-    """``samples`` values of each uncertain parameter, by config key, from one seeded generator."""
-    rng = np.random.default_rng(seed)
-    return {key: dist.sample(rng, samples) for key, dist in distributions.items()}
+def _joint_draws(path) -> pd.DataFrame:
+    """``uncertainty.joint``'s CSV, checked: config keys of uncertain parameters as columns, numbers > 0."""
+    file = Path(str(path))
+    if not file.is_file():
+        raise ConfigError("uncertainty.joint", str(path), "no such file")
+    try:
+        table = pd.read_csv(file, comment="#")
+    except (ValueError, pd.errors.ParserError) as error:
+        raise ConfigError("uncertainty.joint", str(path), f"not a CSV table ({error})") from None
+    for key in table.columns:
+        if key not in COLUMNS:
+            raise ConfigError("uncertainty.joint", f"{file.name}: column {key}",
+                              f"not an uncertain parameter; one of {', '.join(COLUMNS)}")
+    values = table.to_numpy(dtype=float) if len(table) else np.zeros((0, 0))
+    if len(table) == 0 or not np.isfinite(values).all() or (values < 0).any():
+        raise ConfigError("uncertainty.joint", str(path), "needs rows of numbers ≥ 0")
+    return table.astype(float)
+
+
+def draw(uncertainty: Uncertainty, samples: int | None = None, seed: int | None = None) -> dict[str, np.ndarray]:
+    """``samples`` values of each uncertain parameter, by config key, from one seeded generator: the
+    distributions' draws, then the joint draws' rows (one row per sample, at random)."""
+    samples = uncertainty.samples if samples is None else samples
+    rng = np.random.default_rng(uncertainty.seed if seed is None else seed)
+    values = {key: dist.sample(rng, samples) for key, dist in uncertainty.distributions.items()}
+    if uncertainty.joint is not None:
+        rows = rng.integers(0, len(uncertainty.joint), samples)
+        values |= {key: uncertainty.joint[key].to_numpy()[rows] for key in uncertainty.joint.columns}
+    return values
 
 
 def sample_scenes(base: pd.DataFrame, uncertainty: Uncertainty) -> pd.DataFrame:
     """``uncertainty.samples`` rows: the base scene with each uncertain parameter drawn (seeded)."""
     table = base.loc[base.index.repeat(uncertainty.samples)].reset_index(drop=True)
-    for key, values in draw(uncertainty.distributions, uncertainty.samples, uncertainty.seed).items():
+    for key, values in draw(uncertainty).items():
         table[COLUMNS[key]] = values
     return table
 
@@ -160,5 +200,5 @@ def monte_carlo_cases(cfg) -> list[list[str]]:
     if not isinstance(samples, int) or samples < 1:
         raise ConfigError("monte_carlo.samples", samples, "must be a whole number ≥ 1")
     uncertainty = uncertainty_from({"uncertainty": OmegaConf.to_container(OmegaConf.load(path), resolve=True)})
-    draws = draw(uncertainty.distributions, samples, seed)
+    draws = draw(uncertainty, samples, seed)
     return [[f"{key}={values[i]:.6g}" for key, values in draws.items()] for i in range(samples)]

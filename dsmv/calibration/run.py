@@ -1,0 +1,497 @@
+"""``dsmv-calibrate``: validate, read the tests, fit, check with the CEL, write, log, summarise.
+
+What it writes into its run dir (``runs/calibrate/<date>/<time>``):
+
+- ``calibration.json``: the best fit, the intervals, what the data resolved, each test's misfit,
+  the CEL check;
+- ``draws.csv``: the bootstrap's joint draws (config keys as columns);
+- ``conf/soil/<name>.yaml`` and ``conf/uncertainty/<name>.yaml``: a ``soil=`` profile at the best
+  fit, and an ``uncertainty=`` file whose soil parameters are the joint draws (its landing entries
+  those of ``calibrate.landing_uncertainty``), used as
+  ``dsmv-predict hydra.searchpath=[file://<run dir>/conf] uncertainty=<name> task=exceedance …``;
+- ``fit.png``: every test's data against the model at the best fit, with the draws' spread;
+- the tests' data as read (SI units), and, for a synthetic calibration, as generated.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+from typing import Literal, Optional
+
+import numpy as np
+from omegaconf import DictConfig, OmegaConf
+from pydantic import Field
+
+from dsmv.analytic.penetrometer import PenetrometerModel, tbar_resistance
+from dsmv.calibration.data import KINDS, MEASURED, SiteTest, read_test, write_test
+from dsmv.calibration.fit import DEFAULT_BOUNDS, Calibration, Problem, calibrate
+from dsmv.config.location import CONFIG_DIR
+from dsmv.config.schema import Count, Number, Schema, _validate
+from dsmv.errors import ConfigError
+from dsmv.surrogate.dataset import COLUMNS
+
+RESULT_FILE = "calibration.json"
+DRAWS_FILE = "draws.csv"
+FIGURE_FILE = "fit.png"
+EXPERIMENT = "calibration"  # MLflow experiment dsmv-calibration
+
+
+class TestSpec(Schema):
+    kind: Literal[tuple(KINDS)] = Field(description=" | ".join(KINDS))
+    path: str = Field(description="the test's CSV (columns with units: see dsmv.calibration.data)")
+    diameter_m: Number = Field(0.04, gt=0, description="tbar: the bar's diameter (m)")
+    apex_angle_deg: Number = Field(30.0, gt=0, lt=180, description="fall_cone: the cone's apex angle (degrees)")
+
+
+def _flat(tree: dict, prefix: str = "") -> dict:
+    """{"soil": {"rate": {"eta": 0.1}}} → {"soil.rate.eta": 0.1}."""
+    out = {}
+    for key, value in tree.items():
+        path = f"{prefix}.{key}" if prefix else str(key)
+        out |= _flat(value, path) if isinstance(value, dict) else {path: value}
+    return out
+
+
+class Synthetic(Schema):
+    truth: dict = Field(description="the soil values the data are generated from, nested as the soil is")
+    noise: Number = Field(0.05, ge=0, description="relative scatter of the generated data (-), log-normal")
+    seed: int = Field(0, description="the noise's random seed (-)")
+
+
+class ExceedanceSettings(Schema):
+    sinkage_limit_m: Optional[Number] = Field(None, gt=0, description="the limit (m); null: no comparison")
+    registered_model: str = Field("dsmv-sinkage-rf", description="the surrogate that predicts the sinkage")
+    confidence: Number = Field(0.9, gt=0, lt=1, description="the interval's level (-)")
+
+
+class CalibrateSettings(Schema):
+    tests: list[TestSpec] = Field(description="the site tests")
+    parameters: list[str] = Field(description="the soil keys fitted")
+    bounds: dict[str, list[Number]] = Field(default_factory=dict, description="{key: [low, high]}")
+    bootstrap: Count = Field(200, ge=10, description="residual-bootstrap refits (-)")
+    confidence: Number = Field(0.9, gt=0, lt=1, description="the intervals' level (-)")
+    resolved_width: Number = Field(0.5, gt=0, description="resolved: interval width / best value below this (-)")
+    seed: int = Field(0, description="the bootstrap's seed (-)")
+    name: str = Field("site", pattern=r"^[A-Za-z0-9_]+$", description="name of the soil= and uncertainty= files")
+    cel_check: bool = Field(True, description="run the CEL T-bar at the best fit")
+    cel_check_cells_per_diameter: Count = Field(10, ge=4, description="the CEL check's core cells across the bar")
+    models: PenetrometerModel
+    landing_uncertainty: Optional[str] = Field("nodule_field", description="uncertainty= file whose landing entries are kept")
+    synthetic: Optional[Synthetic] = Field(None, description="generate the tests' data from known values")
+    exceedance: ExceedanceSettings = Field(default_factory=ExceedanceSettings)
+
+
+def _project_path(path: str) -> Path:
+    """A relative path from the working folder, else from the project's folder (as ``soil.profile``'s)."""
+    candidate = Path(path)
+    if candidate.is_absolute() or candidate.exists():
+        return candidate
+    return Path(CONFIG_DIR).parent / candidate
+
+
+def check_config(cfg: DictConfig) -> tuple[CalibrateSettings, Problem]:
+    """The settings and the problem (tests read and checked), or a one-line ConfigError."""
+    container = OmegaConf.to_container(cfg, resolve=True)
+    settings = _validate(CalibrateSettings, container.get("calibrate") or {}, "calibrate")
+    if not settings.tests:
+        raise ConfigError("calibrate.tests", [], "name at least one test: [{kind: tbar, path: tbar.csv}, ...] "
+                          "or a site (site=synthetic_ccz)")
+    from dsmv.config.scene import SoilConfig
+
+    soil = _validate(SoilConfig, container["soil"], "soil").model_dump()
+    keys = list(dict.fromkeys(settings.parameters))
+    bounds = []
+    for key in keys:
+        given = settings.bounds.get(key, DEFAULT_BOUNDS.get(key))
+        if given is None:
+            raise ConfigError(f"calibrate.bounds.{key}", None, "give this parameter's bounds [low, high]")
+        if len(given) != 2 or not given[0] < given[1]:
+            raise ConfigError(f"calibrate.bounds.{key}", list(given), "must be [low, high] with low < high")
+        bounds.append((float(given[0]), float(given[1])))
+    tests = [read_test(spec.kind, _project_path(spec.path), f"calibrate.tests[{i}]", diameter_m=spec.diameter_m,
+                       apex_angle_deg=spec.apex_angle_deg) for i, spec in enumerate(settings.tests)]
+    if settings.synthetic is not None:
+        truth = _flat(settings.synthetic.truth)
+        for key, value in truth.items():
+            if key not in keys:
+                raise ConfigError(f"calibrate.synthetic.truth.{key}", value, f"not a fitted parameter; one of {', '.join(keys)}")
+            if not isinstance(value, (int, float)) or isinstance(value, bool):
+                raise ConfigError(f"calibrate.synthetic.truth.{key}", value, "must be a number")
+        truth_soil = dict(soil, rate=dict(soil["rate"]), params=dict(soil["params"]))
+        generator = Problem(tests, truth_soil, keys, bounds, settings.models)
+        values = [float(truth.get(k, generator.start[i])) for i, k in enumerate(keys)]
+        rng = np.random.default_rng(settings.synthetic.seed)
+        clean = generator.predict(values)
+        tests = [SiteTest(t.kind, t.name, {**t.columns, MEASURED[t.kind]: c * np.exp(
+            settings.synthetic.noise * rng.standard_normal(len(c)))}, t.diameter_m, t.apex_angle_deg)
+                 for t, c in zip(tests, clean)]
+    return settings, Problem(tests, soil, keys, bounds, settings.models)
+
+
+# ----------------------------------------------------------------------------- the CEL check
+
+
+#: the CEL check pushes the bar this many diameters a second: an explicit run's steps grow with the time
+#: pushed (a 40 mm bar at 20 mm/s through 2 D: 530,000 steps on D/10). The law sees the same γ̇/γ̇ref
+#: when γ̇ref is scaled with the speed (an exact similarity of the Einav–Randolph law's rate forms), and
+#: the soil's inertia stays small: ρ'·v²/su = 0.002 for a 40 mm bar in 5 kPa clay
+CHECK_SPEED_DIAMETERS_PER_S = 2.5
+#: the CEL check's push (diameters): a bar wished in place into softening soil reaches its steady
+#: resistance as the soil it has remoulded flows round it; dsmv's CEL T-bar held steady to 0.3 % over
+#: the last diameter of 4 to 8 (St 2–5, ξ95 10–30)
+CHECK_TRAVEL_DIAMETERS = 6.0
+
+
+def cel_check(problem: Problem, best, cells_per_diameter: int, run_dir: Path) -> list[dict]:
+    """The CEL T-bar at the best fit, once per rate of the tests' first cycles: pushed
+    :data:`CHECK_TRAVEL_DIAMETERS` to the middle of that rate's depths, its mean resistance over the last
+    D against the model's and the data's there (the data's rows within ±D/2 of that depth). It runs at :data:`CHECK_SPEED_DIAMETERS_PER_S`
+    with γ̇ref scaled alike (Einav–Randolph only; another law runs at the test's own speed)."""
+    from dsmv import registry
+    from dsmv.config.tree import compose_scene
+
+    soil = problem.soil_at(best)
+    checks, seen = [], set()
+    for test in problem.tests:
+        if test.kind != "tbar":
+            continue
+        c, D = test.columns, test.diameter_m
+        first = c["cycle"] == 1
+        for velocity in np.unique(c["velocity"][first]):
+            if (float(velocity), D) in seen:
+                continue
+            seen.add((float(velocity), D))
+            rows = first & (c["velocity"] == velocity)
+            depth = float(np.median(c["depth"][rows]))
+            travel = CHECK_TRAVEL_DIAMETERS * D
+            start = max(depth + 0.5 * D - travel, 1.5 * D)   # the bar's axis at the start, at least 1.5 D deep
+            speed = CHECK_SPEED_DIAMETERS_PER_S * D if soil.law == "einav_randolph" else float(velocity)
+            checked = soil.model_copy(update={"rate": soil.rate.model_copy(
+                update={"gamma_dot_ref": soil.rate.gamma_dot_ref * speed / velocity})})
+            scene = compose_scene(_scene_overrides(checked, test, speed, start, travel, cells_per_diameter))
+            folder = run_dir / "cel_check" / f"{test.name}_v{velocity:g}"
+            folder.mkdir(parents=True, exist_ok=True)
+            started = time.perf_counter()
+            result = registry.load("solvers", scene.solver.name, "solver.name")(scene).solve(folder)
+            wall = time.perf_counter() - started
+            entry = {"test": test.name, "velocity_m_s": float(velocity), "run_velocity_m_s": float(speed),
+                     "status": result.status, "wall_s": wall}
+            if result.status == "ok":
+                sinkage = np.asarray(result.history["sinkage_m"])
+                moved = sinkage - sinkage[0]
+                force = np.asarray(result.history["force_n"])
+                last = moved >= moved.max() - D
+                axis = float(np.mean(scene.landing.initial_depth_m + moved[last])) - D / 2.0
+                q_cel = float(np.mean(force[last])) / (D * scene.geometry.contact_length_m)
+                law = problem._law_cls(soil)
+                q_model = float(tbar_resistance(problem.model, law, soil.strength, axis, velocity, D))
+                near = rows & (np.abs(c["depth"] - axis) <= D / 2.0)
+                q_data = float(np.mean(c["resistance"][near])) if near.any() else float("nan")
+                entry |= {"depth_m": axis, "q_cel_pa": q_cel, "q_model_pa": q_model, "q_data_pa": q_data,
+                          "model_over_cel": q_model / q_cel}
+            checks.append(entry)
+    return checks
+
+
+def _scene_overrides(soil, test: SiteTest, velocity: float, axis_depth: float, travel: float, cells: int) -> list[str]:
+    """The T-bar push at the best fit: the fitted soil, the bar's size and speed, D/cells cells."""
+    D = test.diameter_m
+    flat = {"soil.law": soil.law, "soil.su0_pa": soil.su0_pa, "soil.ks_pa_per_m": soil.ks_pa_per_m,
+            "soil.sensitivity": soil.sensitivity, "soil.xi95": soil.xi95, "soil.rate.law": soil.rate.law,
+            "soil.rate.eta": soil.rate.eta, "soil.rate.n": soil.rate.n, "soil.rate.gamma_dot_ref": soil.rate.gamma_dot_ref,
+            "soil.rate.mu": soil.rate.mu, "soil.density_kg_m3": soil.density_kg_m3,
+            "soil.youngs_modulus_pa": soil.youngs_modulus_pa, "soil.poisson_ratio": soil.poisson_ratio}
+    return ["geometry=tbar", "landing=push", "solver=cel2d", f"geometry.width_m={float(D)!r}",
+            f"landing.velocity_m_s={float(velocity)!r}", f"landing.displacement_m={float(travel)!r}",
+            f"landing.initial_depth_m={float(axis_depth + D / 2.0)!r}", f"mesh.cell_size_m={float(D / cells)!r}",
+            "solver.contact_separation=false", "output.plots=false",
+            *(f"{k}={v}" if isinstance(v, str) else f"{k}={float(v)!r}" for k, v in flat.items())]
+
+
+# ----------------------------------------------------------------------------- outputs
+
+
+def _tree_set(tree: dict, key: str, value) -> None:
+    parts = key.split(".")
+    for part in parts[:-1]:
+        tree = tree.setdefault(part, {})
+    tree[parts[-1]] = value
+
+
+def write_outputs(settings: CalibrateSettings, problem: Problem, cal: Calibration, checks: list[dict],
+                  run_dir: Path) -> dict[str, Path]:
+    """calibration.json, draws.csv, the soil= and uncertainty= files, fit.png and the tests' data."""
+    run_dir.mkdir(parents=True, exist_ok=True)
+    files = {}
+    for test in problem.tests:
+        files[f"data_{test.name}"] = write_test(run_dir / f"data_{test.name}.csv", test)
+    header = ",".join(cal.keys)
+    np.savetxt(run_dir / DRAWS_FILE, cal.draws, delimiter=",", header=header, comments="", fmt="%.10g")
+    files["draws"] = run_dir / DRAWS_FILE
+
+    soil = problem.soil_at(cal.best).model_dump()
+    soil["name"] = settings.name
+    soil_dir = run_dir / "conf" / "soil"
+    soil_dir.mkdir(parents=True, exist_ok=True)
+    fitted = ", ".join(f"{k} = {v:.6g}" for k, v in zip(cal.keys, cal.best))
+    (soil_dir / f"{settings.name}.yaml").write_text(
+        f"# Calibrated by dsmv-calibrate ({run_dir}): {fitted}.\n"
+        f"# Every other value is the starting soil's ({problem.soil['name']}).\n"
+        + OmegaConf.to_yaml(OmegaConf.create(soil)))
+    files["soil"] = soil_dir / f"{settings.name}.yaml"
+
+    uncertainty: dict = {}
+    if settings.landing_uncertainty:
+        path = Path(CONFIG_DIR) / "uncertainty" / f"{settings.landing_uncertainty}.yaml"
+        if not path.is_file():
+            raise ConfigError("calibrate.landing_uncertainty", settings.landing_uncertainty, f"no {path}")
+        base = OmegaConf.to_container(OmegaConf.load(path), resolve=True)
+        uncertainty = {k: v for k, v in base.items() if k != "soil"}
+    surrogate_keys = [k for k in cal.keys if k in COLUMNS]
+    joint = run_dir / "uncertainty_draws.csv"
+    columns = [cal.keys.index(k) for k in surrogate_keys]
+    np.savetxt(joint, cal.draws[:, columns], delimiter=",", header=",".join(surrogate_keys), comments="", fmt="%.10g")
+    uncertainty["joint"] = str(joint.resolve())
+    unc_dir = run_dir / "conf" / "uncertainty"
+    unc_dir.mkdir(parents=True, exist_ok=True)
+    left_out = [k for k in cal.keys if k not in COLUMNS]
+    (unc_dir / f"{settings.name}.yaml").write_text(
+        f"# The calibration's joint draws ({len(cal.draws)} bootstrap refits) of {', '.join(surrogate_keys)}"
+        + (f"; not drawn, since the surrogates do not take them: {', '.join(left_out)}" if left_out else "")
+        + (f".\n# The landing's entries are uncertainty={settings.landing_uncertainty}'s.\n"
+           if settings.landing_uncertainty else ".\n") + OmegaConf.to_yaml(OmegaConf.create(uncertainty)))
+    files["uncertainty"] = unc_dir / f"{settings.name}.yaml"
+
+    summary = {
+        "parameters": {k: {"best": float(b), "lower": float(lo), "upper": float(hi), "resolved": r,
+                           "linearised_relative_width": float(lw)}
+                       for k, b, lo, hi, r, lw in zip(cal.keys, cal.best, cal.lower, cal.upper, cal.resolved,
+                                                      cal.linear_width)},
+        "confidence": cal.confidence, "uncertainty_method": "residual bootstrap",
+        "bootstrap": len(cal.draws), "failed_refits": cal.failed_resamples,
+        "tests": [{"name": t.name, "kind": t.kind, "rows": len(t), "rms_log_misfit": cal.rms(i)}
+                  for i, t in enumerate(problem.tests)],
+        "held": {k: v for k, v in _held(problem).items()},
+        "cel_check": checks,
+        "synthetic": settings.synthetic.model_dump() if settings.synthetic else None,
+    }
+    (run_dir / RESULT_FILE).write_text(json.dumps(summary, indent=2) + "\n")
+    files["result"] = run_dir / RESULT_FILE
+    files["figure"] = plot_fit(problem, cal, run_dir / FIGURE_FILE)
+    return files
+
+
+def _held(problem: Problem) -> dict[str, float]:
+    """The law's parameters the calibration did not fit, with the values they were held at."""
+    soil = problem.soil
+    keys = ["soil.sensitivity", "soil.xi95"]
+    if soil["law"] != "tresca":
+        keys += (["soil.rate.eta", "soil.rate.n", "soil.rate.gamma_dot_ref"] if soil["rate"]["law"] == "power"
+                 else ["soil.rate.mu", "soil.rate.gamma_dot_ref"])
+    keys += [f"soil.params.{k}" for k in soil.get("params", {})]
+    out = {}
+    for key in keys:
+        if key not in problem.keys:
+            node = soil
+            for part in key.split(".")[1:]:
+                node = node[part]
+            out[key] = float(node)
+    return out
+
+
+def plot_fit(problem: Problem, cal: Calibration, path: Path) -> Path:
+    """Each test's data against the model at the best fit, and the band of 50 bootstrap draws."""
+    from dsmv.surrogate.evaluate import pyplot
+
+    plt = pyplot()
+    n = len(problem.tests)
+    fig, axes = plt.subplots(1, n, figsize=(4.2 * n, 4.2), constrained_layout=True, squeeze=False)
+    best = problem.predict(cal.best)
+    step = max(len(cal.draws) // 50, 1)
+    spread = [problem.predict(d) for d in cal.draws[::step]]
+    for k, (ax, test) in enumerate(zip(axes[0], problem.tests)):
+        c = test.columns
+        if test.kind == "tbar":
+            x_of = c["cycle"] if len(np.unique(c["cycle"])) > 1 else None
+            groups = np.unique(c["velocity"]) if x_of is None else [None]
+            for velocity in groups:
+                rows = np.ones(len(test), bool) if velocity is None else c["velocity"] == velocity
+                if x_of is None:
+                    y = c["depth"][rows]
+                    ax.plot(c["resistance"][rows] / 1e3, y, ".", ms=4, label=f"data, {velocity * 1e3:g} mm/s")
+                    ax.plot(best[k][rows] / 1e3, y, "-", lw=1.2)
+                    for draw in spread:
+                        ax.plot(draw[k][rows] / 1e3, y, "-", color="0.6", lw=0.3, alpha=0.3)
+                else:
+                    ax.plot(x_of, c["resistance"] / 1e3, "o", ms=4, label="data")
+                    ax.plot(x_of, best[k] / 1e3, "-", lw=1.2, label="model, best fit")
+                    for draw in spread:
+                        ax.plot(x_of, draw[k] / 1e3, "-", color="0.6", lw=0.3, alpha=0.3)
+            if x_of is None:
+                ax.invert_yaxis()
+                ax.set_xlabel("net resistance q (kPa)")
+                ax.set_ylabel("depth (m)")
+            else:
+                ax.set_xlabel("cycle")
+                ax.set_ylabel("net resistance q (kPa)")
+        else:
+            ax.plot(c["mass"] * 1e3, c["penetration"] * 1e3, "o", label="data")
+            order = np.argsort(c["mass"])
+            ax.plot(c["mass"][order] * 1e3, best[k][order] * 1e3, "-", label="model, best fit")
+            for draw in spread:
+                ax.plot(c["mass"][order] * 1e3, draw[k][order] * 1e3, "-", color="0.6", lw=0.3, alpha=0.3)
+            ax.set_xlabel("cone mass (g)")
+            ax.set_ylabel("penetration (mm)")
+        ax.set_title(f"{test.name}: misfit {cal.rms(k):.1%}", fontsize=9)
+        ax.legend(fontsize=7)
+    fig.suptitle("dsmv-calibrate: data, best fit (lines), bootstrap draws (grey)", fontsize=10)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+# ----------------------------------------------------------------------------- what it changes
+
+
+def compare_exceedance(cfg: DictConfig, settings: CalibrateSettings, uncertainty_file: Path) -> dict[str, dict]:
+    """P(max sinkage > limit) for the default scene (``dsmv-predict task=exceedance``'s answer) with the
+    calibrated uncertainty and with the file it replaces (``calibrate.landing_uncertainty``), by the
+    registered surrogate: {"calibrated": …, "default": …}, each the estimate and its errors."""
+    from dsmv.config.scene import build_tracking
+    from dsmv.config.tree import compose_scene
+    from dsmv.surrogate.model import scene_table
+    from dsmv.surrogate.predictor import load_predictor
+    from dsmv.surrogate.reliability import exceedance, sample_scenes, uncertainty_from
+
+    ask = settings.exceedance
+    predictor = load_predictor(ask.registered_model, build_tracking(cfg).uri)
+    base = scene_table([compose_scene(["tracking=disabled"])])
+    files = {"calibrated": uncertainty_file,
+             "default": Path(CONFIG_DIR) / "uncertainty" / f"{settings.landing_uncertainty}.yaml"}
+    out = {}
+    for which, path in files.items():
+        uncertainty = uncertainty_from({"uncertainty": OmegaConf.to_container(OmegaConf.load(path), resolve=True)})
+        mid, lower, upper = predictor.interval(sample_scenes(base, uncertainty), ask.confidence)
+        answer = exceedance(mid, lower, upper, ask.sinkage_limit_m)
+        out[which] = {"probability": answer.probability, "monte_carlo_error": answer.monte_carlo_error,
+                      "model_low": answer.model_low, "model_high": answer.model_high, "samples": answer.samples,
+                      "uncertainty": str(path), "model": f"{ask.registered_model} v{predictor.version}"}
+    return out
+
+
+# ----------------------------------------------------------------------------- the run
+
+
+def log_to_mlflow(cfg: DictConfig, settings: CalibrateSettings, cal: Calibration, files: dict[str, Path],
+                  metrics: dict[str, float]) -> dict[str, str]:
+    """One MLflow run in experiment dsmv-calibration: the settings as params, the fit as metrics, the files."""
+    import mlflow
+
+    from dsmv.config.scene import build_tracking
+    from dsmv.tracking import runs
+    from dsmv.tracking.run_writer import experiment_id as find_experiment
+
+    tracking = build_tracking(cfg)
+    client = runs._client(tracking)
+    experiment_id = find_experiment(client, runs.experiment_name(EXPERIMENT), tracking.artifact_location)
+    mlflow.set_tracking_uri(client.tracking_uri)
+    tags = {"dsmv.role": "calibration", "dsmv.status": "ok", "dsmv.soil_law": cal_law(cfg)}
+    with mlflow.start_run(experiment_id=experiment_id, run_name=f"calibrate {settings.name}", tags=tags) as run:
+        params = runs.flatten({"calibrate": settings.model_dump(exclude={"models"}), "models": settings.models.model_dump()})
+        mlflow.log_params({k: str(v)[:6000] for k, v in params.items()})
+        mlflow.log_metrics({k: float(v) for k, v in metrics.items() if np.isfinite(v)})
+        for path in files.values():
+            mlflow.log_artifact(str(path))
+    return {"uri": client.tracking_uri, "experiment": runs.experiment_name(EXPERIMENT), "run_id": run.info.run_id}
+
+
+def cal_law(cfg: DictConfig) -> str:
+    return str(cfg.soil.law)
+
+
+def _metric_name(key: str) -> str:
+    return key.removeprefix("soil.").replace(".", "_")
+
+
+def run_calibration(cfg: DictConfig, run_dir: Path) -> dict:
+    """``dsmv-calibrate``: check, fit with its bootstrap, check with the CEL, write, log, summarise."""
+    started = time.perf_counter()
+    settings, problem = check_config(cfg)
+    rows = sum(len(t) for t in problem.tests)
+    print(f"dsmv-calibrate: {', '.join(problem.keys)} of the {problem.soil['law']} law, from "
+          f"{len(problem.tests)} tests ({rows} values){' generated from known values' if settings.synthetic else ''}")
+
+    def progress(done: int, total: int) -> None:
+        if done == total or done % max(total // 10, 1) == 0:
+            elapsed = time.perf_counter() - started
+            print(f"  bootstrap {done}/{total} refits  [{elapsed:.0f} s elapsed, about "
+                  f"{elapsed / done * (total - done):.0f} s left]", flush=True)
+
+    cal = calibrate(problem, settings.bootstrap, settings.confidence, settings.resolved_width, settings.seed, progress)
+    fit_s = time.perf_counter() - started
+    checks = []
+    if settings.cel_check and any(t.kind == "tbar" for t in problem.tests):
+        print("  CEL check: the T-bar at the best fit, one push per rate …", flush=True)
+        checks = cel_check(problem, cal.best, settings.cel_check_cells_per_diameter, run_dir)
+    files = write_outputs(settings, problem, cal, checks, run_dir)
+    compared = {}
+    if settings.exceedance.sinkage_limit_m is not None:
+        compared = compare_exceedance(cfg, settings, files["uncertainty"])
+        summary = json.loads(files["result"].read_text())
+        files["result"].write_text(json.dumps(summary | {"exceedance": compared}, indent=2) + "\n")
+    metrics = {f"best_{_metric_name(k)}": float(b) for k, b in zip(cal.keys, cal.best)}
+    metrics |= {f"lower_{_metric_name(k)}": float(v) for k, v in zip(cal.keys, cal.lower)}
+    metrics |= {f"upper_{_metric_name(k)}": float(v) for k, v in zip(cal.keys, cal.upper)}
+    metrics |= {f"misfit_{t.name}": cal.rms(i) for i, t in enumerate(problem.tests)}
+    metrics |= {f"cel_check_{c['test']}_{c['velocity_m_s']:g}": c["model_over_cel"] for c in checks
+                if "model_over_cel" in c}
+    metrics |= {f"exceedance_{which}": answer["probability"] for which, answer in compared.items()}
+    metrics |= {"resolved_parameters": float(sum(cal.resolved)), "fit_wall_s": fit_s,
+                "calibrate_wall_s": time.perf_counter() - started}
+    logged = log_to_mlflow(cfg, settings, cal, files, metrics) if cfg.tracking.get("enabled", True) else None
+    print_summary(settings, problem, cal, checks, compared, run_dir, logged, time.perf_counter() - started)
+    return {"calibration": cal, "checks": checks, "files": files, "metrics": metrics, "exceedance": compared}
+
+
+def print_summary(settings, problem: Problem, cal: Calibration, checks, compared, run_dir: Path, logged, wall_s) -> None:
+    c = f"{cal.confidence:.0%}"
+    print(f"\ndsmv-calibrate: {problem.soil['law']} fitted to {len(problem.tests)} tests in {wall_s:.0f} s "
+          f"({len(cal.draws)} bootstrap refits: the {c} intervals and the joint draws)")
+    width = max(len(k) for k in cal.keys)
+    for key, best, lo, hi, ok, lw in zip(cal.keys, cal.best, cal.lower, cal.upper, cal.resolved, cal.linear_width):
+        truth = _flat(settings.synthetic.truth).get(key) if settings.synthetic else None
+        why = "" if ok else (" (the data see it only in a combination with another)" if lw > 10 else "")
+        print(f"  {key:<{width}} : {best:.4g}  [{lo:.4g}, {hi:.4g}]  {'resolved' if ok else 'NOT resolved by these data'}{why}"
+              + (f"  (true {truth:.4g}, {best / truth - 1:+.1%})" if truth else ""))
+    held = _held(problem)
+    if held:
+        print("  held     : " + ", ".join(f"{k} = {v:g}" for k, v in held.items())
+              + " (not fitted; a power law's gamma_dot_ref enters only as eta·gamma_dot_ref^-n: the data cannot tell it)")
+    for i, test in enumerate(problem.tests):
+        print(f"  misfit   : {test.name} ({test.kind}, {len(test)} values): {cal.rms(i):.1%} rms")
+    for check in checks:
+        if "model_over_cel" in check:
+            print(f"  CEL check: {check['test']} at {check['velocity_m_s'] * 1e3:g} mm/s, {check['depth_m']:.3f} m: "
+                  f"CEL {check['q_cel_pa'] / 1e3:.2f} kPa, model {check['q_model_pa'] / 1e3:.2f} kPa "
+                  f"({check['model_over_cel'] - 1:+.1%}), data {check['q_data_pa'] / 1e3:.2f} kPa ({check['wall_s']:.0f} s"
+                  + (f"; run at {check['run_velocity_m_s'] * 1e3:g} mm/s, gamma_dot_ref scaled alike)"
+                     if check["run_velocity_m_s"] != check["velocity_m_s"] else ")"))
+        else:
+            print(f"  CEL check: {check['test']} at {check['velocity_m_s'] * 1e3:g} mm/s ended {check['status']}")
+    for which, answer in compared.items():
+        print(f"  exceed   : P(z > {settings.exceedance.sinkage_limit_m:g} m) = {answer['probability']:.4f} "
+              f"± {answer['monte_carlo_error']:.4f}, default scene, {which} uncertainty "
+              f"({Path(answer['uncertainty']).name}; {answer['model']}, {answer['samples']} samples)")
+    print(f"  outputs  : {run_dir}  ({RESULT_FILE}, {FIGURE_FILE}, conf/soil/{settings.name}.yaml, "
+          f"conf/uncertainty/{settings.name}.yaml)")
+    print(f"  use      : dsmv hydra.searchpath=[file://{(run_dir / 'conf').resolve()}] soil={settings.name}")
+    print(f"             dsmv-predict hydra.searchpath=[file://{(run_dir / 'conf').resolve()}] task=exceedance "
+          f"uncertainty={settings.name} sinkage_limit_m=0.1")
+    if logged:
+        print(f"  MLflow   : {logged['uri']}  (experiment {logged['experiment']}, run {logged['run_id']})")
+
+
+__all__ = ["run_calibration", "check_config", "cel_check", "CalibrateSettings", "RESULT_FILE", "DRAWS_FILE", "FIGURE_FILE"]

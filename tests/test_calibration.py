@@ -1,0 +1,172 @@
+"""Site tests and the calibration of a soil law to them (``dsmv-calibrate``).
+
+The models' truths: the fall cone's energy balance at rest (Hansbo's K = 3/(N_c·π·tan²α) in Tresca
+soil), the T-bar's factor product and the exact average of the Einav–Randolph softening over an
+exponential strain distribution. The fit's truth: data generated from known values, with scatter,
+come back within 10 % and inside the stated intervals, and what they cannot pin is named.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from omegaconf import OmegaConf
+
+from dsmv.analytic.penetrometer import PenetrometerModel, fall_cone_depth, mean_factor, tbar_resistance
+from dsmv.calibration.data import read_test
+from dsmv.calibration.fit import calibrate
+from dsmv.calibration.run import _flat, check_config
+from dsmv.config.profile import straight_line
+from dsmv.errors import ConfigError
+from dsmv.testing import compose_config, make_law
+
+BIN = Path(sys.executable).parent
+MODEL = PenetrometerModel(tbar_factor=11.94, tbar_strain=4.5, tbar_rate_coefficient=1.74, tbar_pass_strain=9.0,
+                          cone_factor=10.0, cone_strain=4.5, cone_rate_coefficient=1.74)
+
+
+def test_a_cone_in_tresca_soil_stops_where_hansbo_says():
+    """At rest the cone's work against the soil is its weight's: m·g·d = N_c·su·π·tan²α·d³/3, so
+    su·d²/(m·g) = 3/(N_c·π·tan²α) for any mass, strength and angle (the motion between is dynamic)."""
+    law = make_law("tresca")
+    for mass, su, angle in ((0.1, 16000.0, 30.0), (0.4, 3000.0, 30.0), (0.08, 8000.0, 60.0)):
+        depth = fall_cone_depth(MODEL, law, straight_line(su, 0.0), mass, angle)[0]
+        k = 3.0 / (MODEL.cone_factor * math.pi * math.tan(math.radians(angle / 2)) ** 2)
+        assert su * depth**2 / (mass * 9.81) == pytest.approx(k, rel=1e-5)
+
+
+def test_a_faster_cone_meets_a_stronger_soil_and_stops_short():
+    """The rate effect only adds resistance: with it the cone stops above the rate-free depth; without
+    softening or rate effect the Einav–Randolph law is Tresca's."""
+    strength = straight_line(5000.0, 0.0)
+    tresca = fall_cone_depth(MODEL, make_law("tresca"), strength, [0.06, 0.1, 0.4], 30.0)
+    plain = fall_cone_depth(MODEL, make_law("einav_randolph", "soil.sensitivity=1", "soil.rate.eta=0"), strength,
+                            [0.06, 0.1, 0.4], 30.0)
+    viscous = fall_cone_depth(MODEL, make_law("einav_randolph", "soil.sensitivity=1"), strength, [0.06, 0.1, 0.4], 30.0)
+    np.testing.assert_allclose(plain, tresca, rtol=1e-12)
+    assert np.all(viscous < 0.9 * tresca)
+
+
+def test_the_cone_depth_is_smooth_in_the_parameters():
+    """The calibration differentiates the depth: its finite differences in η settle as the step shrinks
+    (a depth that jumped between time steps would not)."""
+    strength = straight_line(4500.0, 0.0)
+
+    def depth(eta):
+        return fall_cone_depth(MODEL, make_law("einav_randolph", f"soil.rate.eta={eta}"), strength, 0.08, 30.0)[0]
+
+    slopes = [(depth(0.08 + h) - depth(0.08 - h)) / (2 * h) for h in (1e-3, 1e-4, 1e-5)]
+    assert slopes[1] == pytest.approx(slopes[0], rel=1e-3) and slopes[2] == pytest.approx(slopes[1], rel=1e-3)
+
+
+def test_the_tbar_is_the_ideal_factor_times_the_softening_averaged_over_its_strains():
+    """Tresca: q = N_T·su(z) exactly. Softening only: the Einav–Randolph factor averaged over strains
+    exponentially distributed with mean ξ_T is δ + (1 − δ)/(1 + 3·ξ_T/ξ95) (the Laplace transform)."""
+    strength = straight_line(4000.0, 2000.0)
+    z = np.linspace(0.1, 0.5, 5)
+    np.testing.assert_allclose(tbar_resistance(MODEL, make_law("tresca"), strength, z, 0.02, 0.04),
+                               MODEL.tbar_factor * (4000.0 + 2000.0 * z), rtol=1e-14)
+    for st, xi95 in ((2.0, 10.0), (5.0, 30.0), (10.0, 50.0)):
+        law = make_law("einav_randolph", f"soil.sensitivity={st}", f"soil.xi95={xi95}", "soil.rate.eta=0")
+        exact = 1 / st + (1 - 1 / st) / (1 + 3 * MODEL.tbar_strain / xi95)
+        assert float(mean_factor(law, MODEL.tbar_strain, 0.0, 0.0)) == pytest.approx(exact, rel=1e-5)
+
+
+def _write(path: Path, text: str) -> str:
+    path.write_text(text)
+    return str(path)
+
+
+@pytest.mark.parametrize("text, message", [
+    ("depth_m,resistance_kpa,velocity_mm_s\n0.2,50,20\n0.1,40,20\n", "depths must increase row by row"),
+    ("depth_m,resistance_kpa,velocity_mm_s\n0.1,-5,20\n", "tbar.csv row 2: resistance_kpa -5': must be > 0"),
+    ("depth_m,velocity_mm_s\n0.1,20\n", "a tbar test needs resistance (resistance_pa | resistance_kpa)"),
+    ("depth_m,resistance_psi,velocity_mm_s\n0.1,7,20\n", "column resistance_psi': its unit is not understood; "
+                                                        "use resistance_pa | resistance_kpa"),
+    ("depth_m,resistance_kpa,velocity_mm_s\n0.1,abc,20\n", "column resistance_kpa': a row holds no number there"),
+])
+def test_bad_test_data_is_one_line_naming_what_is_wrong(tmp_path, text, message):
+    path = _write(tmp_path / "tbar.csv", text)
+    with pytest.raises(ConfigError, match="calibrate.tests.0..path") as caught:
+        read_test("tbar", path, "calibrate.tests[0]")
+    assert message in str(caught.value) and "\n" not in str(caught.value)
+
+
+def test_the_command_refuses_bad_data_in_one_line_with_exit_2(tmp_path):
+    """Through ``dsmv-calibrate`` itself: one line on stderr, exit code 2, no run dir left behind."""
+    path = _write(tmp_path / "cones.csv", "mass_g,penetration_mm\n80,9.5\n-100,10\n")
+    env = dict(os.environ, NUMBA_NUM_THREADS="1")
+    proc = subprocess.run([str(BIN / "dsmv-calibrate"), f"calibrate.tests=[{{kind: fall_cone, path: {path}}}]",
+                           "tracking=disabled", f"paths.runs_dir={tmp_path / 'runs'}"], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    assert proc.stderr.strip().splitlines() == [proc.stderr.strip()]
+    assert "cones.csv row 3: mass_g -100': must be > 0" in proc.stderr
+    assert not [p for p in (tmp_path / "runs").rglob("*") if p.is_file()]
+
+
+def _problem(*overrides):
+    return check_config(compose_config("calibrate", "site=synthetic_ccz", "tracking=disabled", *overrides))
+
+
+def test_synthetic_data_are_calibrated_back_within_ten_percent_inside_the_intervals():
+    """T-bar profiles at three rates, ten cyclic cycles and three fall cones, generated from known values
+    with 5 % scatter: every resolved parameter within 10 % of its true value and inside its 90 %
+    interval (the residual bootstrap's)."""
+    settings, problem = _problem()
+    cal = calibrate(problem, bootstrap=100, seed=0)
+    truth = _flat(settings.synthetic.truth)
+    assert all(cal.resolved), dict(zip(cal.keys, zip(cal.lower, cal.upper)))
+    for key, best, low, high in zip(cal.keys, cal.best, cal.lower, cal.upper):
+        assert best == pytest.approx(truth[key], rel=0.10), key
+        assert low <= truth[key] <= high, (key, low, truth[key], high)
+    # the 5 % scatter, seen again in every test of ten values or more
+    assert all(0.035 < cal.rms(k) < 0.065 for k, test in enumerate(problem.tests) if len(test) >= 10)
+
+
+def test_what_the_data_cannot_pin_is_named():
+    """γ̇ref fitted beside η: a power law sees only η·γ̇ref^−n, so the two trade along a curve and
+    neither is resolved; without the cyclic test the T-bars and cones still pin the strength."""
+    _, problem = _problem("calibrate.parameters=[soil.su0_pa,soil.ks_pa_per_m,soil.rate.eta,soil.rate.gamma_dot_ref]",
+                          "~calibrate.synthetic.truth.soil.sensitivity", "~calibrate.synthetic.truth.soil.xi95")
+    cal = calibrate(problem, bootstrap=40, seed=0)
+    resolved = dict(zip(cal.keys, cal.resolved))
+    assert not resolved["soil.rate.gamma_dot_ref"] and not resolved["soil.rate.eta"]
+
+
+def test_the_command_writes_a_soil_and_an_uncertainty_that_dsmv_reads(tmp_path):
+    """End to end, with its CEL check: the written soil= composes into a scene at the best fit, the
+    uncertainty= file's joint draws are the bootstrap's, and the summary says what was resolved."""
+    env = dict(os.environ, NUMBA_NUM_THREADS="1")
+    run_dir = tmp_path / "run"
+    proc = subprocess.run([str(BIN / "dsmv-calibrate"), "site=synthetic_ccz", "calibrate.bootstrap=20",
+                           "calibrate.tests=[{kind: tbar, path: conf/site/tbar_20mm_s.csv}, "
+                           "{kind: fall_cone, path: conf/site/fall_cones.csv}]",
+                           "calibrate.parameters=[soil.su0_pa,soil.ks_pa_per_m,soil.rate.eta]",
+                           "~calibrate.synthetic.truth.soil.sensitivity", "~calibrate.synthetic.truth.soil.xi95",
+                           "calibrate.cel_check_cells_per_diameter=6", "tracking=disabled",
+                           f"hydra.run.dir={run_dir}"], cwd=Path(__file__).parents[1], env=env,
+                          capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    result = json.loads((run_dir / "calibration.json").read_text())
+    assert set(result["parameters"]) == {"soil.su0_pa", "soil.ks_pa_per_m", "soil.rate.eta"}
+    check = result["cel_check"][0]
+    assert check["status"] == "ok" and check["q_cel_pa"] > 0
+    assert "CEL check: tbar_20mm_s at 20 mm/s" in proc.stdout and "held     : soil.sensitivity = 3" in proc.stdout
+    soil = OmegaConf.load(run_dir / "conf" / "soil" / "synthetic_ccz.yaml")
+    assert soil.su0_pa == pytest.approx(result["parameters"]["soil.su0_pa"]["best"], rel=1e-9)
+    uncertainty = OmegaConf.load(run_dir / "conf" / "uncertainty" / "synthetic_ccz.yaml")
+    draws = np.loadtxt(uncertainty.joint, delimiter=",", skiprows=1)
+    assert draws.shape == (20, 3) and "velocity_m_s" in uncertainty.landing
+    from dsmv.testing import compose_scene
+
+    scene = compose_scene(f"hydra.searchpath=[file://{run_dir / 'conf'}]", "soil=synthetic_ccz")
+    assert scene.soil.rate.eta == pytest.approx(result["parameters"]["soil.rate.eta"]["best"], rel=1e-9)
+    assert (run_dir / "fit.png").stat().st_size > 20_000
