@@ -28,8 +28,9 @@ from dsmv.errors import ConfigError
 from dsmv.testing import compose_config, make_law
 
 BIN = Path(sys.executable).parent
-MODEL = PenetrometerModel(tbar_factor=11.94, tbar_strain=4.5, tbar_rate_coefficient=1.74, tbar_pass_strain=9.0,
-                          cone_factor=10.0, cone_strain=4.5, cone_rate_coefficient=1.74)
+MODEL = PenetrometerModel(tbar_factor=11.94, tbar_strain=3.7, tbar_rate_coefficient=1.74, tbar_pass_strain=6.5,
+                          tbar_strain_shape=2.0, cone_factor=10.0, cone_strain=1.9, cone_rate_coefficient=0.8,
+                          cone_strain_shape=1.0)
 
 
 def test_a_cone_in_tresca_soil_stops_where_hansbo_says():
@@ -67,16 +68,23 @@ def test_the_cone_depth_is_smooth_in_the_parameters():
 
 
 def test_the_tbar_is_the_ideal_factor_times_the_softening_averaged_over_its_strains():
-    """Tresca: q = N_T·su(z) exactly. Softening only: the Einav–Randolph factor averaged over strains
-    exponentially distributed with mean ξ_T is δ + (1 − δ)/(1 + 3·ξ_T/ξ95) (the Laplace transform)."""
+    """Tresca: q = N_T·su(z) exactly. Softening only, after p passes: the Einav–Randolph factor averaged
+    over strains X·(ξ_T + p·ξ_pass), X Gamma-distributed with shape k and mean 1, is
+    δ + (1 − δ)·(1 + 3·(ξ_T + p·ξ_pass)/(k·ξ95))^−k (the Gamma distribution's Laplace transform)."""
     strength = straight_line(4000.0, 2000.0)
     z = np.linspace(0.1, 0.5, 5)
     np.testing.assert_allclose(tbar_resistance(MODEL, make_law("tresca"), strength, z, 0.02, 0.04),
                                MODEL.tbar_factor * (4000.0 + 2000.0 * z), rtol=1e-14)
-    for st, xi95 in ((2.0, 10.0), (5.0, 30.0), (10.0, 50.0)):
+    k = MODEL.tbar_strain_shape
+    for st, xi95, passes in ((2.0, 10.0, 0), (5.0, 30.0, 0), (10.0, 50.0, 0), (3.0, 20.0, 1), (3.0, 20.0, 6)):
         law = make_law("einav_randolph", f"soil.sensitivity={st}", f"soil.xi95={xi95}", "soil.rate.eta=0")
-        exact = 1 / st + (1 - 1 / st) / (1 + 3 * MODEL.tbar_strain / xi95)
-        assert float(mean_factor(law, MODEL.tbar_strain, 0.0, 0.0)) == pytest.approx(exact, rel=1e-5)
+        strain = MODEL.tbar_strain + passes * MODEL.tbar_pass_strain
+        exact = 1 / st + (1 - 1 / st) * (1 + 3 * strain / (k * xi95)) ** -k
+        q = tbar_resistance(MODEL, law, straight_line(1000.0, 0.0), 0.3, 0.02, 0.04, passes)
+        assert float(q) / (MODEL.tbar_factor * 1000.0) == pytest.approx(exact, rel=1e-5)   # 2e-6 at the sixth pass
+        if passes == 0:   # an exponential spread (k = 1): 1/(1 + 3·ξ/ξ95)
+            exponential = 1 / st + (1 - 1 / st) / (1 + 3 * strain / xi95)
+            assert float(mean_factor(law, strain, 0.0, 1.0)) == pytest.approx(exponential, rel=1e-6)
 
 
 def _write(path: Path, text: str) -> str:
@@ -170,3 +178,30 @@ def test_the_command_writes_a_soil_and_an_uncertainty_that_dsmv_reads(tmp_path):
     scene = compose_scene(f"hydra.searchpath=[file://{run_dir / 'conf'}]", "soil=synthetic_ccz")
     assert scene.soil.rate.eta == pytest.approx(result["parameters"]["soil.rate.eta"]["best"], rel=1e-9)
     assert (run_dir / "fit.png").stat().st_size > 20_000
+
+
+def test_a_cyclic_push_meets_the_flow_round_resistance_both_ways(tmp_path):
+    """A rough T-bar in weightless Tresca soil pushed down, up a stroke and down again: in each stroke the
+    soil flows round it at the exact resistance, 11.94·su (Martin & Randolph 2006), pushing back the
+    other way when it rises; the grid follows it up and down, and soil leaves and enters by the base
+    without loss."""
+    from dsmv.cel.solver2d import Cel2DSolver
+    from dsmv.testing import compose_scene
+
+    scene = compose_scene("experiment=verify_tbar", "hydra.mode=RUN", "mesh.cell_size_m=0.05", "soil.law=tresca",
+                          "landing.displacement_m=0.75", "landing.cycles=1", "landing.stroke_m=0.5",
+                          "solver.progress=off", "output.plots=false")
+    result = Cel2DSolver(scene).solve(tmp_path)
+    assert result.status == "ok", result.message
+    assert result.metrics["mass_error"] < 1e-12 and result.metrics["energy_error"] < 1e-3
+    travel = result.history["sinkage_m"] - result.history["sinkage_m"][0]
+    down = result.history["velocity_m_s"] > 0
+    q = result.history["force_n"] / (0.5 * 1.0) / 10000.0
+    first = down & (travel > 0.4) & (travel < 0.65) & (result.history["time_s"] < 7.5)
+    rising = ~down & (travel > 0.35) & (travel < 0.65)
+    again = down & (travel > 0.35) & (travel < 0.65) & (result.history["time_s"] > 7.5)
+    for stroke in (first, rising, again):
+        assert stroke.sum() > 10
+    assert np.mean(q[first]) == pytest.approx(11.94, rel=0.05)
+    assert -np.mean(q[rising]) == pytest.approx(np.mean(q[first]), rel=0.01)
+    assert np.mean(q[again]) == pytest.approx(np.mean(q[first]), rel=0.01)

@@ -552,6 +552,31 @@ class PushEnd(Tracker):
 
 
 @dataclass
+class Cycles(Tracker):
+    """A cyclic push: down to ``displacement``, then ``cycles`` times up ``stroke`` and back down (m); the
+    prescribed speed turns between chunks, once the stroke's end is reached (a chunk's travel past it)."""
+
+    displacement: float
+    stroke: float
+    cycles: int
+    going_up: bool = False
+    done: int = 0
+
+    def after_chunk(self, run: Run) -> Optional[Ending]:
+        travel = run.travel_m
+        if not self.going_up and travel >= self.displacement - 1e-12:
+            if self.done == self.cycles:
+                return Ending("ok", f"pushed {self.cycles} cycles of {self.stroke:.4g} m to {run.sinkage_m:.4g} m")
+            self.going_up = True
+            run.body[B_VEL] = abs(run.body[B_VEL])      # up: z up +
+        elif self.going_up and travel <= self.displacement - self.stroke + 1e-12:
+            self.going_up = False
+            self.done += 1
+            run.body[B_VEL] = -abs(run.body[B_VEL])
+        return None
+
+
+@dataclass
 class TravelLimit(Tracker):
     """A landing past the travel the domain was sized for: out of the domain."""
 

@@ -363,6 +363,8 @@ class CelSolver:
                 width = max(width, self.travel)
             trackers += [C.Rest(state.par.body_weight == 0.0, cfg.economies.stop_at_rest),
                          C.BearingFailure(width, width == scene.geometry.width_m), C.TravelLimit(self.travel)]
+        elif landing.cycles:
+            trackers.append(C.Cycles(landing.displacement_m, landing.stroke_m, landing.cycles))
         else:
             driven = landing.driven
             trackers.append(C.PushEnd(landing.displacement_m, tuple(int(POSE_SLOTS[FREEDOMS.index(n)])

@@ -243,7 +243,7 @@ FREEDOM_NAMES = ("x", "y", "z", "rx", "ry", "rz")
 #: the landing keys of the freedoms beyond the vertical, at the values that keep a body vertical
 VERTICAL_LANDING = {"free": None, "horizontal_velocity_m_s": 0.0, "lateral_velocity_m_s": 0.0, "roll_rate_rad_s": 0.0,
                     "pitch_rate_rad_s": 0.0, "yaw_rate_rad_s": 0.0, "rotation_deg": None, "cg_offset_m": [0.0, 0.0, 0.0],
-                    "rotational_inertia_kg_m2": None}
+                    "rotational_inertia_kg_m2": None, "cycles": 0, "stroke_m": None}
 #: the landing key of each freedom's given speed (z's is downward)
 RATE_KEYS = {"x": "horizontal_velocity_m_s", "y": "lateral_velocity_m_s", "z": "velocity_m_s",
              "rx": "pitch_rate_rad_s", "ry": "roll_rate_rad_s", "rz": "yaw_rate_rad_s"}
@@ -285,6 +285,10 @@ class LandingConfig(Schema):
     rotational_inertia_kg_m2: Optional[list[Number]] = Field(None, min_length=3, max_length=3, description=(
         "inertia about x, y and z through the centre of gravity, per track (kg·m²); null: a uniform box of "
         "the body's size"))
+    cycles: Count = Field(0, ge=0, description=(
+        "push: after reaching displacement_m, strokes up stroke_m and back down this many times (a cyclic "
+        "T-bar test); 0: none"))
+    stroke_m: Optional[Number] = Field(None, gt=0, description="push with cycles: the stroke's length (m)")
 
     @model_validator(mode="after")
     def _motion_is_complete(self):
@@ -303,6 +307,13 @@ class LandingConfig(Schema):
                 raise ConfigError("landing.displacement_m", None, "a push needs a displacement > 0 (m)")
             if not driven & {"x", "y", "z"} and self.rotation_deg is None:
                 raise ConfigError("landing.rotation_deg", None, "a push that only turns needs a rotation > 0 (degrees)")
+        if self.cycles:
+            if self.kind != "push" or self.driven != {"z"} or self.freedoms:
+                raise ConfigError("landing.cycles", self.cycles, "cycles are a vertical push's (landing=push, driven "
+                                  "in z only, nothing free)")
+            if self.stroke_m is None or self.stroke_m > self.displacement_m:
+                raise ConfigError("landing.stroke_m", self.stroke_m, "cycles need a stroke > 0 no longer than "
+                                  f"the displacement ({self.displacement_m:g} m)")
         return self
 
     @property
@@ -328,7 +339,8 @@ class LandingConfig(Schema):
         rotation over its rate, whichever ends it first."""
         driven = self.driven
         speed = math.sqrt(sum(self.given_velocity(n) ** 2 for n in ("x", "y", "z") if n in driven))
-        ends = [self.displacement_m / speed] if speed > 0 and self.displacement_m else []
+        travel = (self.displacement_m or 0.0) + 2.0 * self.cycles * (self.stroke_m or 0.0)
+        ends = [travel / speed] if speed > 0 and self.displacement_m else []
         rate = math.sqrt(sum(self.given_velocity(n) ** 2 for n in ("rx", "ry", "rz") if n in driven))
         if rate > 0 and self.rotation_deg:
             ends.append(math.radians(self.rotation_deg) / rate)

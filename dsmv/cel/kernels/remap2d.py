@@ -22,7 +22,8 @@ def advect_cells(axis, mesh, cells, faces, ux, uy, dt, par, inflow, audit):
     the mean normal velocity of its two nodes. Soil volume moves by the
     donor–acceptor rule; each transported quantity moves with it at the donor's value plus
     a van Leer limited slope when ``order`` = 2. Domain edges are closed, except the base
-    (axis 1, face 0) when ``par.inflow``: soil enters there in the state ``inflow.ghost[k, i]``; and
+    (axis 1, face 0) when ``par.inflow``: soil enters there in the state ``inflow.ghost[k, i]`` and leaves
+    there, into soil like its own, while the grid follows a body going up (a cyclic push); and
     the sides (axis 0), where the grid follows a body that slides: the soil beyond enters in the state
     ``inflow.side[k, j]``, filled ``inflow.side_fill[j]``, and leaves freely.
     The faces' ``flux[face, line]`` receives the signed soil volume through each face (for the momentum
@@ -80,8 +81,8 @@ def advect_cells(axis, mesh, cells, faces, ux, uy, dt, par, inflow, audit):
                     boundary += abs(signed)
                 continue
             leaving = acceptor < 0 or acceptor >= n_cells
-            if leaving and not side_open:
-                continue  # closed edges: symmetry plane, rollers, base; soil near the top ends a run
+            if leaving and not (side_open or (bottom_inflow and acceptor < 0)):
+                continue  # closed edges: symmetry plane, rollers, top; soil near the top ends a run
             di = donor if axis == 0 else i
             dj = j if axis == 0 else donor
             phi_d = phi[di, dj]

@@ -87,8 +87,8 @@ def line_fluxes(axis, la, lb, mesh, cells, phi0, u, aperture, inflow, par, line_
                 entered += abs(signed)
             continue
         leaving = acceptor < 0 or acceptor >= n_cells
-        if leaving and not side_open:
-            continue  # closed edges: symmetry planes, rollers, base; soil near the top ends a run
+        if leaving and not (side_open or (inflow_here and acceptor < 0)):
+            continue  # closed edges: symmetry planes, rollers, top; the base lets soil out under a body going up
         di, dj, dk = cell_of(axis, donor, la, lb)
         phi_d = phi[di, dj, dk]
         if phi_d <= phi_min:
