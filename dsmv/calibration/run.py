@@ -78,6 +78,7 @@ class CalibrateSettings(Schema):
     name: str = Field("site", pattern=r"^[A-Za-z0-9_]+$", description="name of the soil= and uncertainty= files")
     cel_check: bool = Field(True, description="run the CEL T-bar at the best fit")
     cel_check_cells_per_diameter: Count = Field(10, ge=4, description="the CEL check's core cells across the bar")
+    cel_check_cycles: Count = Field(2, ge=0, description="the cycles of a cyclic test the CEL check pushes (0: none)")
     models: PenetrometerModel
     landing_uncertainty: Optional[str] = Field("nodule_field", description="uncertainty= file whose landing entries are kept")
     synthetic: Optional[Synthetic] = Field(None, description="generate the tests' data from known values")
@@ -145,15 +146,21 @@ CHECK_SPEED_DIAMETERS_PER_S = 2.5
 CHECK_TRAVEL_DIAMETERS = 6.0
 
 
-def cel_check(problem: Problem, best, cells_per_diameter: int, run_dir: Path) -> list[dict]:
-    """The CEL T-bar at the best fit, once per rate of the tests' first cycles: pushed
-    :data:`CHECK_TRAVEL_DIAMETERS` to the middle of that rate's depths, its mean resistance over the last
-    D against the model's and the data's there (the data's rows within ±D/2 of that depth). It runs at :data:`CHECK_SPEED_DIAMETERS_PER_S`
-    with γ̇ref scaled alike (Einav–Randolph only; another law runs at the test's own speed)."""
-    from dsmv import registry
-    from dsmv.config.tree import compose_scene
+#: the cyclic check's stroke (diameters): the soil at mid-stroke is passed in full by each stroke
+CHECK_STROKE_DIAMETERS = 4.0
 
+
+def cel_check(problem: Problem, best, cells_per_diameter: int, run_dir: Path, cycles: int = 2) -> list[dict]:
+    """The CEL T-bar at the best fit against the model and the data at the same depth.
+
+    Once per rate of the tests' first cycles: pushed :data:`CHECK_TRAVEL_DIAMETERS` to the middle of
+    that rate's depths, the mean resistance over the last D (the data's rows within ±D/2 of that
+    depth). And once per cyclic test: down to its depth + half a stroke of :data:`CHECK_STROKE_DIAMETERS`,
+    then ``cycles`` strokes up and down, the mean resistance over the middle D of each penetration
+    stroke against its cycle's. The bar runs at :data:`CHECK_SPEED_DIAMETERS_PER_S` with γ̇ref scaled
+    alike (Einav–Randolph only; another law runs at the test's own speed)."""
     soil = problem.soil_at(best)
+    law = problem._law_cls(soil)
     checks, seen = [], set()
     for test in problem.tests:
         if test.kind != "tbar":
@@ -161,39 +168,80 @@ def cel_check(problem: Problem, best, cells_per_diameter: int, run_dir: Path) ->
         c, D = test.columns, test.diameter_m
         first = c["cycle"] == 1
         for velocity in np.unique(c["velocity"][first]):
-            if (float(velocity), D) in seen:
+            if (float(velocity), D) in seen or len(np.unique(c["cycle"])) > 1:
                 continue
             seen.add((float(velocity), D))
             rows = first & (c["velocity"] == velocity)
             depth = float(np.median(c["depth"][rows]))
             travel = CHECK_TRAVEL_DIAMETERS * D
             start = max(depth + 0.5 * D - travel, 1.5 * D)   # the bar's axis at the start, at least 1.5 D deep
-            speed = CHECK_SPEED_DIAMETERS_PER_S * D if soil.law == "einav_randolph" else float(velocity)
-            checked = soil.model_copy(update={"rate": soil.rate.model_copy(
-                update={"gamma_dot_ref": soil.rate.gamma_dot_ref * speed / velocity})})
-            scene = compose_scene(_scene_overrides(checked, test, speed, start, travel, cells_per_diameter))
-            folder = run_dir / "cel_check" / f"{test.name}_v{velocity:g}"
-            folder.mkdir(parents=True, exist_ok=True)
-            started = time.perf_counter()
-            result = registry.load("solvers", scene.solver.name, "solver.name")(scene).solve(folder)
-            wall = time.perf_counter() - started
-            entry = {"test": test.name, "velocity_m_s": float(velocity), "run_velocity_m_s": float(speed),
-                     "status": result.status, "wall_s": wall}
-            if result.status == "ok":
-                sinkage = np.asarray(result.history["sinkage_m"])
-                moved = sinkage - sinkage[0]
-                force = np.asarray(result.history["force_n"])
+            entry, history, scene = _run_tbar(soil, test, velocity, start, travel, 0, cells_per_diameter,
+                                              run_dir / "cel_check" / f"{test.name}_v{velocity:g}")
+            if history is not None:
+                moved = history["sinkage_m"] - history["sinkage_m"][0]
                 last = moved >= moved.max() - D
                 axis = float(np.mean(scene.landing.initial_depth_m + moved[last])) - D / 2.0
-                q_cel = float(np.mean(force[last])) / (D * scene.geometry.contact_length_m)
-                law = problem._law_cls(soil)
+                q_cel = float(np.mean(history["force_n"][last])) / (D * scene.geometry.contact_length_m)
                 q_model = float(tbar_resistance(problem.model, law, soil.strength, axis, velocity, D))
                 near = rows & (np.abs(c["depth"] - axis) <= D / 2.0)
                 q_data = float(np.mean(c["resistance"][near])) if near.any() else float("nan")
                 entry |= {"depth_m": axis, "q_cel_pa": q_cel, "q_model_pa": q_model, "q_data_pa": q_data,
                           "model_over_cel": q_model / q_cel}
-            checks.append(entry)
+            checks.append(entry | {"test": test.name})
+        if len(np.unique(c["cycle"])) > 1 and cycles > 0:
+            checks += _cyclic_check(problem, law, soil, test, cycles, cells_per_diameter, run_dir)
     return checks
+
+
+def _cyclic_check(problem: Problem, law, soil, test: SiteTest, cycles: int, cells: int, run_dir: Path) -> list[dict]:
+    """The cyclic push about the test's depth: one entry per penetration stroke (cycle 1, 2, …)."""
+    c, D = test.columns, test.diameter_m
+    depth, velocity = float(np.median(c["depth"])), float(np.median(c["velocity"]))
+    stroke = CHECK_STROKE_DIAMETERS * D
+    bottom = depth + 0.5 * stroke                       # the bar's axis at the strokes' bottom
+    start = max(bottom - CHECK_TRAVEL_DIAMETERS * D, 1.5 * D)
+    entry, history, scene = _run_tbar(soil, test, velocity, start, bottom - start, cycles, cells,
+                                      run_dir / "cel_check" / f"{test.name}_cycles", stroke)
+    if history is None:
+        return [entry | {"test": test.name}]
+    axis = scene.landing.initial_depth_m + history["sinkage_m"] - history["sinkage_m"][0] - D / 2.0
+    downward = history["velocity_m_s"] > 0
+    strokes = np.cumsum(np.r_[0, np.diff(downward.astype(int)) != 0])   # 0: first down, 1: up, 2: down, …
+    out = []
+    for cycle in range(1, cycles + 2):
+        here = (strokes == 2 * (cycle - 1)) & (np.abs(axis - depth) <= D / 2.0)
+        if not here.any():
+            continue
+        q_cel = float(np.mean(history["force_n"][here])) / (D * scene.geometry.contact_length_m)
+        q_model = float(tbar_resistance(problem.model, law, soil.strength, depth, velocity, D, 2 * (cycle - 1)))
+        data = c["resistance"][c["cycle"] == cycle]
+        out.append(entry | {"test": test.name, "cycle": cycle, "depth_m": depth, "q_cel_pa": q_cel,
+                            "q_model_pa": q_model, "q_data_pa": float(np.mean(data)) if len(data) else float("nan"),
+                            "model_over_cel": q_model / q_cel})
+    return out
+
+
+def _run_tbar(soil, test: SiteTest, velocity: float, start: float, travel: float, cycles: int, cells: int,
+              folder: Path, stroke: float | None = None):
+    """The CEL T-bar push (see :func:`cel_check`): its check entry, its history (None unless ok), its scene."""
+    from dsmv import registry
+    from dsmv.config.tree import compose_scene
+
+    D = test.diameter_m
+    speed = CHECK_SPEED_DIAMETERS_PER_S * D if soil.law == "einav_randolph" else float(velocity)
+    checked = soil.model_copy(update={"rate": soil.rate.model_copy(
+        update={"gamma_dot_ref": soil.rate.gamma_dot_ref * speed / velocity})})
+    overrides = _scene_overrides(checked, test, speed, start, travel, cells)
+    if cycles:
+        overrides += [f"landing.cycles={cycles}", f"landing.stroke_m={float(stroke)!r}"]
+    scene = compose_scene(overrides)
+    folder.mkdir(parents=True, exist_ok=True)
+    started = time.perf_counter()
+    result = registry.load("solvers", scene.solver.name, "solver.name")(scene).solve(folder)
+    entry = {"velocity_m_s": float(velocity), "run_velocity_m_s": float(speed), "status": result.status,
+             "wall_s": time.perf_counter() - started}
+    history = ({k: np.asarray(v, dtype=float) for k, v in result.history.items()} if result.status == "ok" else None)
+    return entry, history, scene
 
 
 def _scene_overrides(soil, test: SiteTest, velocity: float, axis_depth: float, travel: float, cells: int) -> list[str]:
@@ -435,7 +483,8 @@ def run_calibration(cfg: DictConfig, run_dir: Path) -> dict:
     checks = []
     if settings.cel_check and any(t.kind == "tbar" for t in problem.tests):
         print("  CEL check: the T-bar at the best fit, one push per rate …", flush=True)
-        checks = cel_check(problem, cal.best, settings.cel_check_cells_per_diameter, run_dir)
+        checks = cel_check(problem, cal.best, settings.cel_check_cells_per_diameter, run_dir,
+                           settings.cel_check_cycles)
     files = write_outputs(settings, problem, cal, checks, run_dir)
     compared = {}
     if settings.exceedance.sinkage_limit_m is not None:
@@ -446,8 +495,8 @@ def run_calibration(cfg: DictConfig, run_dir: Path) -> dict:
     metrics |= {f"lower_{_metric_name(k)}": float(v) for k, v in zip(cal.keys, cal.lower)}
     metrics |= {f"upper_{_metric_name(k)}": float(v) for k, v in zip(cal.keys, cal.upper)}
     metrics |= {f"misfit_{t.name}": cal.rms(i) for i, t in enumerate(problem.tests)}
-    metrics |= {f"cel_check_{c['test']}_{c['velocity_m_s']:g}": c["model_over_cel"] for c in checks
-                if "model_over_cel" in c}
+    metrics |= {f"cel_check_{c['test']}_" + (f"cycle_{c['cycle']}" if "cycle" in c else f"{c['velocity_m_s']:g}"):
+                c["model_over_cel"] for c in checks if "model_over_cel" in c}
     metrics |= {f"exceedance_{which}": answer["probability"] for which, answer in compared.items()}
     metrics |= {"resolved_parameters": float(sum(cal.resolved)), "fit_wall_s": fit_s,
                 "calibrate_wall_s": time.perf_counter() - started}
@@ -474,7 +523,8 @@ def print_summary(settings, problem: Problem, cal: Calibration, checks, compared
         print(f"  misfit   : {test.name} ({test.kind}, {len(test)} values): {cal.rms(i):.1%} rms")
     for check in checks:
         if "model_over_cel" in check:
-            print(f"  CEL check: {check['test']} at {check['velocity_m_s'] * 1e3:g} mm/s, {check['depth_m']:.3f} m: "
+            cycle = f", cycle {check['cycle']}" if "cycle" in check else ""
+            print(f"  CEL check: {check['test']} at {check['velocity_m_s'] * 1e3:g} mm/s{cycle}, {check['depth_m']:.3f} m: "
                   f"CEL {check['q_cel_pa'] / 1e3:.2f} kPa, model {check['q_model_pa'] / 1e3:.2f} kPa "
                   f"({check['model_over_cel'] - 1:+.1%}), data {check['q_data_pa'] / 1e3:.2f} kPa ({check['wall_s']:.0f} s"
                   + (f"; run at {check['run_velocity_m_s'] * 1e3:g} mm/s, gamma_dot_ref scaled alike)"
