@@ -125,18 +125,32 @@ def _problem(*overrides):
 
 
 def test_synthetic_data_are_calibrated_back_within_ten_percent_inside_the_intervals():
-    """T-bar profiles at three rates, ten cyclic cycles and three fall cones, generated from known values
-    with 5 % scatter: every resolved parameter within 10 % of its true value and inside its 90 %
-    interval (the residual bootstrap's)."""
+    """T-bar profiles at three rates, ten cyclic cycles at two depths and three fall cones, generated from
+    known values with 5 % scatter (the shipped example, site=synthetic_ccz): every parameter the data
+    resolve (its 90 % interval narrower than 20 % of its value, about ±10 %) within 10 % of its true
+    value; the strengths, St and η are resolved. Over four other noise draws the 20 intervals hold the
+    true value at least 15 times: a calibrated 90 % interval holds it 18 times on average, and 14 or
+    fewer with probability 1.1 % (Binomial(20, 0.9)); 18 noise draws with 200 refits each held it 83
+    times in 90 (docs: site tests)."""
     settings, problem = _problem()
     cal = calibrate(problem, bootstrap=100, seed=0)
     truth = _flat(settings.synthetic.truth)
-    assert all(cal.resolved), dict(zip(cal.keys, zip(cal.lower, cal.upper)))
-    for key, best, low, high in zip(cal.keys, cal.best, cal.lower, cal.upper):
-        assert best == pytest.approx(truth[key], rel=0.10), key
-        assert low <= truth[key] <= high, (key, low, truth[key], high)
-    # the 5 % scatter, seen again in every test of ten values or more
-    assert all(0.035 < cal.rms(k) < 0.065 for k, test in enumerate(problem.tests) if len(test) >= 10)
+    resolved = dict(zip(cal.keys, cal.resolved))
+    assert all(resolved[k] for k in ("soil.su0_pa", "soil.ks_pa_per_m", "soil.sensitivity", "soil.rate.eta"))
+    for key, best in zip(cal.keys, cal.best):
+        if resolved[key]:
+            assert best == pytest.approx(truth[key], rel=0.10), key
+    # the 5 % scatter, seen again: over the 173 values of the tests of ten or more the rms misfit has a
+    # standard error of 0.05/√346 = 0.0027; within 20 % is ±3.7 of them
+    big = [k for k, test in enumerate(problem.tests) if len(test) >= 10]
+    pooled = math.sqrt(sum(len(problem.tests[k]) * cal.rms(k) ** 2 for k in big) / sum(len(problem.tests[k]) for k in big))
+    assert pooled == pytest.approx(0.05, rel=0.2)
+    inside = 0
+    for noise_seed in range(2, 6):
+        _, problem = _problem(f"calibrate.synthetic.seed={noise_seed}")
+        cal = calibrate(problem, bootstrap=100, seed=noise_seed)
+        inside += sum(low <= truth[k] <= high for k, low, high in zip(cal.keys, cal.lower, cal.upper))
+    assert inside >= 15, inside
 
 
 def test_what_the_data_cannot_pin_is_named():

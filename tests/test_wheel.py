@@ -52,9 +52,11 @@ def _build_wheel(tmp_path: Path) -> Path:
 def test_the_wheel_carries_the_config_tree_and_runs_a_scene(tmp_path):
     wheel = _build_wheel(tmp_path)
     names = set(zipfile.ZipFile(wheel).namelist())
-    tree = {p.relative_to(ROOT).as_posix() for p in (ROOT / "conf").rglob("*.yaml")}
+    tree = {p.relative_to(ROOT).as_posix() for pattern in ("*.yaml", "*.csv") for p in (ROOT / "conf").rglob(pattern)}
     missing = {name for name in tree if f"dsmv/{name}" not in names}
     assert not missing, f"config files not in the wheel: {sorted(missing)}"
+    packages = {p.relative_to(ROOT).as_posix() for p in (ROOT / "dsmv").rglob("__init__.py")}
+    assert not packages - names, f"packages not in the wheel: {sorted(packages - names)}"
 
     site = tmp_path / "site"
     zipfile.ZipFile(wheel).extractall(site)

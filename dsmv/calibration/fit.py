@@ -8,7 +8,10 @@ between bounds, searched by a bounded trust-region least squares (scipy ``least_
 
 **Uncertainty: a residual bootstrap.** Each of ``bootstrap`` resamples keeps the best fit's model
 values and multiplies them by residuals drawn with replacement from the same test's own residuals
-(inflated by √(n/(n − p)) for the degrees of freedom the fit used), and is fitted again. Why a
+(inflated by √(n/(n − p)) for the degrees of freedom the fit used), and is fitted again. The
+interval is the basic bootstrap's, the draws' percentiles reflected about the best fit: on 18 noise
+draws of the synthetic site it held the truth 83 times in 90 (percentiles: 80; the strength su0,
+whose estimate leans, 17 in 18 against 14). Why a
 bootstrap: the models are nonlinear and the parameters bounded (St ≥ 1, η ≥ 0), where a linearised
 covariance misstates an interval that reaches a bound; the draws are a joint sample that keeps the
 parameters' correlations (T-bar data fix su·R(γ̇), so su0 and η trade), and ``dsmv-predict
@@ -52,8 +55,12 @@ def _get(tree: dict, key: str):
     node = tree
     for part in key.split(".")[1:]:
         if not isinstance(node, dict) or part not in node:
-            raise ConfigError("calibrate.parameters", key, "not a key of the soil (e.g. soil.su0_pa, soil.rate.eta)")
+            raise ConfigError("calibrate.parameters", key, "not a number of the soil (e.g. soil.su0_pa, soil.rate.eta, "
+                              "soil.params.NAME)")
         node = node[part]
+    if isinstance(node, bool) or not isinstance(node, (int, float)):
+        raise ConfigError("calibrate.parameters", key, "not a number of the soil (e.g. soil.su0_pa, soil.rate.eta, "
+                          "soil.params.NAME)")
     return node
 
 
@@ -129,12 +136,20 @@ class Calibration:
     test_slices: list[slice]
     failed_resamples: int = 0
     linear_width: np.ndarray | None = None   # the linearised interval's width over the best value (-)
+    bounds: list | None = None               # the parameters' bounds, which the intervals keep to
     lower: np.ndarray = field(init=False)
     upper: np.ndarray = field(init=False)
 
     def __post_init__(self):
+        """The basic bootstrap interval: the draws' spread reflected about the best fit, [2θ̂ − q_hi, 2θ̂ − q_lo],
+        which takes off the estimator's own bias to first order (the draws sit about θ̂ as θ̂ sits about
+        the truth); kept within the bounds."""
         tail = 100.0 * (1.0 - self.confidence) / 2.0
-        self.lower, self.upper = np.percentile(self.draws, [tail, 100.0 - tail], axis=0)
+        low, high = np.percentile(self.draws, [tail, 100.0 - tail], axis=0)
+        self.lower, self.upper = 2.0 * self.best - high, 2.0 * self.best - low
+        if self.bounds is not None:
+            edges = np.array(self.bounds, dtype=float)
+            self.lower, self.upper = np.maximum(self.lower, edges[:, 0]), np.minimum(self.upper, edges[:, 1])
 
     @property
     def resolved(self) -> list[bool]:
@@ -182,7 +197,7 @@ def linear_widths(problem: Problem, best, confidence: float, step: float = 1e-3)
     return 2.0 * norm.ppf(0.5 + confidence / 2.0) * std
 
 
-def calibrate(problem: Problem, bootstrap: int = 200, confidence: float = 0.9, resolved_width: float = 0.5,
+def calibrate(problem: Problem, bootstrap: int = 200, confidence: float = 0.9, resolved_width: float = 0.2,
               seed: int = 0, progress: Callable[[int, int], None] | None = None) -> Calibration:
     """The best fit and ``bootstrap`` refits on resampled residuals (see the module's docstring)."""
     best = _solve(problem.residuals, problem.start, problem.bounds)
@@ -211,7 +226,7 @@ def calibrate(problem: Problem, bootstrap: int = 200, confidence: float = 0.9, r
     if not draws:
         raise ValueError("every bootstrap refit failed")
     return Calibration(problem.keys, best, np.array(draws), confidence, resolved_width, residuals, slices, failed,
-                       linear_widths(problem, best, confidence))
+                       linear_widths(problem, best, confidence), problem.bounds)
 
 
 __all__ = ["Problem", "Calibration", "calibrate", "DEFAULT_BOUNDS"]

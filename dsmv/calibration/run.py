@@ -27,8 +27,8 @@ from pydantic import Field
 
 from dsmv.analytic.penetrometer import PenetrometerModel, tbar_resistance
 from dsmv.calibration.data import KINDS, MEASURED, SiteTest, read_test, write_test
-from dsmv.calibration.fit import DEFAULT_BOUNDS, Calibration, Problem, calibrate
-from dsmv.config.location import CONFIG_DIR
+from dsmv.calibration.fit import DEFAULT_BOUNDS, Calibration, Problem, _get, calibrate
+from dsmv.config.location import CONFIG_DIR, data_path
 from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError
 from dsmv.surrogate.dataset import COLUMNS
@@ -73,7 +73,7 @@ class CalibrateSettings(Schema):
     bounds: dict[str, list[Number]] = Field(default_factory=dict, description="{key: [low, high]}")
     bootstrap: Count = Field(200, ge=10, description="residual-bootstrap refits (-)")
     confidence: Number = Field(0.9, gt=0, lt=1, description="the intervals' level (-)")
-    resolved_width: Number = Field(0.5, gt=0, description="resolved: interval width / best value below this (-)")
+    resolved_width: Number = Field(0.2, gt=0, description="resolved: interval width / best value below this (-)")
     seed: int = Field(0, description="the bootstrap's seed (-)")
     name: str = Field("site", pattern=r"^[A-Za-z0-9_]+$", description="name of the soil= and uncertainty= files")
     cel_check: bool = Field(True, description="run the CEL T-bar at the best fit")
@@ -83,14 +83,6 @@ class CalibrateSettings(Schema):
     landing_uncertainty: Optional[str] = Field("nodule_field", description="uncertainty= file whose landing entries are kept")
     synthetic: Optional[Synthetic] = Field(None, description="generate the tests' data from known values")
     exceedance: ExceedanceSettings = Field(default_factory=ExceedanceSettings)
-
-
-def _project_path(path: str) -> Path:
-    """A relative path from the working folder, else from the project's folder (as ``soil.profile``'s)."""
-    candidate = Path(path)
-    if candidate.is_absolute() or candidate.exists():
-        return candidate
-    return Path(CONFIG_DIR).parent / candidate
 
 
 def check_config(cfg: DictConfig) -> tuple[CalibrateSettings, Problem]:
@@ -106,13 +98,14 @@ def check_config(cfg: DictConfig) -> tuple[CalibrateSettings, Problem]:
     keys = list(dict.fromkeys(settings.parameters))
     bounds = []
     for key in keys:
+        _get(soil, key)   # a key the soil does not have: one line naming it
         given = settings.bounds.get(key, DEFAULT_BOUNDS.get(key))
         if given is None:
             raise ConfigError(f"calibrate.bounds.{key}", None, "give this parameter's bounds [low, high]")
         if len(given) != 2 or not given[0] < given[1]:
             raise ConfigError(f"calibrate.bounds.{key}", list(given), "must be [low, high] with low < high")
         bounds.append((float(given[0]), float(given[1])))
-    tests = [read_test(spec.kind, _project_path(spec.path), f"calibrate.tests[{i}]", diameter_m=spec.diameter_m,
+    tests = [read_test(spec.kind, data_path(spec.path), f"calibrate.tests[{i}]", diameter_m=spec.diameter_m,
                        apex_angle_deg=spec.apex_angle_deg) for i, spec in enumerate(settings.tests)]
     if settings.synthetic is not None:
         truth = _flat(settings.synthetic.truth)

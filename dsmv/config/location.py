@@ -20,3 +20,12 @@ def find_config_dir() -> Path:
 
 #: the Hydra config tree every entry point composes from
 CONFIG_DIR = str(find_config_dir())
+
+
+def data_path(value) -> Path:
+    """A data file named in a config (a strength profile's CSV, a site test's): a relative path from the
+    working folder, else from the project's folder (the one holding ``conf/``), as the configs name them."""
+    path = Path(value)
+    if path.is_absolute() or path.exists():
+        return path
+    return Path(CONFIG_DIR).parent / path

@@ -20,6 +20,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from dsmv.config.location import data_path
 from dsmv.errors import ConfigError
 
 #: the units a CSV column may name, as factors to m and Pa
@@ -67,12 +68,12 @@ def straight_line(su0_pa: float, ks_pa_per_m: float) -> StrengthSegments:
     return StrengthSegments(np.array([-math.inf]), np.array([float(su0_pa)]), np.array([float(ks_pa_per_m)]))
 
 
-def read_points(value, base: Path | None = None) -> np.ndarray:
-    """The profile's points, (n, 2): depth (m) and su (Pa), from an inline table or a CSV path, checked:
-    depths in order (a repeated depth is a jump), none negative, strengths > 0."""
-    if isinstance(value, (str, Path)):  # a relative path: from the working folder, else from the project's
-        path = Path(value)
-        points = _read_csv(path if path.is_absolute() or path.exists() or base is None else base / path)
+def read_points(value) -> np.ndarray:
+    """The profile's points, (n, 2): depth (m) and su (Pa), from an inline table or a CSV path
+    (:func:`dsmv.config.location.data_path`), checked: depths in order (a repeated depth is a jump), none
+    negative, strengths > 0."""
+    if isinstance(value, (str, Path)):
+        points = _read_csv(data_path(value))
     else:
         try:
             points = np.array(value, dtype=float).reshape(-1, 2)

@@ -113,7 +113,7 @@ class SoilConfig(Schema):
         """su_intact(z) as segments (:class:`dsmv.config.profile.StrengthSegments`)."""
         if self.profile is None:
             return straight_line(self.su0_pa, self.ks_pa_per_m)
-        return segments(read_points(self.profile, Path(CONFIG_DIR).parent))
+        return segments(read_points(self.profile))
 
 
 # --------------------------------------------------------------------------- geometry
