@@ -218,3 +218,6 @@ def test_a_cyclic_push_meets_the_flow_round_resistance_both_ways(tmp_path):
     assert np.mean(q[first]) == pytest.approx(11.94, rel=0.05)
     assert -np.mean(q[rising]) == pytest.approx(np.mean(q[first]), rel=0.01)
     assert np.mean(q[again]) == pytest.approx(np.mean(q[first]), rel=0.01)
+    # each cycle's penetration at mid-stroke, as result.json reports it
+    assert result.metrics["nc_cycle_1"] == pytest.approx(np.mean(q[first]), rel=0.01)
+    assert result.metrics["nc_cycle_2"] == pytest.approx(np.mean(q[first]), rel=0.01)

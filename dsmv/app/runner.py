@@ -279,6 +279,10 @@ def _answer(scene: Scene, result: SolveResult) -> str:
     factors = [f"{result.metrics[name]:.3f} at {label}" for name, label in
                (("nc_at_0p02B", "0.02 B"), ("nc_at_0p05B", "0.05 B"), ("nc_at_0p1B", "0.1 B"),
                 ("nc_at_1B", "1 B"), ("nc_deep", "depth (nc_deep)")) if name in result.metrics]
+    cycles = sorted((int(name.rpartition("_")[2]), value) for name, value in result.metrics.items()
+                    if name.startswith("nc_cycle_"))
+    if cycles:  # a cyclic push: each cycle's penetration at mid-stroke
+        factors.append("cycles " + ", ".join(f"{value:.3f}" for _, value in cycles) + " at mid-stroke")
     if "end_vertical_factor" in result.metrics:  # a probe along or about another axis: its end load
         m = result.metrics
         factors = [f"V/(A·su) {m['end_vertical_factor']:.3f}, H/(A·su) {m['end_horizontal_factor']:.3f}, "

@@ -587,17 +587,31 @@ class CelSolver:
         B = scene.geometry.width_m
         nc = history["force_n"] / (self.contact_area_m2() * scene.soil.su0_pa)
         s_over_b = history["sinkage_m"] / B
+        # a cyclic push's strokes, 0 the first penetration, which the samples at fixed s/B read
+        strokes = np.zeros(len(nc), dtype=np.int64)
+        if scene.landing.cycles:
+            strokes = np.cumsum(np.r_[0, np.diff((history["velocity_m_s"] > 0).astype(int)) != 0])
         for name, at in NC_SAMPLES.items():
-            window = np.abs(s_over_b - at) <= NC_WINDOW
+            window = (np.abs(s_over_b - at) <= NC_WINDOW) & (strokes == 0)
             if window.any():
                 metrics[name] = float(nc[window].mean())
                 units[name] = "-"
-        beyond = s_over_b >= NC_SAMPLES["nc_at_0p02B"]
+        beyond = (s_over_b >= NC_SAMPLES["nc_at_0p02B"]) & (strokes == 0)
         if beyond.sum() > 2:
             metrics["nc_roughness"] = float(np.abs(np.diff(nc[beyond])).max())
             units["nc_roughness"] = "-"
         if self.circular:  # a T-bar (or ball): the deep factor is the mean over the last diameter pushed
             last = history["sinkage_m"] >= history["sinkage_m"][-1] - B
+            landing = scene.landing
+            if landing.cycles:  # the last penetration stroke's, and each cycle's over the middle half of its stroke
+                last &= strokes == strokes[-1]
+                middle = history["sinkage_m"][0] + landing.displacement_m - 0.5 * landing.stroke_m
+                mid_stroke = np.abs(history["sinkage_m"] - middle) <= 0.25 * landing.stroke_m
+                for cycle in range(1, landing.cycles + 2):
+                    here = (strokes == 2 * (cycle - 1)) & mid_stroke
+                    if here.any():
+                        metrics[f"nc_cycle_{cycle}"] = float(nc[here].mean())
+                        units[f"nc_cycle_{cycle}"] = "-"
             metrics["nc_deep"] = float(nc[last & (history["sinkage_m"] > 0)].mean())
             units["nc_deep"] = "-"
         metrics["max_force_n"] = float(history["force_n"].max())
