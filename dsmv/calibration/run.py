@@ -16,7 +16,6 @@ What it writes into its run dir (``runs/calibrate/<date>/<time>``):
 from __future__ import annotations
 
 import json
-import math
 import time
 from pathlib import Path
 from typing import Literal, Optional
@@ -315,7 +314,7 @@ def write_outputs(settings: CalibrateSettings, problem: Problem, cal: Calibratio
         "bootstrap": len(cal.draws), "failed_refits": cal.failed_resamples,
         "tests": [{"name": t.name, "kind": t.kind, "rows": len(t), "rms_log_misfit": cal.rms(i)}
                   for i, t in enumerate(problem.tests)],
-        "held": {k: v for k, v in _held(problem).items()},
+        "held": _held(problem),
         "cel_check": checks,
         "synthetic": settings.synthetic.model_dump() if settings.synthetic else None,
     }
@@ -439,7 +438,7 @@ def log_to_mlflow(cfg: DictConfig, settings: CalibrateSettings, cal: Calibration
     client = runs._client(tracking)
     experiment_id = find_experiment(client, runs.experiment_name(EXPERIMENT), tracking.artifact_location)
     mlflow.set_tracking_uri(client.tracking_uri)
-    tags = {"dsmv.role": "calibration", "dsmv.status": "ok", "dsmv.soil_law": cal_law(cfg)}
+    tags = {"dsmv.role": "calibration", "dsmv.status": "ok", "dsmv.soil_law": str(cfg.soil.law)}
     with mlflow.start_run(experiment_id=experiment_id, run_name=f"calibrate {settings.name}", tags=tags) as run:
         params = runs.flatten({"calibrate": settings.model_dump(exclude={"models"}), "models": settings.models.model_dump()})
         mlflow.log_params({k: str(v)[:6000] for k, v in params.items()})
@@ -447,10 +446,6 @@ def log_to_mlflow(cfg: DictConfig, settings: CalibrateSettings, cal: Calibration
         for path in files.values():
             mlflow.log_artifact(str(path))
     return {"uri": client.tracking_uri, "experiment": runs.experiment_name(EXPERIMENT), "run_id": run.info.run_id}
-
-
-def cal_law(cfg: DictConfig) -> str:
-    return str(cfg.soil.law)
 
 
 def _metric_name(key: str) -> str:

@@ -103,8 +103,8 @@ def uncertainty_from(container: dict) -> Uncertainty:
     node = dict(container.get("uncertainty") or {})
     settings = _validate(UncertaintySettings, {k: node.pop(k) for k in ("samples", "seed") if k in node},
                          "uncertainty")
-    joint = _joint_draws(node.pop("joint")) if node.get("joint") is not None else None
-    node.pop("joint", None)
+    joint_path = node.pop("joint", None)
+    joint = _joint_draws(joint_path) if joint_path is not None else None
     distributions = {}
     for key, data in _flatten(node).items():
         if key not in COLUMNS:
