@@ -194,7 +194,10 @@ def test_a_symmetric_landing_stays_upright_bit_for_bit(compose_cfg):
     (["geometry=fall_cone_30deg", "landing.cg_offset_m=[0.01,0,0]"], "landing.cg_offset_m"),  # axisymmetric
     # a turn redrawn in large deformation is a rough staircase
     (["landing.free=[z,ry]", "landing.cg_offset_m=[0.1,0,0]", "geometry.roughness=smooth"], "geometry.roughness"),
-    (["solver=cel3d", "landing.free=[z,x,ry]", "landing.cg_offset_m=[0.1,0,0]"], "landing.free"),
+    (["solver=cel3d", "landing.free=[z,x,ry]", "landing.cg_offset_m=[0.1,0,0]", "geometry.roughness=smooth"],
+     "geometry.roughness"),
+    (["solver=cel3d", "landing.free=[z,x,ry]", "landing.cg_offset_m=[0.1,0,0]", "geometry.grousers=cells"],
+     "geometry.grousers"),  # a turning track is redrawn as its grousers' envelope
     (["landing=push", "landing.lateral_velocity_m_s=0.1", "solver.remap=false"], "landing.lateral_velocity_m_s"),
     (["landing.pitch_rate_rad_s=0.1"], "landing.pitch_rate_rad_s"),  # a drop's turn must be free
     (["solver=analytic_dynamic", "landing.cg_offset_m=[0.1,0,0]"], "landing.cg_offset_m"),  # vertical models

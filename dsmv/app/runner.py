@@ -342,8 +342,6 @@ def track_estimate(scene: Scene, result: SolveResult, overrides: list[str] = ())
     if result.status != "ok" or sinkage is None or scene.landing.kind == "push" or not is_cross_section(scene):
         return None
     command = " ".join(["dsmv solver=cel3d", *(o for o in overrides if not o.split("=")[0].lstrip("+~").startswith(("solver", "mesh")))])
-    if scene.landing.turn_key and scene.solver.remap:  # cel3d turns a body on the undeformed grid only
-        command += " solver.remap=false"
     offset = SECTION_TO_TRACK_M
     if scene.geometry.grouser_height_m != offset["grouser_height_m"]:
         return (f"not estimated for {scene.geometry.grouser_height_m:g} m grousers (measured with "
@@ -392,7 +390,7 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
                                     "turn across them stay 0" if whole != m["cells"] else
                                     "none: the landing is not symmetric about the body's mid-planes, the whole "
                                     "body is modelled"))
-        if "redraws" in m:  # a body redrawn as it turned (cel2d): whether its soil may part from it
+        if "redraws" in m:  # a body redrawn as it turned: whether its soil may part from it
             parts = ContactRules.of(scene, False, draws_turns=True).separation
             print(f"  turn    : redrawn into the grid {m['redraws']:.0f} times as it turned, a rough staircase " + (
                 "whose soil lets go where it pulls away (contact separation)" if parts else

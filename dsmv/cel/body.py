@@ -180,6 +180,11 @@ class Box:
         return ((np.abs(x) <= self.half_width * (1 + ON_BOUNDARY)) & (np.abs(y) <= self.half_length * (1 + ON_BOUNDARY))
                 & (z >= -ON_BOUNDARY))
 
+    def faces(self, x, y, z):
+        """Per point (body axes), each face's distance and its normal into the soil: the base, the walls
+        across x, the ends along y (:meth:`Turned3D.face_normals`)."""
+        return _box_faces(x, y, z, self.half_width, self.half_length)
+
 
 @dataclass(frozen=True)
 class Disc:
@@ -192,6 +197,13 @@ class Disc:
 
     def inside(self, x, y, z):
         return (x * x + y * y <= self.radius**2 * (1 + ON_BOUNDARY)) & (z >= -ON_BOUNDARY)
+
+    def faces(self, x, y, z):
+        """The base's and the round wall's distance and normal into the soil, per point (body axes)."""
+        r = np.maximum(np.hypot(x, y), 1e-300)
+        zero = np.zeros_like(x)
+        return (np.stack([np.abs(z), np.abs(self.radius - r)], axis=1),
+                np.stack([np.stack([zero, zero, zero - 1.0], axis=1), np.stack([x / r, y / r, zero], axis=1)], axis=1))
 
     def extra_solid(self, grid, solid: np.ndarray) -> None:
         """The cells whose centre lies in the circle (beyond the inscribed ones, which ``inside`` gives)."""
@@ -217,9 +229,27 @@ class Pose:
         roll = np.array([[math.cos(r), 0.0, math.sin(r)], [0.0, 1.0, 0.0], [-math.sin(r), 0.0, math.cos(r)]])
         return cls(tuple(origin), tuple(map(tuple, roll @ pitch)))
 
+    @classmethod
+    def turned(cls, angles, pivot=(0.0, 0.0, 0.0)) -> "Pose":
+        """The body turned by ``angles`` (rad; about x, y, z, right-handed: the model's sign, +y lowers
+        the +x side) about ``pivot`` (its centre of gravity in the grid frame, m): R = Rz·Ry·Rx. The
+        body integrates each rate about the grid's axes, so two turns at once compose to second order
+        in the angles (exact for a turn about one axis)."""
+        (cx, sx), (cy, sy), (cz, sz) = ((math.cos(a), math.sin(a)) for a in angles)
+        rx = np.array([[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]])
+        ry = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
+        rz = np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]])
+        rotation = rz @ ry @ rx
+        pivot = np.asarray(pivot, dtype=float)
+        return cls(tuple(pivot - rotation @ pivot), tuple(map(tuple, rotation)))
+
     @property
     def upright(self) -> bool:
         return self == UPRIGHT
+
+    def to_grid(self, vectors: np.ndarray) -> np.ndarray:
+        """Vectors in the body's axes, (n, 3), turned into the grid's: R·v."""
+        return vectors @ np.asarray(self.rotation).T
 
     def to_body(self, x, y, z):
         """Grid coordinates (arrays that broadcast) in the body's axes: Rᵀ·(p − origin)."""
@@ -248,6 +278,19 @@ class TrackBody:
         x, y, z = self.pose.to_body(x, y, z)
         return (np.abs(x) <= self.half_width * (1 + ON_BOUNDARY)) & self.side.inside(y, z)
 
+    def faces(self, x, y, z):
+        """The base, the walls across x and the sprocket arcs at the ends (upright track, body axes): each
+        one's distance and normal into the soil, per point."""
+        side = self.side
+        distances, normals = _box_faces(x, y, z, self.half_width, math.inf)
+        beyond = np.abs(y) - side.half_length
+        up = z - side.grouser - side.sprocket_radius
+        r = np.maximum(np.hypot(beyond, up), 1e-300)
+        arc = np.where(beyond > 0.0, np.abs(r - side.sprocket_radius), math.inf)
+        distances[:, 2] = arc
+        normals[:, 2] = np.stack([np.zeros_like(x), np.sign(y) * beyond / r, up / r], axis=1)
+        return distances, normals
+
     def extra_solid(self, grid, solid: np.ndarray, centre_x: float = 0.0) -> None:
         """The grousers, across the whole width (drawn as cells on an upright track only); with
         ``centre_x``, those of the two tracks centred at ±centre_x (a vehicle's)."""
@@ -271,9 +314,60 @@ class Vehicle:
     def inside(self, x, y, z):
         return self.track.inside(np.abs(x) - 0.5 * self.gauge, y, z)
 
+    def faces(self, x, y, z):
+        """Each point's track's faces (:meth:`TrackBody.faces`), the walls across x mirrored on the −x track."""
+        distances, normals = self.track.faces(np.abs(x) - 0.5 * self.gauge, y, z)
+        normals[:, :, 0] *= np.where(x < 0.0, -1.0, 1.0)[:, None]
+        return distances, normals
+
     def extra_solid(self, grid, solid: np.ndarray) -> None:
         """Each track's grousers, across its own width."""
         self.track.extra_solid(grid, solid, 0.5 * self.gauge)
+
+
+def _box_faces(x, y, z, half_width: float, half_length: float):
+    """A box's base (z = 0), walls (|x| = half_width) and ends (|y| = half_length): per point, each face's
+    distance (points, 3) and its normal into the soil (points, 3, 3)."""
+    zero = np.zeros_like(x)
+    distances = np.stack([np.abs(z), np.abs(half_width - np.abs(x)), np.abs(half_length - np.abs(y))], axis=1)
+    normals = np.stack([np.stack([zero, zero, zero - 1.0], axis=1), np.stack([np.sign(x), zero, zero], axis=1),
+                        np.stack([zero, np.sign(y), zero], axis=1)], axis=1)
+    return distances, normals
+
+
+@dataclass(frozen=True)
+class Turned3D:
+    """A 3D shape (upright, given in its own axes) placed in the grid by a turned ``pose``
+    (:meth:`Pose.turned`): the body as it turns about its centre of gravity, which the grid follows."""
+
+    shape: object
+    pose: Pose
+
+    def inside(self, x, y, z):
+        return self.shape.inside(*self.pose.to_body(x, y, z))
+
+    def face_normals(self, x, y, z, h: float) -> np.ndarray:
+        """Per point (grid frame) beside the turned body, the normal into the soil of its face nearest to
+        it, turned with the body, (points, 3); zero at an edge or a corner (its two nearest faces within
+        h/2 of each other, both within h) and deep inside (over 1.5 h from every face): 2D's rule
+        (:meth:`Turned.face_normals`)."""
+        distances, normals = self.shape.faces(*self.pose.to_body(*(np.asarray(a, float) for a in (x, y, z))))
+        order = np.argsort(distances, axis=1, kind="stable")
+        nearest, second = (np.take_along_axis(distances, order[:, k:k + 1], axis=1)[:, 0] for k in (0, 1))
+        upright = np.take_along_axis(normals, order[:, :1, None], axis=1)[:, 0].copy()
+        upright[(second - nearest < 0.5 * h) & (second < h)] = 0.0
+        upright[nearest > 1.5 * h] = 0.0
+        return self.pose.to_grid(upright)
+
+    def extra_solid(self, grid, solid: np.ndarray) -> None:
+        """Turned, the body also takes the cells whose centre it holds (2D's :meth:`Turned.extra_solid`);
+        upright, what the shape adds."""
+        if self.pose.upright:
+            if hasattr(self.shape, "extra_solid"):
+                self.shape.extra_solid(grid, solid)
+            return
+        x, y, z = (0.5 * (a[:-1] + a[1:]) for a in grid.axes)
+        solid |= self.inside(x[:, None, None], y[None, :, None], z[None, None, :])
 
 
 def inside_nodes(shape, grid) -> np.ndarray:

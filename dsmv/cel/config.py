@@ -72,6 +72,9 @@ class CelConfig(Schema):
         "auto: outside sweeps, a bar on a terminal and a plain line every 10 s in a log or pipe"))
     initial_travel_m: Optional[Number] = Field(gt=0, description="travel to size the domain for (m)")
     cone_cells_per_depth: Count = Field(ge=4, description="cone: core cells across the expected penetration")
+    redraw_fraction: Number = Field(0.25, ge=0, le=1, description=(
+        "a body that turns with the remap is redrawn once its farthest point has moved this fraction of a core "
+        "cell past its drawing; 0: after every history sample (-)"))
     economies: Economies
 
     def hourglass_cells(self, body_kind: str) -> str:
@@ -86,9 +89,6 @@ class Cel2DConfig(CelConfig):
 
     name: Literal["cel2d"]
     mode: Literal["auto", "plane_strain", "axisymmetric"] = Field(description="auto: from the geometry")
-    redraw_fraction: Number = Field(0.25, ge=0, le=1, description=(
-        "a body that turns with the remap is redrawn once its edge has moved this fraction of a core cell "
-        "past its drawing; 0: after every history sample (-)"))
 
 
 class Economies3D(Economies):

@@ -22,6 +22,7 @@ contact the body gets; ``check_scene`` refuses what it cannot do and the set-up
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -48,15 +49,15 @@ class ContactRules:
     turning: bool = False    # a flat-faced body that turns in large deformation: redrawn as a staircase
 
     @classmethod
-    def of(cls, scene, axisymmetric: bool, draws_turns: bool = False) -> "ContactRules":
+    def of(cls, scene, axisymmetric: bool, draws_turns: bool = False, held: tuple[str, ...] = ()) -> "ContactRules":
         """The rules of a scene. ``solver.contact_separation=auto`` lets the soil part from the body in a
         landing (real contact holds no tension) wherever the faces can let go;
         a push (the verification cases) keeps the soil tied unless asked. ``draws_turns``: the solver
-        redraws a turning body into the grid (cel2d)."""
+        redraws a turning body into the grid, unless the model's symmetry planes hold the turn (``held``)."""
         body, asked = scene.geometry, scene.solver.contact_separation
         rules = cls(body.kind, getattr(body, "view", "cross_section") == "longitudinal", body.adhesion_factor,
                     body.roughness, axisymmetric, asked is True)
-        if draws_turns and scene.solver.remap and not axisymmetric and turns_in_the_plane(scene):
+        if draws_turns and scene.solver.remap and not axisymmetric and turns_unheld(scene, held):
             rules = replace(rules, turning=True)
         if asked == "auto":
             landing = scene.landing.kind == "drop"
@@ -125,12 +126,12 @@ class ContactRules:
         return FlatBody(0.5 * geometry.width_m, geometry.track_offset_m)
 
 
-def turns_in_the_plane(scene) -> bool:
-    """Whether a scene's body may turn about the axis out of the plane (free to, or given a rate) on a
-    model that its symmetry plane does not hold upright: the whole section."""
+def turns_unheld(scene, held: tuple[str, ...]) -> bool:
+    """Whether a scene's body may turn (free to, or given a rate) about an axis the model's symmetry
+    planes (``held``) do not hold."""
     landing = scene.landing
-    turning = "ry" in landing.freedoms or landing.given_velocity("ry") != 0.0
-    return turning and not (scene.solver.economies.symmetry and landing.symmetric_about("x"))
+    return any((n in landing.freedoms or landing.given_velocity(n) != 0.0) and n not in held
+               for n in ("rx", "ry", "rz"))
 
 
 @dataclass
@@ -177,8 +178,6 @@ def _ties(rules: ContactRules, shape, grid: Grid2D, j_base: int, solid: np.ndarr
         normal[:, 0], normal[:, 1] = xs / r, ys / r
         full = inside.copy()
         normal[inside] = 0.0  # inside the body: no face, always tied
-    elif rules.turning:  # tied fully while it holds; with separation it lets go along its nearest face
-        normal = shape.face_normals(grid.x[tie_i], grid.y[tie_j], grid.h)
     elif rules.flat_faced:
         half = shape.half_width
         xs, ys = grid.x[tie_i], grid.y[tie_j]
@@ -310,6 +309,8 @@ def tie_arms(axes, node: np.ndarray, split_node: np.ndarray, split_parent: np.nd
 
 def build_contact(rules: ContactRules, shape, grid: Grid2D, j_base: int) -> BodyContact:
     """The body's cells, openings and contact table on a grid, from the rules."""
+    if rules.turning:
+        return build_turned_contact(shape, grid, grid.y[j_base])
     solid = solid_cells(shape, grid)
     openings = Openings.of_circle(grid, shape.radius, shape.radius) if rules.cut_cells else Openings.of_cells(solid)
     tie_i, tie_j, full, normal, cap = _ties(rules, shape, grid, j_base, solid)
@@ -347,6 +348,38 @@ def build_contact(rules: ContactRules, shape, grid: Grid2D, j_base: int) -> Body
         factor[soil_cells_touching(solid, tie_i, tie_j)] = rules.alpha
     return BodyContact(solid, openings, contact, corner, n_grid + len(splits), factor,
                        gap_cells(rules, solid, tie_i, tie_j, normal))
+
+
+def build_turned_contact(shape, grid, base_m: float) -> BodyContact:
+    """A body that turns in large deformation, drawn at its pose now as a rough staircase (decision
+    0030), on a grid of any number of axes: the cells ``shape`` holds (its turned shape's), every node
+    touching them tied fully while it holds, and with contact separation let go along the normal of
+    its nearest face (``shape.face_normals``; none at a corner or deep inside); no split nodes, no
+    adhesion caps. ``base_m``: the height of the body's reference point (the middle of its base)."""
+    solid = solid_cells(shape, grid)
+    dim = solid.ndim
+    node_shape = tuple(n + 1 for n in solid.shape)
+    ties = np.nonzero(nodes_touching(solid))
+    node = np.ravel_multi_index(ties, node_shape).astype(np.int64)
+    grips = [[cell for cell in itertools.product(*((c - 1, c) for c in tie))
+              if all(0 <= c < n for c, n in zip(cell, solid.shape)) and not solid[cell]] for tie in zip(*ties)]
+    fixed_node, fixed_axis = fixed_velocities(node_shape)
+    none = np.zeros(0, dtype=np.int64)
+    contact = Contact(
+        node=node,
+        full=np.ones(len(node), dtype=np.bool_),
+        normal=np.ascontiguousarray(shape.face_normals(*(a[i] for a, i in zip(grid.axes, ties)), grid.h)),
+        cap=np.zeros(len(node)),
+        grip_start=np.concatenate([[0], np.cumsum([len(g) for g in grips])]).astype(np.int64),
+        grip_cell=np.array([c for g in grips for c in g], dtype=np.int64).reshape(-1, dim),
+        holding=np.ones(len(node), dtype=np.bool_),
+        split_node=none, split_parent=none, fixed_node=fixed_node, fixed_axis=fixed_axis,
+        merge=np.zeros((0, 2 * dim), dtype=np.int64),
+        arm=tie_arms(grid.axes, node, none, none, base_m),
+    )
+    openings = Openings.of_cells(solid) if dim == 2 else Openings(1.0 - solid, np.zeros(0), np.zeros(0))
+    return BodyContact(solid, openings, contact, structured_corners(solid.shape), int(np.prod(node_shape)),
+                       np.ones(solid.shape), np.zeros(solid.shape, dtype=bool))
 
 
 def gap_cells(rules: ContactRules, solid, tie_i, tie_j, normal) -> np.ndarray:

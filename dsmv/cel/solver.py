@@ -146,7 +146,7 @@ class CelSolver:
         body = scene.geometry
         if body.kind not in cls.bodies:
             raise ConfigError("geometry.kind", body.kind, f"{cls.name} runs {', '.join(cls.bodies)} bodies")
-        rules = ContactRules.of(scene, cls.is_axisymmetric(scene), cls.draws_turns)
+        rules = ContactRules.of(scene, cls.is_axisymmetric(scene), True, cls.held_in(scene))
         refusal = rules.refusal()
         if refusal is not None:
             raise refusal
@@ -159,15 +159,17 @@ class CelSolver:
                                   f"a drop's drift or turn at touchdown moves on freely: add {held} to landing.free")
         return rules
 
-    #: whether a body that turns with the remap is redrawn into the grid as it turns (cel2d)
-    draws_turns = False
-
     #: the freedoms a model of this solver has, by name (:data:`dsmv.cel.layout.FREEDOMS`)
     model_freedoms: tuple[str, ...] = FREEDOMS
 
-    def held_by_symmetry(self) -> tuple[str, ...]:
-        """The freedoms a symmetry plane of the model holds (none without one)."""
+    @classmethod
+    def held_in(cls, scene: Scene) -> tuple[str, ...]:
+        """The freedoms the symmetry planes of a scene's model hold (none without one)."""
         return ()
+
+    def held_by_symmetry(self) -> tuple[str, ...]:
+        """:meth:`held_in` this solver's scene."""
+        return self.held_in(self.scene)
 
     def moving_freedoms(self) -> tuple[str, ...]:
         """The freedoms this model integrates under the soil's reaction: the landing's, those the model
@@ -198,7 +200,7 @@ class CelSolver:
         self.scene = scene
         self.law = registry.load("soil_laws", scene.soil.law, "soil.law")(scene.soil)
         self.axisym = self.is_axisymmetric(scene)
-        self.rules = ContactRules.of(scene, self.axisym, self.draws_turns)
+        self.rules = ContactRules.of(scene, self.axisym, True, self.held_in(scene))
         self.cone = self.rules.kind == "cone"
         self.circular = self.rules.circular  # a cylinder (plane strain) or a ball (axisymmetric)
         self.longitudinal = self.rules.longitudinal
@@ -246,19 +248,6 @@ class CelSolver:
         offset, mesh = self.scene.geometry.track_offset_m, self.scene.mesh
         return axis_through(offset, offset + h * math.ceil(beside_m / h), far_m, h, mesh.growth_ratio,
                             mesh.max_cell_size_m)
-
-    @classmethod
-    def refuse_a_turn_with_the_remap(cls, scene: Scene, held: tuple[str, ...]) -> None:
-        """A solver that does not redraw a turning body (:attr:`draws_turns`) refuses, in one line, a turn
-        with the remap that the model's symmetry planes do not hold (``held``). A slide runs: the grid
-        follows it."""
-        landing = scene.landing
-        turning = {n for n in ("rx", "ry", "rz") if n in landing.freedoms or landing.given_velocity(n)}
-        if scene.solver.remap and turning - set(held):
-            raise ConfigError(landing.turn_key, landing.model_dump()[landing.turn_key.split(".")[1]],
-                              f"{cls.name} runs a body that turns on the undeformed grid (small strain): set "
-                              "solver.remap=false (cel2d redraws a turning body; one that only slides runs with "
-                              "the remap: the grid follows it)")
 
     def contact_area_m2(self) -> float:
         """The area a bearing factor refers to: B·L in plane strain, π·B²/4 in axisymmetry (m²)."""

@@ -37,9 +37,6 @@ class Cel2DSolver(CelSolver):
         mode = scene.solver.mode
         return mode == "axisymmetric" or (mode == "auto" and scene.geometry.kind in ("cone", "circular_plate"))
 
-    #: a body that turns with the remap is redrawn as it turns (:mod:`dsmv.cel.turn`)
-    draws_turns = True
-
     #: plane strain moves across (x) and up (z) and turns about the axis out of the plane (y)
     model_freedoms = ("x", "z", "ry")
 
@@ -49,9 +46,10 @@ class Cel2DSolver(CelSolver):
         (``solver.economies.symmetry``) and valid (the landing is symmetric about that plane)."""
         return scene.solver.economies.symmetry and scene.landing.symmetric_about("x")
 
-    def held_by_symmetry(self) -> tuple[str, ...]:
+    @classmethod
+    def held_in(cls, scene: Scene) -> tuple[str, ...]:
         """On the half model the symmetry plane holds the slide and the turn: a symmetric body stays upright."""
-        return ("x", "ry") if self.half_model(self.scene) else ()
+        return ("x", "ry") if cls.half_model(scene) else ()
 
     @classmethod
     def check_capabilities(cls, scene: Scene) -> ContactRules:
@@ -112,16 +110,16 @@ class Cel2DSolver(CelSolver):
         self.grid, self.h, self.n_half, self.travel = grid, h, n_half, travel
         return grid
 
-    def body_shape(self, grid, angle: float = 0.0):
-        """The body's shape (:mod:`dsmv.cel.body`); a turning body's turned by ``angle`` (rad, about y)
-        about its centre of gravity."""
+    def body_shape(self, grid, angles=(0.0, 0.0, 0.0)):
+        """The body's shape (:mod:`dsmv.cel.body`); a turning body's turned by ``angles[1]`` (rad, about y:
+        the plane's only turn) about its centre of gravity."""
         cg = self.scene.landing.cg_offset_m
-        return self.rules.shape(self.scene.geometry, grid.h, angle, (cg[0], cg[2]))
+        return self.rules.shape(self.scene.geometry, grid.h, float(angles[1]), (cg[0], cg[2]))
 
-    def body_contact(self, grid, angle: float = 0.0):
+    def body_contact(self, grid, angles=(0.0, 0.0, 0.0)):
         """The body's cells, openings and contact table on ``grid`` (:func:`dsmv.cel.contact.build_contact`)
-        at ``angle``."""
-        return build_contact(self.rules, self.body_shape(grid, angle), grid, grid.row_of(0.0))
+        turned by ``angles``."""
+        return build_contact(self.rules, self.body_shape(grid, angles), grid, grid.row_of(0.0))
 
     def whole_body_cells(self, cells: float) -> float:
         """The cells the whole section would take on this grid (the half model mirrored; an

@@ -19,9 +19,9 @@ import math
 
 import numpy as np
 
-from dsmv.cel.body import Box, Disc, TrackBody, TrackSideView, Vehicle
+from dsmv.cel.body import Box, Disc, Pose, TrackBody, TrackSideView, Turned3D, Vehicle
 from dsmv.cel.config import Cel3DConfig
-from dsmv.cel.contact import ContactRules, build_plate_contact
+from dsmv.cel.contact import ContactRules, build_plate_contact, build_turned_contact
 from dsmv.cel.grid import Grid3D, build_grid_3d
 from dsmv.cel.layout import Faces3D, Mesh3D, split_cells
 from dsmv.cel.solver import CelSolver, State, in_sweep
@@ -87,13 +87,20 @@ class Cel3DSolver(CelSolver):
             raise ConfigError("geometry.view", body.view, "cel3d models the whole track, its side view included: "
                                                           "leave geometry.view to cel2d")
         landing = scene.landing
-        cls.refuse_a_turn_with_the_remap(scene, cls.held_in(scene))
+        rules = ContactRules.of(scene, False, True, cls.held_in(scene))
+        if rules.turning:  # redrawn as it turns (dsmv.cel.turn): a rough staircase of whole cells
+            refusal = rules.refusal()
+            if refusal is not None:
+                raise refusal
+            if getattr(body, "grousers", "trapped_soil") == "cells":
+                raise ConfigError("geometry.grousers", body.grousers, "a track that turns with the remap is redrawn "
+                                  "as its grousers' envelope: trapped_soil")
         if body.kind == "strip":
             beyond_slab = [n for n in ("y", "rx", "rz") if n in landing.freedoms or landing.given_velocity(n)]
             if beyond_slab:
                 raise ConfigError("landing.free", beyond_slab[0], "a strip (a slab between plane-strain planes) moves "
                                   "in x and z and turns about y")
-        return ContactRules.of(scene, False)
+        return rules
 
     @staticmethod
     def planes_of(scene: Scene) -> tuple[bool, bool]:
@@ -114,9 +121,6 @@ class Cel3DSolver(CelSolver):
     def symmetry_planes(self) -> tuple[bool, bool]:
         """:meth:`planes_of` this solver's scene."""
         return self.planes_of(self.scene)
-
-    def held_by_symmetry(self) -> tuple[str, ...]:
-        return self.held_in(self.scene)
 
     # ------------------------------------------------------------------ geometry
 
@@ -205,24 +209,45 @@ class Cel3DSolver(CelSolver):
 
     # ------------------------------------------------------------------ state
 
-    def body_contact(self, grid):
-        """The body's cells, openings and contact table on ``grid`` (:func:`dsmv.cel.contact.build_plate_contact`),
-        and the footprint its base presses (m², model)."""
+    def body_shape(self, grid, angles=(0.0, 0.0, 0.0)):
+        """A turning body's shape turned by ``angles`` (rad, about x, y, z) about its centre of gravity
+        (:class:`~dsmv.cel.body.Turned3D`)."""
+        return Turned3D(self.shape(), Pose.turned(angles, self.scene.landing.cg_offset_m))
+
+    def body_contact(self, grid, angles=None):
+        """The body's cells, openings and contact table on ``grid`` (:func:`dsmv.cel.contact.build_plate_contact`;
+        a turning body's turned by ``angles``, :func:`~dsmv.cel.contact.build_turned_contact`), and, drawn
+        upright, the footprint its base presses (m², model)."""
         k_base = grid.row_of(0.0)
         shape = self.shape()
-        body_contact = build_plate_contact(shape, grid, k_base, self.scene.geometry.adhesion_factor,
-                                           wall_area=math.pi / 4 if isinstance(shape, Disc) else 1.0,
-                                           staircase=isinstance(shape, (Disc, TrackBody)))
-        footprint = body_contact.solid[:, :, k_base]
-        self.footprint_m2 = float((np.diff(grid.x)[:, None] * np.diff(grid.y)[None, :])[footprint].sum())
+        if self.rules.turning:
+            body_contact = build_turned_contact(self.body_shape(grid, (0.0, 0.0, 0.0) if angles is None else angles),
+                                                grid, grid.z[k_base])
+        else:
+            body_contact = build_plate_contact(shape, grid, k_base, self.scene.geometry.adhesion_factor,
+                                               wall_area=math.pi / 4 if isinstance(shape, Disc) else 1.0,
+                                               staircase=isinstance(shape, (Disc, TrackBody)))
+        if angles is None:
+            footprint = body_contact.solid[:, :, k_base]
+            self.footprint_m2 = float((np.diff(grid.x)[:, None] * np.diff(grid.y)[None, :])[footprint].sum())
         return body_contact
+
+    def reach_m(self) -> float:
+        """How far the body's farthest point lies from its centre of gravity (m): the lever that turns an
+        angle into a displacement (its walls counted up to one width; a strip slab's length not at all)."""
+        cg = self.scene.landing.cg_offset_m
+        along = 0.0 if self.slab else self.half_length_m() + abs(cg[1])
+        return math.hypot(self.half_span_m() + abs(cg[0]), along, max(abs(cg[2]), self.scene.geometry.width_m))
 
     def mesh_and_faces(self, grid, body_contact):
         """The 3D mesh (cell volumes, the faces each cell has against the body) and faces of ``grid``."""
         faces = faces_3d(body_contact.solid)
+        # the remap takes a closed face as moving with the grid (the body's translation), which a turning
+        # body's faces do not: its cells beside it see their nodes' velocities, as 2D's staircase does
+        closed = (np.zeros(body_contact.solid.shape, dtype=np.uint8) if self.rules.turning
+                  else closed_faces(faces, body_contact.solid))
         mesh = Mesh3D(grid.x, grid.y, grid.z, self.kernels.cell_volumes(grid.x, grid.y, grid.z), body_contact.corner,
-                      int(np.prod([len(a) for a in grid.axes])), split_cells(body_contact.corner),
-                      closed_faces(faces, body_contact.solid))
+                      int(np.prod([len(a) for a in grid.axes])), split_cells(body_contact.corner), closed)
         return mesh, faces
 
     def contact_separation(self) -> bool:

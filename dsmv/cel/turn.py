@@ -1,4 +1,4 @@
-"""A body that turns in large deformation, redrawn into the grid as it turns (plane strain;
+"""A body that turns in large deformation, redrawn into the grid as it turns (cel2d and cel3d;
 docs/decisions/0030).
 
 The grid follows the body's translation (the remap carries the soil by its travel relative to the
@@ -31,7 +31,8 @@ from typing import Optional
 import numpy as np
 
 from dsmv.cel import controller as C
-from dsmv.cel.layout import B_ROT_Y
+from dsmv.cel.body import _corner_views, inside_nodes
+from dsmv.cel.layout import B_ROT_X, B_ROT_Z
 from dsmv.cel.ledger import E_PUSH, E_REDRAW, E_SOIL_GRAV
 
 
@@ -40,28 +41,46 @@ SAMPLES = 4
 
 
 def room_outside(shape, grid, solid: np.ndarray) -> np.ndarray:
-    """Per cell, the part of it outside ``shape`` (-), from SAMPLES² points; 0 in the body's cells (its
-    inscribed staircase), 1 far from it. The soil may fill a cell up to this much."""
+    """Per cell, the part of it outside ``shape`` (-), from SAMPLES points per axis; 0 in the body's
+    cells (its inscribed staircase), 1 far from it. The soil may fill a cell up to this much. Only the
+    cells within one cell of a node inside the shape are sampled (a flat-faced body wider than a cell
+    reaches no other)."""
     offsets = (np.arange(SAMPLES) + 0.5) / SAMPLES - 0.5  # about the centre: mirrored cells sample mirrored points
-
-    def points(axis):
-        return (0.5 * (axis[:-1] + axis[1:])[:, None] + np.diff(axis)[:, None] * offsets[None, :]).ravel()
-
-    x, y = points(grid.x), points(grid.y)
-    inside = shape.inside(x[:, None], y[None, :]).reshape(grid.nx, SAMPLES, grid.ny, SAMPLES)
-    room = 1.0 - inside.mean(axis=(1, 3))
+    room = np.ones(solid.shape)
+    near = np.nonzero(_grown(np.logical_or.reduce([np.asarray(view, dtype=bool) for view in _corner_views(
+        inside_nodes(shape, grid), solid.shape)])))
+    if len(near[0]):
+        box = tuple(slice(int(n.min()), int(n.max()) + 1) for n in near)
+        points = [(0.5 * (a[b][:-1] + a[b][1:])[:, None] + np.diff(a[b])[:, None] * offsets[None, :]).ravel()
+                  for a, b in zip(grid.axes, (slice(s.start, s.stop + 1) for s in box))]
+        dim = len(points)
+        inside = shape.inside(*(p.reshape([-1 if a == k else 1 for a in range(dim)]) for k, p in enumerate(points)))
+        inside = np.broadcast_to(inside, tuple(len(p) for p in points))
+        cells = tuple(s.stop - s.start for s in box)
+        inside = inside.reshape([v for n in cells for v in (n, SAMPLES)])
+        room[box] = 1.0 - inside.mean(axis=tuple(range(1, 2 * dim, 2)))
     room[solid] = 0.0
     return room
 
 
 def _grown(mask: np.ndarray) -> np.ndarray:
-    """``mask`` and the cells sharing a face with it."""
+    """``mask`` and the cells sharing a face with it (any number of axes)."""
     grown = mask.copy()
-    grown[1:] |= mask[:-1]
-    grown[:-1] |= mask[1:]
-    grown[:, 1:] |= mask[:, :-1]
-    grown[:, :-1] |= mask[:, 1:]
+    for axis in range(mask.ndim):
+        lower, upper = [slice(None)] * mask.ndim, [slice(None)] * mask.ndim
+        lower[axis], upper[axis] = slice(1, None), slice(None, -1)
+        grown[tuple(lower)] |= mask[tuple(upper)]
+        grown[tuple(upper)] |= mask[tuple(lower)]
     return grown
+
+
+def _face_neighbours(cell: tuple, shape: tuple):
+    """The cells sharing a face with ``cell``, axis by axis, the lower first."""
+    for axis in range(len(cell)):
+        for step in (-1, 1):
+            other = cell[axis] + step
+            if 0 <= other < shape[axis]:
+                yield cell[:axis] + (other,) + cell[axis + 1:]
 
 
 def nearest_share(volume: float, sources: np.ndarray, through: np.ndarray, capacity: np.ndarray) -> np.ndarray:
@@ -105,18 +124,17 @@ def conform(phi: np.ndarray, q: np.ndarray, vol: np.ndarray, room_was: np.ndarra
     rows = q.shape[0]
     wanted, source = np.zeros(phi.shape), np.zeros(q.shape)
     freed = room > room_was + 1e-12
-    for i, j in zip(*np.nonzero(freed)):
-        if room_was[i, j] > 0.0:
-            share, cell = min(phi[i, j] / room_was[i, j], 1.0), (i, j)
+    for here in zip(*np.nonzero(freed)):
+        if room_was[here] > 0.0:
+            share, cell = min(phi[here] / room_was[here], 1.0), here
         else:  # the body's cell it left: as full as its fullest neighbour of soil
             share, cell = 0.0, None
-            for c, d in ((i - 1, j), (i + 1, j), (i, j - 1), (i, j + 1)):
-                if 0 <= c < phi.shape[0] and 0 <= d < phi.shape[1] and phi[c, d] > 0.0 and room_was[c, d] > 0.0:
-                    if phi[c, d] / room_was[c, d] > share:
-                        share, cell = min(phi[c, d] / room_was[c, d], 1.0), (c, d)
+            for other in _face_neighbours(here, phi.shape):
+                if phi[other] > 0.0 and room_was[other] > 0.0 and phi[other] / room_was[other] > share:
+                    share, cell = min(phi[other] / room_was[other], 1.0), other
         if cell is not None:
-            wanted[i, j] = share * (room[i, j] - room_was[i, j]) * vol[i, j]
-            source[:, i, j] = q[:, cell[0], cell[1]]
+            wanted[here] = share * (room[here] - room_was[here]) * vol[here]
+            source[(slice(None), *here)] = q[(slice(None), *cell)]
     # what the body's cells and the cells it cuts hold beyond their room (the remap's own overshoot
     # elsewhere, a fraction of a percent, is the remap's business)
     excess = np.where(room < 1.0, np.maximum(phi - room, 0.0), 0.0) * vol
@@ -142,7 +160,7 @@ def conform(phi: np.ndarray, q: np.ndarray, vol: np.ndarray, room_was: np.ndarra
         put = nearest_share(given - matched, gives, soil & (room > 0.0), np.where(near, np.maximum(room - phi, 0.0), 0.0) * vol)
         stays = given - matched - put.sum()
         put[gives] += excess[gives] * (stays / given)  # no room found (a grid full to its top): it stays
-        _mix(phi, q, vol, put, mixed[:, None, None])
+        _mix(phi, q, vol, put, mixed.reshape(-1, *(1,) * phi.ndim))
     _mix(phi, q, vol, arriving, source)
 
 
@@ -157,63 +175,70 @@ def _mix(phi: np.ndarray, q: np.ndarray, vol: np.ndarray, volume: np.ndarray, st
 
 
 class Redraw(C.Tracker):
-    """Redraws a turning body (module docstring) once its edge has moved ``fraction`` of a core cell
-    past its drawing; a turn that takes its staircase out of the grid's uniform core ends the run
+    """Redraws a turning body (module docstring) once its farthest point has moved ``fraction`` of a core
+    cell past its drawing; a turn that takes its staircase out of the grid's uniform core ends the run
     ``out_of_domain``."""
 
     def __init__(self, solver, state, fraction: float):
         self.solver, self.state = solver, state
         self.step_rad = fraction * solver.h / solver.reach_m()
-        self.drawn_rad = 0.0
-        self.room = room_outside(solver.body_shape(state.grid, 0.0), state.grid, state.cells.solid)
+        self.drawn = np.zeros(3)
+        self.room = room_outside(solver.body_shape(state.grid), state.grid, state.cells.solid)
         self.redraws = 0
 
     def after_chunk(self, run: C.Run) -> Optional[C.Ending]:
-        angle = float(self.state.body[B_ROT_Y])
-        if abs(angle - self.drawn_rad) < self.step_rad:
+        angles = self.state.body[B_ROT_X:B_ROT_Z + 1].copy()
+        if np.linalg.norm(angles - self.drawn) < self.step_rad:
             return None
         self.solver.remap_now(self.state)
-        room = redraw(self.solver, self.state, angle, self.room)
+        room = redraw(self.solver, self.state, angles, self.room)
         if isinstance(room, str):
             return C.Ending("out_of_domain", room)
-        self.drawn_rad, self.room = angle, room
+        self.drawn, self.room = angles, room
         self.redraws += 1
         return None
 
 
-def redraw(solver, state, angle: float, room_was: np.ndarray):
-    """Draw the body of ``state`` at ``angle`` (rad, about y; module docstring), in place, the soil
-    having filled ``room_was`` of each cell (:func:`room_outside`) at the last drawing; returns the room
-    now, or why the body cannot be drawn (its staircase leaves the uniform core)."""
+def redraw(solver, state, angles: np.ndarray, room_was: np.ndarray):
+    """Draw the body of ``state`` turned by ``angles`` (rad, about x, y, z; module docstring), in place,
+    the soil having filled ``room_was`` of each cell (:func:`room_outside`) at the last drawing; returns
+    the room now, or why the body cannot be drawn (its staircase leaves the uniform core)."""
     from dsmv.cel.kernels.nodes import kinetic_energy, nodal_mass
     from dsmv.cel.state import hourglass_factor
     from dsmv.cel.stepper import rejoin_ties
 
     cells, nodes, par, mesh = state.cells, state.nodes, state.par, state.mesh
     grid = state.grid
-    new = solver.body_contact(grid, angle)
-    core = np.abs(np.diff(grid.x)) <= grid.h * (1 + 1e-9)
-    soil_rows = np.nonzero((cells.phi > 0.0).any(axis=0))[0]
+    new = solver.body_contact(grid, angles)
+    soil_rows = np.nonzero((cells.phi > 0.0).reshape(-1, cells.phi.shape[-1]).any(axis=0))[0]
     top = soil_rows[-1] + 2 if len(soil_rows) else 0  # the walls above the soil meet none
-    if new.solid[~core, :top].any():
-        return (f"the body turned {math.degrees(angle):.3g}°: its drawing left the uniform core of cells; widen "
-                f"solver.core_margin_widths")
+    for axis, nodes_along in enumerate(grid.axes[:-1]):
+        outside = np.abs(np.diff(nodes_along)) > grid.h * (1 + 1e-9)
+        if np.moveaxis(new.solid, axis, 0)[outside, ..., :top].any():
+            turned = max(abs(a) for a in angles)
+            return (f"the body turned {math.degrees(turned):.3g}°: its drawing left the uniform core of cells; widen "
+                    f"solver.core_margin_widths")
     new = replace(new, contact=solver.about_centre_of_gravity(new.contact))
-    room = room_outside(solver.body_shape(grid, angle), grid, new.solid)
+    room = room_outside(solver.body_shape(grid, angles), grid, new.solid)
     elastic = solver.kernels.elastic_energy
     before = (elastic(cells.phi, cells.q, mesh.vol, par.shear, par.bulk), kinetic_energy(nodes.mass, nodes.v))
-    height = 0.5 * (grid.y[1:] + grid.y[:-1])
-    lifted = -(cells.phi * mesh.vol * height[None, :]).sum()
+    up = grid.axes[-1]
+    height = (0.5 * (up[1:] + up[:-1])).reshape((1,) * (cells.phi.ndim - 1) + (-1,))
+    lifted = -(cells.phi * mesh.vol * height).sum()
     conform(cells.phi, cells.q, mesh.vol, room_was, room)
-    lifted += (cells.phi * mesh.vol * height[None, :]).sum()
+    lifted += (cells.phi * mesh.vol * height).sum()
     cells.solid[:] = new.solid
     cells.open_frac[:] = new.openings.open_frac
     cells.strength_factor[:] = new.strength_factor
     cells.gap[:] = new.gap
     cells.hourglass_factor[:] = hourglass_factor(new.openings.open_frac, solver.scene.solver.hourglass_cells(
         solver.scene.geometry.kind))
-    state.faces.aperture_x[:] = new.openings.aperture_x
-    state.faces.aperture_y[:] = new.openings.aperture_y
+    drawn_mesh, drawn_faces = solver.mesh_and_faces(grid, new)
+    for name in drawn_faces._fields:
+        if name.startswith("aperture"):
+            getattr(state.faces, name)[:] = getattr(drawn_faces, name)
+    if hasattr(mesh, "closed"):  # 3D: each cell's faces against the body
+        mesh.closed[:] = drawn_mesh.closed
     state.contact = new.contact
     nodal_mass(mesh, cells, par.density, nodes.mass)
     work_against_gravity = par.density * par.gravity * lifted
