@@ -1,6 +1,7 @@
 """The cost model: what a run will take, estimated from measured throughputs and the fast landing
 model's time to rest (dsmv.cel.cost; docs/verification/performance.md holds the estimates against runs)."""
 
+import numpy as np
 import pytest
 
 from dsmv import registry
@@ -90,6 +91,24 @@ def test_the_time_left_is_paced_from_the_first_chunk_on(monkeypatch):
     assert progress.time_left_s(run) is None
     run.time_s = 0.06
     assert progress.time_left_s(run) == pytest.approx(3.0 * 0.04 / 0.04)
+
+
+def test_past_the_expected_duration_the_progress_gives_no_time_left(monkeypatch, capsys):
+    """A body that turns settles later than the fast model's vertical landing rests (the vehicle rolling
+    0.5° rested at 1.15 s against 0.038 s expected): past the expected time the line says the body still
+    moves and gives no time left, where it read '3000 % of the expected', 'about 0:00 left'."""
+    from dsmv.cel import controller
+
+    clock = iter([10.0, 13.0, 13.0, 30.0])
+    monkeypatch.setattr(controller.time, "perf_counter", lambda: next(clock))
+    progress = controller.Progress(expected_s=0.1, terminal=False)
+    progress.started = progress.last = 0.0
+    run = type("Run", (), {"time_s": 0.02, "sinkage_m": 0.05, "body": np.zeros(45), "steps": 10})()
+    assert progress.time_left_s(run) is None
+    run.time_s = 3.0
+    progress.after_chunk(run)
+    line = capsys.readouterr().err
+    assert "past the expected 0.100 s, still moving: no estimate" in line and "about" not in line
 
 
 def test_the_benchmark_reads_the_progress_line_s_estimate_at_a_quarter_of_the_run():

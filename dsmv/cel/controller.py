@@ -355,7 +355,9 @@ class Progress(Tracker):
             self.origin = (now, run.time_s)
             return None
         simulated = run.time_s - self.origin[1]
-        return (now - self.origin[0]) * max(self.expected_s - run.time_s, 0.0) / simulated if simulated > 0 else None
+        if simulated <= 0 or run.time_s >= self.expected_s:  # past the expected duration nothing says how long
+            return None
+        return (now - self.origin[0]) * (self.expected_s - run.time_s) / simulated
 
     def start(self, run: Run) -> None:
         from tqdm import tqdm
@@ -369,19 +371,29 @@ class Progress(Tracker):
     def line(self, run: Run) -> str:
         return f"sinkage {run.sinkage_m:.4f} m, velocity {-run.body[B_VEL]:.3f} m/s, {run.steps:,} steps"
 
+    def where(self, run: Run) -> str:
+        """The run's time against the expected duration in words; past it, that the body still moves (a
+        landing comes to rest when the fast landing model says, a body that turns when its turn has
+        settled, which no fast model gives)."""
+        if run.time_s < self.expected_s:
+            return f"{run.time_s / self.expected_s:4.0%} of the expected {self.expected_s:.3f} s"
+        return f"past the expected {self.expected_s:.3f} s, still moving: no estimate of the time left"
+
     def after_chunk(self, run: Run) -> None:
         left = self.time_left_s(run)
         if self.bar is not None:
+            if run.time_s > self.bar.total:  # past the expected duration: the bar shows no time left it cannot know
+                self.bar.total = run.time_s
             self.bar.update(run.time_s - self.bar.n)
-            self.bar.set_postfix_str(self.line(run), refresh=False)
+            past = "" if run.time_s < self.expected_s else "; " + self.where(run)
+            self.bar.set_postfix_str(self.line(run) + past, refresh=False)
         elif time.perf_counter() - self.last >= self.PLAIN_EVERY_S:
             from tqdm import tqdm
 
             self.last = time.perf_counter()
             eta = "" if left is None else f", about {tqdm.format_interval(left)} left"
-            print(f"  t = {run.time_s:.4f} s: {self.line(run)}; {run.time_s / self.expected_s:4.0%} of the expected "
-                  f"{self.expected_s:.3f} s [{tqdm.format_interval(self.last - self.started)} elapsed{eta}]",
-                  file=sys.stderr, flush=True)
+            print(f"  t = {run.time_s:.4f} s: {self.line(run)}; {self.where(run)} "
+                  f"[{tqdm.format_interval(self.last - self.started)} elapsed{eta}]", file=sys.stderr, flush=True)
 
     def finish(self, run: Run) -> None:
         if self.bar is not None:
