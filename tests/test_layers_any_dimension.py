@@ -66,7 +66,7 @@ def test_a_step_of_free_fall_and_the_boundary_conditions(slab):
     mesh, cells, nodes = slab
     nodal_mass(mesh, cells, 1600.0, nodes.mass)
     g, dt = 9.81, 1e-4
-    before, after = update_velocities(nodes, g, dt, 1e-12)
+    before, after = update_velocities(nodes, g, (0.0, 0.0), dt, 1e-12)
     assert nodes.v[2] == pytest.approx(np.full(N_NODES, -g * dt), rel=1e-14)
     assert (nodes.v[:2] == 0.0).all()
     assert after - before == pytest.approx(-g * dt * nodes.mass.sum(), rel=1e-12)
@@ -94,14 +94,14 @@ def test_the_node_stages_in_blocks_match_the_serial_ones_on_any_thread_count():
     start = Nodes(rng.normal(size=(3, n)), rng.normal(size=(3, n)), rng.random(n) * (rng.random(n) > 0.1),
                   rng.normal(size=(3, n)) * 1e-3)
     serial = Nodes(*(a.copy() for a in start))
-    before, after = update_velocities(serial, 9.81, 1e-4, 1e-12)
+    before, after = update_velocities(serial, 9.81, (0.0, 0.0), 1e-4, 1e-12)
     travel = gather_travel(serial, _body(vz=-0.3), 1e-4)
     previous = numba.get_num_threads()
     try:
         for threads in sorted({1, min(2, numba.config.NUMBA_NUM_THREADS)}):
             numba.set_num_threads(threads)
             blocks = Nodes(*(a.copy() for a in start))
-            sums = update_velocities_in_blocks(blocks, 9.81, 1e-4, 1e-12)
+            sums = update_velocities_in_blocks(blocks, 9.81, (0.0, 0.0), 1e-4, 1e-12)
             assert np.array_equal(blocks.v, serial.v)
             assert sums == pytest.approx((before, after), rel=1e-12)
             assert gather_travel_in_blocks(blocks, _body(vz=-0.3), 1e-4) == travel
@@ -142,7 +142,7 @@ def test_ties_move_nodes_with_the_body_in_three_axes(slab):
     assert tuple(nodes.v[:, b]) == (0.0, -0.2, 0.1)  # only the normal part is the body's (0 along x)
     nodes.f[2, a], nodes.f[0, b] = 5.0, 7.0
     force, inertia = np.zeros(6), np.zeros((6, 6))
-    tie_reactions(contact, nodes, 9.81, force, inertia)
+    tie_reactions(contact, nodes, 9.81, (0.0, 0.0), force, inertia)
     assert force[2] == pytest.approx(5.0 - nodes.mass[a] * 9.81)  # a wall takes no weight
     assert force[0] == 7.0  # but pushes the body sideways
     assert inertia[2, 2] == nodes.mass[a] and inertia[0, 0] == nodes.mass[a] + nodes.mass[b]
@@ -167,7 +167,7 @@ def test_a_turning_body_moves_its_ties_with_v_plus_omega_cross_r(slab):
     for k, n in enumerate(tied):
         nodes.f[:, n] = f[k]
     force, inertia = np.zeros(6), np.zeros((6, 6))
-    tie_reactions(contact, nodes, 0.0, force, inertia)
+    tie_reactions(contact, nodes, 0.0, (0.0, 0.0), force, inertia)
     assert force[:3] == pytest.approx(f.sum(axis=0), rel=1e-14)
     assert force[3:] == pytest.approx(np.cross(arm, f).sum(axis=0), rel=1e-14)
     # the tied nodes' inertia: Σ m·JᵀJ, J = [I, −[r]×], whose rotational block is the inertia tensor Σ m(r²I − rrᵀ)

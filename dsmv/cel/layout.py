@@ -69,6 +69,17 @@ class CellRows:
         """The rows a geostatic state sets: the vertical stress, the two horizontal ones, z0."""
         return (self.of(self.vertical), *(self.of(c) for c in self.horizontal), self.z0)
 
+    @property
+    def slope_shear(self) -> tuple[int, int]:
+        """The shear stresses on the planes along the seabed, along x and y (−1: plane strain has no y):
+        those an infinite slope's weight sets (:func:`dsmv.cel.state.geostatic_state`)."""
+        return (self.of("xy"), -1) if self.dim == 2 else (self.of("zx"), self.of("yz"))
+
+    @property
+    def inflow(self) -> tuple[int, ...]:
+        """The rows a ghost state of the inflow sets: :attr:`geostatic`, then :attr:`slope_shear`."""
+        return (*self.geostatic, *self.slope_shear)
+
 
 ROWS_2D = CellRows(2)
 ROWS_3D = CellRows(3)
@@ -225,7 +236,7 @@ class Params(NamedTuple):
     hourglass: float        # viscous hourglass coefficient (-)
     bulk_linear: float      # bulk viscosity b1 (-)
     bulk_quadratic: float   # bulk viscosity b2 (-)
-    gravity: float          # m/s²
+    gravity: float          # m/s², down the up axis (on a sloping seabed, its part normal to it: g·cos β)
     su0: float              # strength at the mudline (Pa)
     ks: float               # strength gradient (Pa/m)
     mass_floor: float       # nodes lighter than this are empty (kg)
@@ -258,6 +269,11 @@ class Params(NamedTuple):
     base_half_x: float = 0.0  # the base's half width and half length (m): its lowest point as it turns
     base_half_y: float = 0.0
     rest_speed: float = 0.0  # a drop whose fall has stopped is at rest once it slides and turns (its edge) slower (m/s)
+    sloped: bool = False    # the seabed slopes: gravity has a part along the grid's x and y (the level grid turned)
+    gravity_x: float = 0.0  # gravity along +x and +y (m/s², downslope positive): g·sin β·cos α, g·sin β·sin α
+    gravity_y: float = 0.0
+    weight_x: float = 0.0   # the body's weight along +x and +y (N per unit thickness or per radian)
+    weight_y: float = 0.0
 
 
 # the body's mutable state, a float array: time (s), offset of the grid (m, up +), velocity (m/s,

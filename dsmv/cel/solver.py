@@ -782,12 +782,14 @@ class CelSolver:
         soil, landing = scene.soil, scene.landing
         grid = self.build()
         shape = tuple(len(a) - 1 for a in grid.axes)
-        rho, grav = soil.density_kg_m3, landing.gravity_m_s2
+        # gravity in the grid's frame, which lies along the seabed: down its normal and along it
+        gravity_x, gravity_y, grav = soil.gravity_components(landing.gravity_m_s2)
+        rho = soil.density_kg_m3
         elastic = Elastic.of(soil)
         body_contact = self.body_contact(grid)
-        body_contact = replace(body_contact, contact=self.about_centre_of_gravity(body_contact.contact))
+        body_contact = replace(body_contact, contact=self.seated(body_contact.contact))
         open_frac = body_contact.openings.open_frac
-        phi, q = geostatic_state(grid, rho, grav, elastic.k0, self.mudline, open_frac)
+        phi, q = geostatic_state(grid, rho, grav, elastic.k0, self.mudline, open_frac, (gravity_x, gravity_y))
         # the soil law's state variables ride with the material, as ξ and z0 do
         law_state = self.law.initial_state()
         n_base = q.shape[0]
@@ -808,7 +810,11 @@ class CelSolver:
             dt=cfg.cfl * self.h / elastic.wave_speed_m_s, density=rho, elastic=elastic, h=self.h, gravity=grav,
             su0=soil.su0_pa, ks=soil.ks_pa_per_m, strength=soil.strength, hourglass=cfg.hourglass, bulk_linear=cfg.bulk_viscosity_linear,
             bulk_quadratic=cfg.bulk_viscosity_quadratic, stress_cutoff=cfg.stress_cutoff,
-            body_mass=start.inertia_kg / scale, body_weight=start.weight_n / scale,
+            body_mass=start.inertia_kg / scale,
+            # the body's weight along the grid's axes: down the seabed's normal and, on a slope, along it
+            **{name: start.weight_n / scale * g / max(landing.gravity_m_s2, 1e-300)
+               for name, g in (("body_weight", grav), ("weight_x", gravity_x), ("weight_y", gravity_y))},
+            sloped=gravity_x != 0.0 or gravity_y != 0.0, gravity_x=gravity_x, gravity_y=gravity_y,
             push_velocity=landing.velocity_m_s, remap_courant=cfg.remap_courant,
             axisymmetric=self.axisym, advection_order=cfg.advection_order, drop=drop, inflow=True, remap=cfg.remap,
             law_active=self.law.active or not cfg.economies.skip_inactive_law, skip_void=cfg.economies.skip_void,
@@ -839,12 +845,27 @@ class CelSolver:
         self.touchdown(state)
         return state
 
-    def about_centre_of_gravity(self, contact):
-        """The contact with its ties' levers from the centre of gravity (``landing.cg_offset_m`` from the
-        middle of the base: x, y, z; a plane-strain model has x and z)."""
+    def seated(self, contact):
+        """The contact as this scene seats the body: its ties' levers from the centre of gravity
+        (``landing.cg_offset_m`` from the middle of the base: x, y, z; a plane-strain model has x and z),
+        and on a sloping seabed the grid's far sides held in every direction (the infinite slope beyond
+        carries the shear on them that rollers would not)."""
         offset = np.asarray(self.scene.landing.cg_offset_m, dtype=float)
         offset = offset[[0, 2]] if self.dim == 2 else offset
-        return contact._replace(arm=np.ascontiguousarray(contact.arm - offset))
+        contact = contact._replace(arm=np.ascontiguousarray(contact.arm - offset))
+        if self.scene.soil.slope_deg == 0:
+            return contact
+        node_shape = tuple(len(a) for a in self.grid.axes)
+        index = np.arange(int(np.prod(node_shape))).reshape(node_shape)
+        nodes, axes = [contact.fixed_node], [contact.fixed_axis]
+        for side_axis in range(self.dim - 1):
+            side = np.concatenate([np.take(index, [0], axis=side_axis).ravel(),
+                                   np.take(index, [-1], axis=side_axis).ravel()])
+            for a in range(self.dim):
+                if a != side_axis:  # the rollers hold the normal one already
+                    nodes.append(side), axes.append(np.full(side.size, a))
+        return contact._replace(fixed_node=np.concatenate(nodes).astype(np.int64),
+                                fixed_axis=np.concatenate(axes).astype(np.int64))
 
     def contact_separation(self) -> bool:
         """Whether the body's faces let go of soil that pulls away (the contact rules' word)."""

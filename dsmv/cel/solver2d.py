@@ -44,7 +44,7 @@ class Cel2DSolver(CelSolver):
     def half_model(scene: Scene) -> bool:
         """Whether the model is half the section, a symmetry plane on the body's axis: asked
         (``solver.economies.symmetry``) and valid (the landing is symmetric about that plane)."""
-        return scene.solver.economies.symmetry and scene.landing.symmetric_about("x")
+        return scene.solver.economies.symmetry and scene.landing.symmetric_about("x") and scene.soil.level_across("x")
 
     @classmethod
     def held_in(cls, scene: Scene) -> tuple[str, ...]:

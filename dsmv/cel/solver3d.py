@@ -108,8 +108,10 @@ class Cel3DSolver(CelSolver):
         ``solver.economies.symmetry`` asks for (quarter: both; half: the one normal to x; full: none) about
         which the landing is symmetric. A strip's slab always has its plane-strain planes."""
         asked, landing = scene.solver.economies.symmetry, scene.landing
-        return (asked != "full" and landing.symmetric_about("x"),
-                scene.geometry.kind == "strip" or (asked == "quarter" and landing.symmetric_about("y")))
+        soil = scene.soil  # a seabed that falls along an axis has no mirror across it
+        return (asked != "full" and landing.symmetric_about("x") and soil.level_across("x"),
+                scene.geometry.kind == "strip" or (asked == "quarter" and landing.symmetric_about("y")
+                                                   and soil.level_across("y")))
 
     @classmethod
     def held_in(cls, scene: Scene) -> tuple[str, ...]:

@@ -40,7 +40,8 @@ def layers_below(up: np.ndarray, mudline: float) -> tuple[np.ndarray, np.ndarray
     return fill, depth
 
 
-def geostatic_state(grid, density: float, gravity: float, k0: float, mudline: float, open_frac=None):
+def geostatic_state(grid, density: float, gravity: float, k0: float, mudline: float, open_frac=None,
+                    sideways: tuple[float, float] = (0.0, 0.0)):
     """Soil below the mudline (``mudline`` m up the last axis) and outside the body, at rest under its
     weight, on a grid of any number of axes (the last one up).
 
@@ -49,6 +50,9 @@ def geostatic_state(grid, density: float, gravity: float, k0: float, mudline: fl
 
     Returns φ and the transported state q (the :class:`~dsmv.cel.layout.CellRows` base rows, then the
     cells' shape): the vertical stress −ρ'·g·depth, the horizontal ones K0 times it, z0 = depth (m), ξ = 0.
+    On a sloping seabed (``sideways``: gravity along x and y, m/s²; ``gravity`` its part down the normal)
+    an infinite slope: the shear on the planes along the seabed ρ'·g_x·depth and ρ'·g_y·depth, which
+    equilibrium ∂σ_xz/∂z + ρ'·g_x = 0 asks with no traction at the mudline.
     """
     axes = grid.axes
     shape = tuple(len(a) - 1 for a in axes)
@@ -63,6 +67,13 @@ def geostatic_state(grid, density: float, gravity: float, k0: float, mudline: fl
     q[horizontal] = k0 * q[vertical]
     q[other] = k0 * q[vertical]
     q[z0] = depth * phi
+    # the shear of the layer the mudline cuts, over its fill: the one-point forces carry φ·σ, and so its
+    # soil's weight along the slope rests on the node row below it (with ·φ, as the normal stresses are
+    # set, a slope's soil at rest moved at 5e-4 m/s there; so, 8e-6 m/s, as level soil's does)
+    fill = np.where(phi > 0.0, phi, 1.0)
+    for row, g in zip(rows.slope_shear, sideways):
+        if g != 0.0:
+            q[row] = density * g * depth * np.where(phi < 1.0, 1.0 / fill, 1.0) * (phi > 0.0)
     return phi, q
 
 

@@ -25,7 +25,7 @@ from numba import njit
 from dsmv.cel.kernels.common import INLINE, JIT
 from dsmv.cel.kernels.nodes import (
     adhesion, apply_fixed, apply_ties, hand_travel_to_parents, held_kinetic_energy, model_freedoms, nodal_mass,
-    split_mass_kinetic_change, split_masses, tie_reactions,
+    horizontal_momentum, split_mass_kinetic_change, split_masses, tie_reactions,
 )
 from dsmv.cel.layout import (
     B_FCOUNT, B_FELL, B_MAXDISP, B_MAXEDGE, B_MAXROT, B_MAXSLIDE, B_OFFSET, B_OFFSET_X, B_OFFSET_Y, B_REMAP_OFFSET,
@@ -79,6 +79,16 @@ def solve_free(matrix, rhs, free, n_free):
 
 
 @njit(**INLINE)
+def body_weight(par, q):
+    """The body's weight along freedom q (N, up +): down the up axis, and on a sloping seabed along it."""
+    if q == 2:
+        return -par.body_weight
+    if q == 0:
+        return par.weight_x
+    return par.weight_y if q == 1 else 0.0
+
+
+@njit(**INLINE)
 def move_body(nodes, contact, par, body, energy, beside):
     """The rigid body's step. Its free freedoms (:func:`is_free`) move under its wet weight, the soil's
     force and moment on it and the inertia of the nodes tied to it (one linear system over them); the
@@ -89,7 +99,7 @@ def move_body(nodes, contact, par, body, energy, beside):
     velocity."""
     force = np.zeros(6)
     inertia = np.zeros((6, 6))
-    tie_reactions(contact, nodes, par.gravity, force, inertia)
+    tie_reactions(contact, nodes, par.gravity, (par.gravity_x, par.gravity_y), force, inertia)
     freedoms = model_freedoms(nodes.v.shape[0])
     free = np.empty(6, dtype=np.int64)
     n_free = 0
@@ -105,7 +115,7 @@ def move_body(nodes, contact, par, body, energy, beside):
         for i in range(n_free):
             q = free[i]
             matrix[q, q] = body_inertia(par, q) + matrix[q, q]
-            accel[q] = force[q] - (par.body_weight if q == 2 else 0.0)
+            accel[q] = force[q] + body_weight(par, q)
         solve_free(matrix, accel, free, n_free)
     resistance = 0.0
     for q in freedoms:
@@ -116,8 +126,8 @@ def move_body(nodes, contact, par, body, energy, beside):
         if is_free(par, q):
             speed_old = body[slot]
             body[slot] = speed_old + par.dt * accel[q]
-            if q == 2:
-                energy[E_BODY_GRAV] += par.body_weight * (-0.5 * (speed_old + body[slot])) * par.dt
+            if q < 3:
+                energy[E_BODY_GRAV] += body_weight(par, q) * (0.5 * (speed_old + body[slot])) * par.dt
         else:
             energy[E_PUSH] += -reaction * body[slot] * par.dt
         body[FORCE_SLOTS[q]] += reaction
@@ -142,7 +152,7 @@ def rejoin_ties(contact, nodes, par, body, energy_out):
     ``energy_out[0]`` and the push's work (J) to ``energy_out[1]``."""
     freedoms = model_freedoms(nodes.v.shape[0])
     before, after, inertia = np.zeros(6), np.zeros(6), np.zeros((6, 6))
-    tie_reactions(contact, nodes, 0.0, before, inertia, True)
+    tie_reactions(contact, nodes, 0.0, (0.0, 0.0), before, inertia, True)
     speed_old = np.zeros(6)
     free = np.empty(6, dtype=np.int64)
     n_free = 0
@@ -170,7 +180,7 @@ def rejoin_ties(contact, nodes, par, body, energy_out):
             kinetic += 0.5 * body_inertia(par, q) * (shared[q] ** 2 - speed_old[q] ** 2)
     apply_ties(contact, nodes, body)
     kinetic += held_kinetic_energy(contact, nodes)
-    tie_reactions(contact, nodes, 0.0, after, np.zeros((6, 6)), True)
+    tie_reactions(contact, nodes, 0.0, (0.0, 0.0), after, np.zeros((6, 6)), True)
     push_work = 0.0
     for q in freedoms:
         if not is_free(par, q):
@@ -180,10 +190,21 @@ def rejoin_ties(contact, nodes, par, body, energy_out):
 
 
 @njit(**INLINE)
-def hold_nodes(cells, nodes, contact, par, body, energy, momentum_before, momentum_after):
+def momentum_along_the_slope(nodes, par):
+    """The soil's momentum along x and y on a sloping seabed (kg·m/s; zeros on a level one, unsummed):
+    with the same after the step, the work of gravity along the slope (:func:`hold_nodes`)."""
+    momentum = np.zeros(2)
+    if par.sloped:
+        horizontal_momentum(nodes, momentum)
+    return momentum
+
+
+@njit(**INLINE)
+def hold_nodes(cells, nodes, contact, par, body, energy, momentum_before, momentum_after, sideways_before):
     """After the explicit velocity update (which returned the soil's vertical momentum before and
     after it): the boundary conditions, the ties and the faces' adhesive pull; the work of gravity
-    on the soil from its vertical momentum before and after all of them."""
+    on the soil from its vertical momentum before and after all of them, and on a sloping seabed from
+    its momentum along x and y (``sideways_before``: before the update, :func:`horizontal_momentum`)."""
     momentum_after += apply_fixed(nodes, contact)
     momentum_after += apply_ties(contact, nodes, body)
     slip = np.zeros(1)
@@ -193,6 +214,10 @@ def hold_nodes(cells, nodes, contact, par, body, energy, momentum_before, moment
         body[PULL_SLOTS[q]] = pull[q]
     energy[E_FRICTION] += slip[0]
     energy[E_SOIL_GRAV] += -par.gravity * par.dt * 0.5 * (momentum_before + momentum_after)
+    if par.sloped:
+        after = momentum_along_the_slope(nodes, par)
+        energy[E_SOIL_GRAV] += par.dt * 0.5 * (par.gravity_x * (sideways_before[0] + after[0])
+                                               + par.gravity_y * (sideways_before[1] + after[1]))
 
 
 @njit(**INLINE)
@@ -258,12 +283,18 @@ def came_to_rest(par, body, v_old):
 @njit(**INLINE)
 def geostatic_ghost(ghost, c, depth, par, rows):
     """Column c of a ghost state: intact soil at rest under its weight at ``depth`` (m; ``rows``: the
-    vertical stress, its two horizontal ones and z0)."""
-    vertical, horizontal, other, z0 = rows
+    vertical stress, its two horizontal ones, z0, and the shear stresses on the horizontal planes along
+    x and y, −1 where the model has none), as an infinite slope on a sloping seabed
+    (:func:`dsmv.cel.state.geostatic_state`)."""
+    vertical, horizontal, other, z0, shear_x, shear_y = rows
     ghost[vertical, c] = -par.density * par.gravity * depth
     ghost[horizontal, c] = par.k0 * ghost[vertical, c]
     ghost[other, c] = ghost[horizontal, c]
     ghost[z0, c] = depth
+    if par.sloped:
+        ghost[shear_x, c] = par.density * par.gravity_x * depth
+        if shear_y >= 0:
+            ghost[shear_y, c] = par.density * par.gravity_y * depth
 
 
 @njit(**INLINE)

@@ -18,8 +18,8 @@ from dsmv.cel.kernels.remap2d import remap_sweeps, share_merged_fill
 from dsmv.cel.layout import B_INFLOW, B_REMAPS, B_VEL, ROWS_2D
 from dsmv.cel.ledger import E_BULK, E_GAP_RELEASE, E_HOURGLASS, E_PLASTIC
 from dsmv.cel.stepper import (
-    AT_REST, RUNNING, advance_clock, came_to_rest, hold_nodes, move_body, prepare_remap, remap_due, settle_nodes,
-    step_failed,
+    AT_REST, RUNNING, advance_clock, came_to_rest, hold_nodes, momentum_along_the_slope, move_body, prepare_remap,
+    remap_due, settle_nodes, step_failed,
 )
 
 
@@ -31,11 +31,13 @@ def lagrange_step(mesh, cells, faces, nodes, contact, par, body, energy, law):
     energy[E_HOURGLASS] += work[0] * par.dt
     energy[E_BULK] += work[1] * par.dt
     if par.separation:  # which face ties hold this step: those the soil would otherwise cross
-        ties_that_hold(contact, nodes, par.dt, par.gravity, par.mass_floor, body)
+        ties_that_hold(contact, nodes, par.dt, par.gravity, (par.gravity_x, par.gravity_y), par.mass_floor, body)
     # the cut cells' arcs (the adhesive pull of the last step is the body's)
     resistance, v_old = move_body(nodes, contact, par, body, energy, (0.0, 0.0, work[2], 0.0, 0.0, 0.0))
-    momentum_before, momentum_after = update_velocities(nodes, par.gravity, par.dt, par.mass_floor)
-    hold_nodes(cells, nodes, contact, par, body, energy, momentum_before, momentum_after)
+    sideways_before = momentum_along_the_slope(nodes, par)
+    momentum_before, momentum_after = update_velocities(nodes, par.gravity, (par.gravity_x, par.gravity_y), par.dt,
+                                                      par.mass_floor)
+    hold_nodes(cells, nodes, contact, par, body, energy, momentum_before, momentum_after, sideways_before)
     merge = contact.merge
     for k in range(merge.shape[0]):  # a sliver and its neighbour change volume as one
         si, sj, ni, nj = merge[k, 0], merge[k, 1], merge[k, 2], merge[k, 3]
@@ -50,7 +52,7 @@ def lagrange_step(mesh, cells, faces, nodes, contact, par, body, energy, law):
     return resistance, v_old
 
 
-INFLOW_ROWS = ROWS_2D.geostatic  # the ghost state's rows the inflow sets
+INFLOW_ROWS = ROWS_2D.inflow  # the ghost state's rows the inflow sets
 
 
 @njit(**INLINE)

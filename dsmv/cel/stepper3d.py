@@ -23,8 +23,8 @@ from dsmv.cel.layout import (B_BESIDE_MX, B_BESIDE_MY, B_BESIDE_MZ, B_BESIDE_N, 
                               B_FORCES_AHEAD, B_HOURGLASS_W, B_INFLOW, B_REMAPS, B_VEL, B_VX, B_VY, ROWS_3D)
 from dsmv.cel.ledger import E_BULK, E_HOURGLASS, E_PLASTIC
 from dsmv.cel.stepper import (
-    AT_REST, RUNNING, advance_clock, came_to_rest, hold_nodes, move_body, prepare_remap, remap_due, settle_nodes,
-    step_failed,
+    AT_REST, RUNNING, advance_clock, came_to_rest, hold_nodes, momentum_along_the_slope, move_body, prepare_remap,
+    remap_due, settle_nodes, step_failed,
 )
 
 
@@ -62,13 +62,15 @@ def lagrange_step(mesh, cells, nodes, contact, par, body, energy, law):
     energy[E_HOURGLASS] += body[B_HOURGLASS_W] * par.dt
     energy[E_BULK] += body[B_BULK_W] * par.dt
     if par.separation:  # which face ties hold this step: those the soil would otherwise cross
-        ties_that_hold(contact, nodes, par.dt, par.gravity, par.mass_floor, body)
+        ties_that_hold(contact, nodes, par.dt, par.gravity, (par.gravity_x, par.gravity_y), par.mass_floor, body)
     # the mean stress on the closed faces (the adhesive pull of the last step is the body's)
     beside = (body[B_BESIDE_X], body[B_BESIDE_Y], body[B_BESIDE_N], body[B_BESIDE_MX], body[B_BESIDE_MY],
               body[B_BESIDE_MZ])
     resistance, v_old = move_body(nodes, contact, par, body, energy, beside)
-    momentum_before, momentum_after = update_velocities_in_blocks(nodes, par.gravity, par.dt, par.mass_floor)
-    hold_nodes(cells, nodes, contact, par, body, energy, momentum_before, momentum_after)
+    sideways_before = momentum_along_the_slope(nodes, par)
+    momentum_before, momentum_after = update_velocities_in_blocks(nodes, par.gravity, (par.gravity_x, par.gravity_y), par.dt,
+                                                      par.mass_floor)
+    hold_nodes(cells, nodes, contact, par, body, energy, momentum_before, momentum_after, sideways_before)
     work = np.zeros(N_SLAB_SUMS)
     update_stress_and_forces(mesh, cells, nodes, par, grid_velocity(body), contact.split_parent, law, work)
     energy[E_PLASTIC] += work[0]
@@ -78,7 +80,7 @@ def lagrange_step(mesh, cells, nodes, contact, par, body, energy, law):
     return resistance, v_old
 
 
-INFLOW_ROWS = ROWS_3D.geostatic  # the ghost state's rows the inflow sets
+INFLOW_ROWS = ROWS_3D.inflow  # the ghost state's rows the inflow sets
 
 
 @njit(**INLINE)

@@ -218,7 +218,7 @@ def redraw(solver, state, angles: np.ndarray, room_was: np.ndarray):
             turned = max(abs(a) for a in angles)
             return (f"the body turned {math.degrees(turned):.3g}°: its drawing left the uniform core of cells; widen "
                     f"solver.core_margin_widths")
-    new = replace(new, contact=solver.about_centre_of_gravity(new.contact))
+    new = replace(new, contact=solver.seated(new.contact))
     room = room_outside(solver.body_shape(grid, angles), grid, new.solid)
     elastic = solver.kernels.elastic_energy
     before = (elastic(cells.phi, cells.q, mesh.vol, par.shear, par.bulk), kinetic_energy(nodes.mass, nodes.v))

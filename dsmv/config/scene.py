@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal, Optional, Union
 
+import numpy as np
 from omegaconf import DictConfig, OmegaConf, open_dict
 from omegaconf.errors import OmegaConfBaseException
 from pydantic import BaseModel, BeforeValidator, Field, ValidationInfo, field_validator, model_validator
@@ -97,6 +98,11 @@ class SoilConfig(Schema):
     profile: Optional[Union[list[list[Number]], str]] = Field(None, description=(
         "su_intact against depth: [[depth_m, su_pa], ...] or a CSV path (columns depth_m|depth_cm, su_pa|su_kpa); "
         "null: su0 + ks·z"))
+    slope_deg: Number = Field(0.0, ge=0, lt=90, description=(
+        "seabed slope β (°): the level grid with gravity turned by β, the soil at rest as an infinite slope, "
+        "depths and strengths normal to the seabed"))
+    downslope_direction_deg: Number = Field(0.0, description=(
+        "where the seabed falls, in plan from +x (across the body) towards +y (along it) (°); plane strain: 0 or 180"))
 
     @model_validator(mode="after")
     def _profile_sets_the_mudline(self):
@@ -114,6 +120,39 @@ class SoilConfig(Schema):
         if self.profile is None:
             return straight_line(self.su0_pa, self.ks_pa_per_m)
         return segments(read_points(self.profile))
+
+    def gravity_components(self, gravity_m_s2: float) -> tuple[float, float, float]:
+        """Gravity in the grid's frame, which lies along the seabed (m/s²): along +x and +y (downslope
+        positive) and its magnitude down the normal, g·sinβ·cos α, g·sinβ·sin α, g·cos β."""
+        beta, alpha = math.radians(self.slope_deg), math.radians(self.downslope_direction_deg)
+        if beta == 0.0:
+            return 0.0, 0.0, gravity_m_s2
+        along = gravity_m_s2 * math.sin(beta)
+        return along * _exact_cos(alpha), along * _exact_cos(alpha - 0.5 * math.pi), gravity_m_s2 * math.cos(beta)
+
+    def level_across(self, axis: str) -> bool:
+        """Whether the seabed falls nowhere along ``axis`` (x or y): a mid-plane normal to it stays a
+        symmetry plane."""
+        return self.gravity_components(1.0)["xy".index(axis)] == 0.0
+
+    def steepest_slope_deg(self, gravity_m_s2: float, depth_m: float) -> float:
+        """The steepest seabed this soil stands as an infinite slope down to ``depth_m`` (°): the shear
+        stress of its own weight, ρ'·g·sinβ·d, stays below the intact strength su(d) at every depth d
+        (normal to the seabed) down to there. su(d)/d is least at the ends of the table's segments."""
+        if gravity_m_s2 <= 0.0:
+            return 90.0
+        table = self.strength
+        depths = np.array([d for d in table.depth[1:] if 0.0 < d < depth_m] + [depth_m])
+        ratio = float(np.min(table.su(depths) / depths))
+        return math.degrees(math.asin(min(ratio / (self.density_kg_m3 * gravity_m_s2), 1.0)))
+
+
+def _exact_cos(angle: float) -> float:
+    """cos, exactly 0 or ±1 at multiples of a right angle (a slope along x has no y component at all)."""
+    quarter = angle / (0.5 * math.pi)
+    if abs(quarter - round(quarter)) < 1e-12:
+        return (1.0, 0.0, -1.0, 0.0)[round(quarter) % 4]
+    return math.cos(angle)
 
 
 # --------------------------------------------------------------------------- geometry
@@ -510,7 +549,10 @@ class Scene:
         """What decides a result (what the hash covers), as plain data: display settings excluded."""
         return {
             # a soil without a table keeps the hash it had before tables existed
-            "soil": {k: v for k, v in self.soil.model_dump().items() if k != "profile" or v is not None},
+            # (and on a level seabed, the hash it had before slopes existed)
+            "soil": {k: v for k, v in self.soil.model_dump().items() if not (
+                (k == "profile" and v is None) or (k in ("slope_deg", "downslope_direction_deg")
+                                                   and self.soil.slope_deg == 0))},
             # a lone track keeps the hash it had before vehicles existed
             "geometry": {k: v for k, v in self.geometry.model_dump().items() if k != "gauge_m" or v is not None},
             # the keys of the body's other freedoms count once they differ from a vertical landing's,
@@ -557,6 +599,26 @@ def settle_mesh(cfg: DictConfig | dict, mesh: Any, solver_cls) -> Any:
     return settled
 
 
+def check_slope(scene: Scene) -> None:
+    """A sloping seabed: in a solver that takes it (the CEL's, plane strain with the slope across the
+    section), and standing (its infinite slope does not fail at any depth under its own weight)."""
+    soil = scene.soil
+    if soil.slope_deg == 0:
+        return
+    if scene.solver.name not in ("cel2d", "cel3d"):
+        raise ConfigError("soil.slope_deg", soil.slope_deg, "a sloping seabed runs in cel2d and cel3d (the level "
+                          f"grid with gravity turned); {scene.solver.name} lands on a level one")
+    if scene.solver.name == "cel2d" and not soil.level_across("y"):
+        raise ConfigError("soil.downslope_direction_deg", soil.downslope_direction_deg,
+                          "plane strain takes a slope across its section: 0 or 180 (cel3d takes any)")
+    modelled = scene.solver.domain_depth_widths * scene.geometry.width_m  # the soil the model holds below the body
+    steepest = soil.steepest_slope_deg(scene.landing.gravity_m_s2, modelled)
+    if soil.slope_deg > steepest:
+        raise ConfigError("soil.slope_deg", soil.slope_deg, f"the seabed would slide: as an infinite slope its weight "
+                          f"(ρ'·g·sinβ·d) shears it past su within the {modelled:.3g} m of soil modelled; this soil "
+                          f"stands up to {steepest:.3g}°")
+
+
 def build_scene(cfg: DictConfig | dict) -> Scene:
     """Validate a composed config into a :class:`Scene` (raises ConfigError on the first bad value)."""
     container = _to_container(cfg) if isinstance(cfg, DictConfig) else dict(cfg)
@@ -593,6 +655,7 @@ def build_scene(cfg: DictConfig | dict) -> Scene:
                           "stands on two tracks that share its weight: 2")
     scene = Scene(study, soil, geometry, landing, mesh, solver, output, safety)
     check_touchdown_speed(scene)
+    check_slope(scene)
     if geometry.kind in getattr(solver_cls, "bodies", ()):  # a solver that meshes the body
         check_core_cells(scene)
     check = getattr(solver_cls, "check_scene", None)

@@ -156,16 +156,16 @@ def largest_speed(v):
 
 
 @njit(**INLINE)
-def update_velocity_range(v, f, mass, gravity, dt, mass_floor, start, stop):
+def update_velocity_range(v, f, mass, gravity, sideways, dt, mass_floor, start, stop):
     """:func:`update_velocities` for the nodes start … stop − 1. One pass per axis: each is a stride-1
     loop the compiler vectorises."""
     dim = v.shape[0]
     up = dim - 1
     for a in range(up):
-        va, fa = v[a], f[a]
+        va, fa, ga = v[a], f[a], sideways[a]
         for k in range(start, stop):
             m = mass[k]
-            va[k] = va[k] + dt * fa[k] / m if m > mass_floor else 0.0
+            va[k] = va[k] + dt * fa[k] / m + dt * ga if m > mass_floor else 0.0
     vu, fu = v[up], f[up]
     momentum_before = 0.0
     momentum_after = 0.0
@@ -178,12 +178,25 @@ def update_velocity_range(v, f, mass, gravity, dt, mass_floor, start, stop):
 
 
 @njit(**JIT)
-def update_velocities(nodes, gravity, dt, mass_floor):
-    """Explicit velocity update v += Δt·(f/m − g·up) at nodes holding soil; empty nodes stop.
+def update_velocities(nodes, gravity, sideways, dt, mass_floor):
+    """Explicit velocity update v += Δt·(f/m − g·up + ``sideways``) at nodes holding soil (``sideways``:
+    gravity along x and y on a sloping seabed, m/s²); empty nodes stop.
 
     Returns the soil's vertical momentum Σ m·v_up before and after (kg·m/s per unit thickness or
     per radian), which the audit of gravity's work needs."""
-    return update_velocity_range(nodes.v, nodes.f, nodes.mass, gravity, dt, mass_floor, 0, nodes.v.shape[1])
+    return update_velocity_range(nodes.v, nodes.f, nodes.mass, gravity, sideways, dt, mass_floor, 0, nodes.v.shape[1])
+
+
+@njit(**JIT)
+def horizontal_momentum(nodes, out):
+    """The soil's momentum Σ m·v along x and (3D) y into ``out`` (kg·m/s): the audit of the work of
+    gravity along a sloping seabed."""
+    v, mass = nodes.v, nodes.mass
+    for a in range(v.shape[0] - 1):
+        total = 0.0
+        for k in range(v.shape[1]):
+            total += mass[k] * v[a, k]
+        out[a] = total
 
 
 @njit(**PARALLEL)
@@ -195,14 +208,14 @@ def zero_in_blocks(values):
 
 
 @njit(**PARALLEL)
-def update_velocities_in_blocks(nodes, gravity, dt, mass_floor):
+def update_velocities_in_blocks(nodes, gravity, sideways, dt, mass_floor):
     """:func:`update_velocities` in parallel over blocks of :data:`NODE_BLOCK` nodes, the blocks'
     momenta summed in block order (3D)."""
     n = nodes.v.shape[1]
     n_blocks = (n + NODE_BLOCK - 1) // NODE_BLOCK
     parts = np.zeros((2, n_blocks))
     for b in prange(n_blocks):
-        parts[0, b], parts[1, b] = update_velocity_range(nodes.v, nodes.f, nodes.mass, gravity, dt, mass_floor,
+        parts[0, b], parts[1, b] = update_velocity_range(nodes.v, nodes.f, nodes.mass, gravity, sideways, dt, mass_floor,
                                                          b * NODE_BLOCK, min(n, (b + 1) * NODE_BLOCK))
     return ordered_sums(parts)
 
@@ -223,7 +236,7 @@ def apply_fixed(nodes, contact):
 
 
 @njit(**JIT)
-def ties_that_hold(contact, nodes, dt, gravity, mass_floor, body):
+def ties_that_hold(contact, nodes, dt, gravity, sideways, mass_floor, body):
     """With contact separation: which ties hold this step (``contact.holding``), those whose free
     velocity would carry the node into the body, not away from the face (no tension). A tie with no
     normal (a corner, a staircase) and an empty node hold."""
@@ -241,8 +254,8 @@ def ties_that_hold(contact, nodes, dt, gravity, mass_floor, body):
                 nk = normal[k, a]
                 if nk != 0.0:
                     on_face = True
-                    g = gravity if a == up else 0.0
-                    vn_free += (v[a, n] + dt * (f[a, n] / m - g)) * nk
+                    g = -gravity if a == up else sideways[a]
+                    vn_free += (v[a, n] + dt * (f[a, n] / m + g)) * nk
             if on_face:
                 held = vn_free <= normal_speed(body, contact.arm, normal, k)
         holding[k] = held
@@ -255,9 +268,10 @@ def translation_of(dim, a):
 
 
 @njit(**JIT)
-def tie_reactions(contact, nodes, gravity, force, inertia, momentum=False):
+def tie_reactions(contact, nodes, gravity, sideways, force, inertia, momentum=False):
     """What the holding tied nodes put on the body, per freedom (:data:`dsmv.cel.layout.FREEDOMS`): their
-    force and moment about the centre of gravity (N, N·m; the nodes' forces less their weight) added
+    force and moment about the centre of gravity (N, N·m; the nodes' forces with their weight, down the
+    up axis ``gravity`` and along x and y ``sideways``, m/s²) added
     to ``force``, and the inertia they add to the body's motion (kg, kg·m, kg·m²) added to ``inertia``
     (6 × 6: a node held along its normal n counts m·(nᵀJ)ᵀ(nᵀJ), a fully tied one m·JᵀJ, J its levers).
     With ``momentum`` their momentum and moment of momentum m·v instead of their force (kg·m/s,
@@ -275,7 +289,7 @@ def tie_reactions(contact, nodes, gravity, force, inertia, momentum=False):
         scale = m if momentum else 1.0
         if contact.full[k]:
             for a in range(dim):
-                fa = scale * f[a, n] - m * gravity if a == up else scale * f[a, n]
+                fa = scale * f[a, n] - m * gravity if a == up else scale * f[a, n] + m * sideways[a]
                 along = translation_of(dim, a)
                 force[along] += fa
                 inertia[along, along] += m
@@ -291,7 +305,7 @@ def tie_reactions(contact, nodes, gravity, force, inertia, momentum=False):
         else:
             fn = 0.0
             for a in range(up):
-                fn += scale * f[a, n] * normal[k, a]
+                fn += (scale * f[a, n] + m * sideways[a]) * normal[k, a]
             fn += (scale * f[up, n] - m * gravity) * normal[k, up]
             for q in freedoms:
                 levers[q] = 0.0
