@@ -116,3 +116,24 @@ def test_a_landing_on_a_slope_slides_downhill_as_its_mirror_image(compose_cfg):
         a, b = np.asarray(down_x.history[name]), sign * np.asarray(down_minus_x.history[name])
         assert np.abs(a - b).max() <= 1e-12 * np.abs(a).max(), name
     assert down_x.metrics["energy_error"] <= 2e-3 and abs(down_x.metrics["mass_error"]) <= 1e-12
+
+
+def test_a_strip_on_a_slope_stays_or_slides_where_greens_envelope_says(compose_cfg):
+    """A rough strip (B = 1 m, B/10) weighing W = 2·B·su set down at 0.1 m/s on a slope of Tresca soil
+    (su = 100 kPa ≫ ρ'·g·B): V = W·cos β, H = W·sin β. On Green's (1954) envelope V/(B·su) = 1.73 < 1 + π/2
+    lies on its sliding branch, H = B·su: it slides from sin β = B·su/W, 30°. 10 % below (27°) it comes to
+    rest having slid 0.014 B (measured); 10 % above (33°) it slides 0.18 B before the soil it pushes ahead
+    stops it (measured); at 40° it slides a width without slowing: bearing_failure."""
+    def landing(slope_deg):
+        su, w = 100000.0, 2.0
+        scene = build_scene(compose_cfg(["geometry=strip", "soil.law=tresca", f"soil.su0_pa={su}", "soil.ks_pa_per_m=0",
+                                         f"landing.mass_kg={w * su / 9.81}", "landing.velocity_m_s=0.1",
+                                         "landing.free=[z,x]", f"soil.slope_deg={slope_deg}", "mesh.cell_size_m=0.1",
+                                         "solver.progress=off"]))
+        return Cel2DSolver(scene).solve()
+
+    below, above, steep = landing(27), landing(33), landing(40)
+    assert below.status == above.status == "ok"
+    assert 0.0 < below.metrics["horizontal_displacement_m"] < 0.03
+    assert above.metrics["horizontal_displacement_m"] > 0.1
+    assert steep.status == "bearing_failure" and "slid" in steep.message

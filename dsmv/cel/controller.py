@@ -543,6 +543,31 @@ class BearingFailure(Tracker):
 
 
 @dataclass
+class SlideFailure(Tracker):
+    """A landing free to slide (down a slope, or drifting) must slow its slide within ``width`` of sliding:
+    a body that slid one width B and slides no slower than when it had slid a width less cannot be held
+    by the soil, as one that sinks a width without slowing (:class:`BearingFailure`)."""
+
+    width: float
+
+    def after_chunk(self, run: Run) -> Optional[Ending]:
+        h = run.history
+        x = np.asarray(h["horizontal_displacement_m"])
+        slide = np.hypot(x, np.asarray(h["lateral_displacement_m"])) if "lateral_displacement_m" in h else np.abs(x)
+        if len(slide) < 3 or slide[-1] <= self.width:
+            return None
+        t = np.asarray(h["time_s"])
+        then = int(np.argmax(slide >= slide[-1] - self.width))  # the sample where it had slid a width less
+        then = min(max(then, 1), len(slide) - 2)
+        speed_then = (slide[then + 1] - slide[then - 1]) / (t[then + 1] - t[then - 1])
+        speed_now = (slide[-1] - slide[-2]) / (t[-1] - t[-2])
+        if speed_now >= speed_then:
+            return Ending("bearing_failure", f"the body slid {slide[-1]:.3g} m without slowing down over {self.width:g} m "
+                                             f"(one width B): the soil cannot hold it")
+        return None
+
+
+@dataclass
 class PushEnd(Tracker):
     """A push ends at its displacement (m, of the translations it drives: ``pose_slots``, the body's
     slots of their displacements) or its rotation (degrees, when it drives one)."""

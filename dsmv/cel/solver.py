@@ -352,6 +352,8 @@ class CelSolver:
                 width = max(width, self.travel)
             trackers += [C.Rest(state.par.body_weight == 0.0, cfg.economies.stop_at_rest),
                          C.BearingFailure(width, width == scene.geometry.width_m), C.TravelLimit(self.travel)]
+            if {"x", "y"} & set(self.moving_freedoms()):
+                trackers.append(C.SlideFailure(scene.geometry.width_m))
         elif landing.cycles:
             trackers.append(C.Cycles(landing.displacement_m, landing.stroke_m, landing.cycles))
         else:
