@@ -137,3 +137,11 @@ def test_a_strip_on_a_slope_stays_or_slides_where_greens_envelope_says(compose_c
     assert 0.0 < below.metrics["horizontal_displacement_m"] < 0.03
     assert above.metrics["horizontal_displacement_m"] > 0.1
     assert steep.status == "bearing_failure" and "slid" in steep.message
+
+
+def test_the_summary_names_the_slope_and_gives_no_3d_estimate_measured_on_level_seabeds(run_cli):
+    done = run_cli("dsmv", "soil.slope_deg=5", "landing.free=[z,x]", "mesh=coarse", "tracking=disabled",
+                   "output.plots=false")
+    assert done.returncode == 0, done.stderr
+    assert "on a 5° slope falling towards 0° from +x" in done.stdout
+    assert "not estimated on a sloping seabed" in done.stdout and "slid" in done.stdout

@@ -329,7 +329,7 @@ def track_sinkage_bound(scene: Scene, result: SolveResult) -> float | None:
     """For a 2D cross-section's landing with the grousers the difference was measured with: the most the
     3D track sinks by it (the section + the largest measured difference, m); None for anything else."""
     sinkage = result.metrics.get("max_sinkage_m")
-    if (sinkage is None or scene.landing.kind == "push" or not is_cross_section(scene)
+    if (sinkage is None or scene.landing.kind == "push" or not is_cross_section(scene) or scene.soil.slope_deg
             or scene.geometry.grouser_height_m != SECTION_TO_TRACK_M["grouser_height_m"]):
         return None
     return sinkage + SECTION_TO_TRACK_M["largest"]
@@ -343,6 +343,8 @@ def track_estimate(scene: Scene, result: SolveResult, overrides: list[str] = ())
         return None
     command = " ".join(["dsmv solver=cel3d", *(o for o in overrides if not o.split("=")[0].lstrip("+~").startswith(("solver", "mesh")))])
     offset = SECTION_TO_TRACK_M
+    if scene.soil.slope_deg:
+        return f"not estimated on a sloping seabed (the 3D–2D difference is measured on level ones); the 3D answer: {command}"
     if scene.geometry.grouser_height_m != offset["grouser_height_m"]:
         return (f"not estimated for {scene.geometry.grouser_height_m:g} m grousers (measured with "
                 f"{offset['grouser_height_m']:g} m); the 3D answer: {command}")
@@ -388,8 +390,8 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
         if scene.landing.moves_beyond_vertical:  # which symmetry economy the scene allowed
             print("  symmetry: " + ("the model keeps the mid-planes the landing is symmetric about; the slide and "
                                     "turn across them stay 0" if whole != m["cells"] else
-                                    "none: the landing is not symmetric about the body's mid-planes, the whole "
-                                    "body is modelled"))
+                                    "none: the landing " + ("or the seabed's slope " if scene.soil.slope_deg else "")
+                                    + "is not symmetric about the body's mid-planes, the whole body is modelled"))
         if "redraws" in m:  # a body redrawn as it turned: whether its soil may part from it
             parts = ContactRules.of(scene, False, draws_turns=True).separation
             print(f"  turn    : redrawn into the grid {m['redraws']:.0f} times as it turned, a rough staircase " + (

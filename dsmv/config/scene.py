@@ -543,7 +543,9 @@ class Scene:
         body = self.geometry.name
         if self.geometry.vehicle:
             body += f" (two tracks {self.geometry.gauge_m:g} m apart, each carrying half)"
-        return f"{self.soil.name} soil ({self.soil.law}), {body}, {motion}"
+        seabed = (f" on a {self.soil.slope_deg:g}° slope falling towards {self.soil.downslope_direction_deg:g}° from +x"
+                  if self.soil.slope_deg else "")
+        return f"{self.soil.name} soil ({self.soil.law}){seabed}, {body}, {motion}"
 
     def physics_dict(self) -> dict[str, Any]:
         """What decides a result (what the hash covers), as plain data: display settings excluded."""
