@@ -39,8 +39,8 @@ import numpy as np
 from dsmv.cel import ledger
 from dsmv.cel.kernels.common import all_finite
 from dsmv.cel.layout import (
-    B_FCOUNT, B_MAXDISP, B_MAXROT, B_MAXSLIDE, B_OFFSET, B_ROT_X, B_ROT_Y, B_ROT_Z, B_SINKAGE, B_TIME, B_VEL,
-    FORCE_SLOTS, FREEDOMS, POSE_SLOTS,
+    B_FCOUNT, B_MAXDISP, B_MAXROT, B_MAXSLIDE, B_OFFSET, B_OFFSET_X, B_OFFSET_Y, B_ROT_X, B_ROT_Y, B_ROT_Z, B_SINKAGE,
+    B_TIME, B_VEL, B_VX, B_VY, FORCE_SLOTS, FREEDOMS, POSE_SLOTS,
 )
 from dsmv.cel.stepper import AT_REST, NOT_FINITE, OUTRAN, RUNNING
 
@@ -546,23 +546,24 @@ class BearingFailure(Tracker):
 class SlideFailure(Tracker):
     """A landing free to slide (down a slope, or drifting) must slow its slide within ``width`` of sliding:
     a body that slid one width B and slides no slower than when it had slid a width less cannot be held
-    by the soil, as one that sinks a width without slowing (:class:`BearingFailure`)."""
+    by the soil, as one that sinks a width without slowing (:class:`BearingFailure`). The slide and its
+    speed are the body's own (displacement and velocity along x and y), kept chunk by chunk."""
 
     width: float
+    slides: list = field(default_factory=list)
+    speeds: list = field(default_factory=list)
 
     def after_chunk(self, run: Run) -> Optional[Ending]:
-        h = run.history
-        x = np.asarray(h["horizontal_displacement_m"])
-        slide = np.hypot(x, np.asarray(h["lateral_displacement_m"])) if "lateral_displacement_m" in h else np.abs(x)
-        if len(slide) < 3 or slide[-1] <= self.width:
+        body = run.body
+        slide = math.hypot(body[B_OFFSET_X], body[B_OFFSET_Y])
+        speed = math.hypot(body[B_VX], body[B_VY])
+        self.slides.append(slide)
+        self.speeds.append(speed)
+        if slide <= self.width:
             return None
-        t = np.asarray(h["time_s"])
-        then = int(np.argmax(slide >= slide[-1] - self.width))  # the sample where it had slid a width less
-        then = min(max(then, 1), len(slide) - 2)
-        speed_then = (slide[then + 1] - slide[then - 1]) / (t[then + 1] - t[then - 1])
-        speed_now = (slide[-1] - slide[-2]) / (t[-1] - t[-2])
-        if speed_now >= speed_then:
-            return Ending("bearing_failure", f"the body slid {slide[-1]:.3g} m without slowing down over {self.width:g} m "
+        then = float(np.interp(slide - self.width, np.maximum.accumulate(self.slides), self.speeds))
+        if speed >= then:
+            return Ending("bearing_failure", f"the body slid {slide:.3g} m without slowing down over {self.width:g} m "
                                              f"(one width B): the soil cannot hold it")
         return None
 

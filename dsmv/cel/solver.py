@@ -861,13 +861,20 @@ class CelSolver:
         index = np.arange(int(np.prod(node_shape))).reshape(node_shape)
         nodes, axes = [contact.fixed_node], [contact.fixed_axis]
         for side_axis in range(self.dim - 1):
-            side = np.concatenate([np.take(index, [0], axis=side_axis).ravel(),
-                                   np.take(index, [-1], axis=side_axis).ravel()])
+            ends = self.far_sides(side_axis)
+            if not ends:
+                continue
+            side = np.concatenate([np.take(index, [end], axis=side_axis).ravel() for end in ends])
             for a in range(self.dim):
                 if a != side_axis:  # the rollers hold the normal one already
                     nodes.append(side), axes.append(np.full(side.size, a))
         return contact._replace(fixed_node=np.concatenate(nodes).astype(np.int64),
                                 fixed_axis=np.concatenate(axes).astype(np.int64))
+
+    def far_sides(self, axis: int) -> tuple[int, ...]:
+        """The ends (0, −1) of a horizontal axis that are the grid's far sides, not a symmetry plane of the
+        model (which holds only the motion across it)."""
+        return (0, -1)
 
     def contact_separation(self) -> bool:
         """Whether the body's faces let go of soil that pulls away (the contact rules' word)."""

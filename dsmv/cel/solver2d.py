@@ -121,6 +121,10 @@ class Cel2DSolver(CelSolver):
         turned by ``angles``."""
         return build_contact(self.rules, self.body_shape(grid, angles), grid, grid.row_of(0.0))
 
+    def far_sides(self, axis: int) -> tuple[int, ...]:
+        """The half model's axis (x = 0) is its symmetry plane."""
+        return (-1,) if self.half_model(self.scene) else (0, -1)
+
     def whole_body_cells(self, cells: float) -> float:
         """The cells the whole section would take on this grid (the half model mirrored; an
         axisymmetric model is its own whole)."""

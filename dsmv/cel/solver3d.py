@@ -180,6 +180,13 @@ class Cel3DSolver(CelSolver):
         self.grid, self.h, self.n_half, self.travel = grid, h, n_half, travel
         return grid
 
+    def far_sides(self, axis: int) -> tuple[int, ...]:
+        """A symmetry plane at the start of an axis is no far side; a strip slab's planes along y are its
+        plane-strain planes."""
+        if axis == 1 and self.slab:
+            return ()
+        return (-1,) if self.symmetry_planes()[axis] else (0, -1)
+
     def mirrors(self) -> float:
         """The model's copies in the whole body: four quarters, two halves, one whole."""
         normal_x, normal_y = self.symmetry_planes()

@@ -67,13 +67,14 @@ def geostatic_state(grid, density: float, gravity: float, k0: float, mudline: fl
     q[horizontal] = k0 * q[vertical]
     q[other] = k0 * q[vertical]
     q[z0] = depth * phi
-    # the shear of the layer the mudline cuts, over its fill: the one-point forces carry φ·σ, and so its
-    # soil's weight along the slope rests on the node row below it (with ·φ, as the normal stresses are
-    # set, a slope's soil at rest moved at 5e-4 m/s there; so, 8e-6 m/s, as level soil's does)
-    fill = np.where(phi > 0.0, phi, 1.0)
+    # the shear of the layer the mudline cuts over the layer's fill squared (σ·φ over its fill): the one-point
+    # forces carry φ·σ, and so its soil's weight along the slope rests on the node row below it (set as the
+    # normal stresses are, σ·φ, a slope's soil at rest moved at 5e-4 m/s there; so, 8e-6 m/s, as level
+    # soil's does); the cells the body cuts below it take σ·φ, as their normal stresses do
+    layer_fill = np.broadcast_to(np.where(fill > 0.0, fill, 1.0), shape)
     for row, g in zip(rows.slope_shear, sideways):
         if g != 0.0:
-            q[row] = density * g * depth * np.where(phi < 1.0, 1.0 / fill, 1.0) * (phi > 0.0)
+            q[row] = density * g * depth * phi / layer_fill**2
     return phi, q
 
 

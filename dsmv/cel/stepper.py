@@ -281,20 +281,20 @@ def came_to_rest(par, body, v_old):
 
 
 @njit(**INLINE)
-def geostatic_ghost(ghost, c, depth, par, rows):
+def geostatic_ghost(ghost, c, depth, par, rows, fill=1.0):
     """Column c of a ghost state: intact soil at rest under its weight at ``depth`` (m; ``rows``: the
     vertical stress, its two horizontal ones, z0, and the shear stresses on the horizontal planes along
-    x and y, −1 where the model has none), as an infinite slope on a sloping seabed
-    (:func:`dsmv.cel.state.geostatic_state`)."""
+    x and y, −1 where the model has none), as an infinite slope on a sloping seabed, the shear of a layer
+    ``fill`` full over its fill (:func:`dsmv.cel.state.geostatic_state`)."""
     vertical, horizontal, other, z0, shear_x, shear_y = rows
     ghost[vertical, c] = -par.density * par.gravity * depth
     ghost[horizontal, c] = par.k0 * ghost[vertical, c]
     ghost[other, c] = ghost[horizontal, c]
     ghost[z0, c] = depth
     if par.sloped:
-        ghost[shear_x, c] = par.density * par.gravity_x * depth
+        ghost[shear_x, c] = par.density * par.gravity_x * depth / fill
         if shear_y >= 0:
-            ghost[shear_y, c] = par.density * par.gravity_y * depth
+            ghost[shear_y, c] = par.density * par.gravity_y * depth / fill
 
 
 @njit(**INLINE)
@@ -315,7 +315,7 @@ def prepare_remap(inflow, contact, nodes, par, body, rows):
             fill[layer] = min(max((mudline - levels[layer]) / size, 0.0), 1.0)
             centre = 0.5 * (levels[layer] + levels[layer + 1])
             geostatic_ghost(inflow.side, layer, mudline - centre if fill[layer] >= 1.0 else 0.5 * fill[layer] * size,
-                            par, rows)
+                            par, rows, max(fill[layer], 1e-12))
     hand_travel_to_parents(contact, nodes)
 
 

@@ -222,11 +222,12 @@ def redraw(solver, state, angles: np.ndarray, room_was: np.ndarray):
     room = room_outside(solver.body_shape(grid, angles), grid, new.solid)
     elastic = solver.kernels.elastic_energy
     before = (elastic(cells.phi, cells.q, mesh.vol, par.shear, par.bulk), kinetic_energy(nodes.mass, nodes.v))
-    up = grid.axes[-1]
-    height = (0.5 * (up[1:] + up[:-1])).reshape((1,) * (cells.phi.ndim - 1) + (-1,))
-    lifted = -(cells.phi * mesh.vol * height).sum()
+    dim = cells.phi.ndim
+    centres = [(0.5 * (a[1:] + a[:-1])).reshape([-1 if k == axis else 1 for k in range(dim)])
+               for axis, a in enumerate(grid.axes)]
+    moved = [-(cells.phi * mesh.vol * c).sum() for c in centres]  # the soil's first moments (m⁴) …
     conform(cells.phi, cells.q, mesh.vol, room_was, room)
-    lifted += (cells.phi * mesh.vol * height).sum()
+    moved = [m + (cells.phi * mesh.vol * c).sum() for m, c in zip(moved, centres)]  # … and how they changed
     cells.solid[:] = new.solid
     cells.open_frac[:] = new.openings.open_frac
     cells.strength_factor[:] = new.strength_factor
@@ -241,7 +242,9 @@ def redraw(solver, state, angles: np.ndarray, room_was: np.ndarray):
         mesh.closed[:] = drawn_mesh.closed
     state.contact = new.contact
     nodal_mass(mesh, cells, par.density, nodes.mass)
-    work_against_gravity = par.density * par.gravity * lifted
+    work_against_gravity = par.density * par.gravity * moved[-1]
+    if par.sloped:  # and along a sloping seabed
+        work_against_gravity -= par.density * (par.gravity_x * moved[0] + (par.gravity_y * moved[1] if dim == 3 else 0.0))
     changed = (elastic(cells.phi, cells.q, mesh.vol, par.shear, par.bulk) - before[0]
                + kinetic_energy(nodes.mass, nodes.v) - before[1] + work_against_gravity)
     rejoined = np.zeros(2)

@@ -136,15 +136,20 @@ class SoilConfig(Schema):
         return self.gravity_components(1.0)["xy".index(axis)] == 0.0
 
     def steepest_slope_deg(self, gravity_m_s2: float, depth_m: float) -> float:
-        """The steepest seabed this soil stands as an infinite slope down to ``depth_m`` (°): the shear
-        stress of its own weight, ρ'·g·sinβ·d, stays below the intact strength su(d) at every depth d
-        (normal to the seabed) down to there. su(d)/d is least at the ends of the table's segments."""
+        """The steepest seabed this soil stands as an infinite slope down to ``depth_m`` (°): at every depth
+        d (normal to the seabed) the Tresca radius of its state at rest, ρ'·g·d·√((1 − K0)²·cos²β/4 + sin²β)
+        (the at-rest normal stresses' difference, K0 = ν/(1 − ν) as the CEL sets them, and the slope's
+        shear), stays below the intact strength su(d). su(d)/d is least at the ends of the table's
+        segments; None of it binds on level ground."""
         if gravity_m_s2 <= 0.0:
             return 90.0
         table = self.strength
         depths = np.array([d for d in table.depth[1:] if 0.0 < d < depth_m] + [depth_m])
-        ratio = float(np.min(table.su(depths) / depths))
-        return math.degrees(math.asin(min(ratio / (self.density_kg_m3 * gravity_m_s2), 1.0)))
+        ratio = float(np.min(table.su(depths) / depths)) / (self.density_kg_m3 * gravity_m_s2)
+        half_difference = 0.5 * (1.0 - self.poisson_ratio / (1.0 - self.poisson_ratio))
+        if ratio <= half_difference:
+            return 0.0
+        return math.degrees(math.asin(min(math.sqrt((ratio**2 - half_difference**2) / (1.0 - half_difference**2)), 1.0)))
 
 
 def _exact_cos(angle: float) -> float:
@@ -613,12 +618,13 @@ def check_slope(scene: Scene) -> None:
     if scene.solver.name == "cel2d" and not soil.level_across("y"):
         raise ConfigError("soil.downslope_direction_deg", soil.downslope_direction_deg,
                           "plane strain takes a slope across its section: 0 or 180 (cel3d takes any)")
-    modelled = scene.solver.domain_depth_widths * scene.geometry.width_m  # the soil the model holds below the body
+    # the soil the model holds below the body, and what enters at its base as the body sinks a width
+    modelled = scene.landing.initial_depth_m + (scene.solver.domain_depth_widths + 1.0) * scene.geometry.width_m
     steepest = soil.steepest_slope_deg(scene.landing.gravity_m_s2, modelled)
     if soil.slope_deg > steepest:
         raise ConfigError("soil.slope_deg", soil.slope_deg, f"the seabed would slide: as an infinite slope its weight "
-                          f"(ρ'·g·sinβ·d) shears it past su within the {modelled:.3g} m of soil modelled; this soil "
-                          f"stands up to {steepest:.3g}°")
+                          f"(ρ'·g·sinβ·d) shears it past su within the {modelled:.3g} m of soil the model takes in; "
+                          f"this soil stands up to {steepest:.3g}°")
 
 
 def build_scene(cfg: DictConfig | dict) -> Scene:
