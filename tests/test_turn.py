@@ -250,3 +250,10 @@ def test_a_3d_turn_mirrored_is_its_mirror_image(compose_cfg):
         a, b = np.asarray(right.history[name]), sign * np.asarray(left.history[name])
         assert np.abs(a).max() > 0.0, name
         assert np.abs(a - b).max() <= 1e-12 * np.abs(a).max(), name
+
+
+def test_a_3d_turn_beyond_the_uniform_core_ends_out_of_domain(compose_cfg):
+    result = cel3d(compose_cfg, [*PLATE_TURN, "landing.roll_rate_rad_s=1.0", "landing.rotation_deg=80",
+                                 "solver.core_margin_widths=0.3"])
+    assert result.status == "out_of_domain"
+    assert "turned" in result.message and "solver.core_margin_widths" in result.message
