@@ -107,3 +107,21 @@ def test_a_vehicle_heavier_on_one_side_rolls_and_its_mirror_image_rolls_back(com
     assert left["max_sinkage_left_track_m"] == pytest.approx(right["max_sinkage_right_track_m"], rel=1e-12)
     assert left["max_sinkage_right_track_m"] == pytest.approx(right["max_sinkage_left_track_m"], rel=1e-12)
     assert left["max_rotation_deg"] == pytest.approx(right["max_rotation_deg"], rel=1e-12)
+
+
+def test_the_3d_vehicle_rolls_as_its_mirror_image(compose_cfg):
+    """cel3d, the vehicle with its centre of gravity 0.3 m towards either track (cells 0.15 m, half model:
+    the plane across the tracks kept), free to sink, slide and roll, redrawn as it rolls (every 0.05 of a
+    cell, so that its half-degree roll is redrawn): rolls and
+    slides mirrored and the tracks' sinkages swapped, to round-off; the heavier side's track sinks deeper."""
+    runs = [land(compose_cfg, "geometry=vehicle_pioneer_i", "mesh.cell_size_m=0.15", "landing.free=[z,x,ry]",
+                 "solver.redraw_fraction=0.05", f"landing.cg_offset_m=[{e},0,0]")[1] for e in (0.3, -0.3)]
+    right, left = runs
+    assert right.metrics["redraws"] > 0 and right.metrics["max_rotation_deg"] > 0.1
+    assert right.metrics["max_sinkage_right_track_m"] > right.metrics["max_sinkage_left_track_m"]
+    for a, b in (("max_sinkage_right_track_m", "max_sinkage_left_track_m"),
+                 ("final_sinkage_right_track_m", "final_sinkage_left_track_m")):
+        assert right.metrics[a] == pytest.approx(left.metrics[b], rel=1e-12, abs=1e-15), a
+    for name, sign in (("rotation_deg", -1), ("horizontal_displacement_m", -1), ("sinkage_m", 1), ("force_n", 1)):
+        x, y = np.asarray(right.history[name]), sign * np.asarray(left.history[name])
+        assert np.abs(x - y).max() <= 1e-12 * np.abs(x).max(), name
