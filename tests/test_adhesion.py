@@ -83,7 +83,7 @@ def test_a_face_grips_a_partly_filled_cell_in_proportion_to_its_fill():
     su_pa = 10_000.0
     solid = np.array([[True, True], [False, False]])  # the body left of the node, soil right of it
     phi = np.array([[0.0, 0.0], [1.0, 0.2]])  # below the node full, above it a fifth
-    start, cells = grip_cells(solid, np.array([1]), np.array([1]), [])  # the tie at node (1, 1)
+    start, cells = grip_cells(solid, (np.array([1]), np.array([1])), [])  # the tie at node (1, 1)
     none = np.zeros(0, dtype=np.int64)
     contact = Contact(np.array([4]), np.array([False]), np.array([[1.0, 0.0]]), np.array([1.0]), start, cells,
                       np.array([True]), none, none, none, none, np.zeros((0, 4), dtype=np.int64), np.zeros((1, 2)))

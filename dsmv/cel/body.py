@@ -399,6 +399,13 @@ def solid_cells(shape, grid) -> np.ndarray:
     return solid
 
 
+def cells_reached(shape, grid) -> np.ndarray:
+    """The cells (the grid's cell shape) with a corner inside the shape: those the body's boundary may
+    cross, beside the ones it holds whole (:func:`solid_cells`)."""
+    cell_shape = tuple(len(a) - 1 for a in grid.axes)
+    return np.logical_or.reduce(_corner_views(inside_nodes(shape, grid), cell_shape))
+
+
 def nodes_touching(solid: np.ndarray) -> np.ndarray:
     """How many body cells each node touches (the node shape, any number of axes)."""
     touching = np.zeros(tuple(n + 1 for n in solid.shape), dtype=int)

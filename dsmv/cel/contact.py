@@ -238,21 +238,19 @@ def split_corners(rules: ContactRules, shape, grid: Grid2D, j_base: int, solid: 
     return splits
 
 
-def grip_cells(solid, tie_i, tie_j, splits):
-    """The cells whose strength grips each tie: a face node's soil cells; a split node's cell above
-    the corner. CSR rows (start per tie, cells)."""
-    nx, ny = solid.shape
-    start, cells = [0], []
-    for i, j in zip(tie_i, tie_j):
-        for ci in (i - 1, i):
-            for cj in (j - 1, j):
-                if 0 <= ci < nx and 0 <= cj < ny and not solid[ci, cj]:
-                    cells.append((ci, cj))
-        start.append(len(cells))
-    for *_, grip, _cap in splits:
-        cells.append(grip)
-        start.append(len(cells))
-    return np.array(start, dtype=np.int64), np.array(cells, dtype=np.int64).reshape(-1, 2)
+def soil_cells_around(solid: np.ndarray, node: tuple) -> list[tuple]:
+    """The cells outside the body (``solid`` False) that have ``node`` as a corner, any number of axes, in
+    index order."""
+    return [cell for cell in itertools.product(*((c - 1, c) for c in node))
+            if all(0 <= c < n for c, n in zip(cell, solid.shape)) and not solid[cell]]
+
+
+def grip_cells(solid, ties, splits=()):
+    """The cells whose strength grips each tie (``ties``: their node indices per axis): a face node's
+    soil cells; a split node's cell above the corner. CSR rows (start per tie, cells)."""
+    grips = [soil_cells_around(solid, node) for node in zip(*ties)] + [[grip] for *_, grip, _cap in splits]
+    return (np.concatenate([[0], np.cumsum([len(g) for g in grips])]).astype(np.int64),
+            np.array([c for g in grips for c in g], dtype=np.int64).reshape(-1, solid.ndim))
 
 
 def sliver_pairs(openings: Openings) -> np.ndarray:
@@ -323,7 +321,7 @@ def build_contact(rules: ContactRules, shape, grid: Grid2D, j_base: int) -> Body
     ny1 = grid.ny + 1
     split_node = n_grid + np.arange(len(splits), dtype=np.int64)
     split_parent = np.array([i * ny1 + j for i, j, *_ in splits], dtype=np.int64)
-    grip_start, grip_cell = grip_cells(solid, tie_i, tie_j, splits)
+    grip_start, grip_cell = grip_cells(solid, (tie_i, tie_j), splits)
     split_normal = np.zeros((len(splits), 2))
     split_normal[:, 0] = [side for *_, side, _grip, _cap in splits]
     # the ties: the grid's, then the split nodes' (tied along the wall's normal, with its adhesion)
@@ -361,8 +359,7 @@ def build_turned_contact(shape, grid, base_m: float) -> BodyContact:
     node_shape = tuple(n + 1 for n in solid.shape)
     ties = np.nonzero(nodes_touching(solid))
     node = np.ravel_multi_index(ties, node_shape).astype(np.int64)
-    grips = [[cell for cell in itertools.product(*((c - 1, c) for c in tie))
-              if all(0 <= c < n for c, n in zip(cell, solid.shape)) and not solid[cell]] for tie in zip(*ties)]
+    grip_start, grip_cell = grip_cells(solid, ties)
     fixed_node, fixed_axis = fixed_velocities(node_shape)
     none = np.zeros(0, dtype=np.int64)
     contact = Contact(
@@ -370,8 +367,7 @@ def build_turned_contact(shape, grid, base_m: float) -> BodyContact:
         full=np.ones(len(node), dtype=np.bool_),
         normal=np.ascontiguousarray(shape.face_normals(*(a[i] for a, i in zip(grid.axes, ties)), grid.h)),
         cap=np.zeros(len(node)),
-        grip_start=np.concatenate([[0], np.cumsum([len(g) for g in grips])]).astype(np.int64),
-        grip_cell=np.array([c for g in grips for c in g], dtype=np.int64).reshape(-1, dim),
+        grip_start=grip_start, grip_cell=grip_cell,
         holding=np.ones(len(node), dtype=np.bool_),
         split_node=none, split_parent=none, fixed_node=fixed_node, fixed_axis=fixed_axis,
         merge=np.zeros((0, 2 * dim), dtype=np.int64),
@@ -469,13 +465,9 @@ def build_plate_contact(shape, grid, k_base: int, alpha: float, wall_area: float
     dx, dy, dz = (np.diff(a) for a in grid.axes)
     grips = [[] for _ in tie_i]
 
-    def soil_cells(i, j, k):
-        return [(ci, cj, ck) for ci in (i - 1, i) for cj in (j - 1, j) for ck in (k - 1, k)
-                if 0 <= ci < nx and 0 <= cj < ny and 0 <= ck < nz and not solid[ci, cj, ck]]
-
     for t in np.nonzero(tie_k > k_base)[0]:  # a wall holds its nodes along its normal, where it has one
         i, j, k = tie_i[t], tie_j[t], tie_k[t]
-        soil = soil_cells(i, j, k)
+        soil = soil_cells_around(solid, (i, j, k))
         n_wall = np.array([sum(ci + 0.5 - i for ci, _, _ in soil) * (0 < i < nx),
                            sum(cj + 0.5 - j for _, cj, _ in soil) * (0 < j < ny)])
         n_up = sum(ck + 0.5 - k for _, _, ck in soil)  # soil below (< 0) or above (> 0) the node
@@ -500,7 +492,7 @@ def build_plate_contact(shape, grid, k_base: int, alpha: float, wall_area: float
         if not outside:  # inside the footprint (or on a symmetry plane through it): its share of the base
             full[t], normal[t, 2] = False, -1.0
             cap[t] = alpha * sum(dx[ci] * dy[cj] / 4 for ci, cj in columns)
-            grips[t] = soil_cells(i, j, k_base)
+            grips[t] = soil_cells_around(solid, (i, j, k_base))
             continue
         # on the footprint's edge: the copy's normal points out of the footprint, in plan
         n_out = np.array([sum(ci + 0.5 - i for ci, _ in outside), sum(cj + 0.5 - j for _, cj in outside), 0.0])

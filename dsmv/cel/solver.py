@@ -122,6 +122,8 @@ class CelSolver:
     (:meth:`advance`) and the few reductions the trackers need."""
 
     name = ""
+    #: a sloping seabed is the level grid with gravity turned (decision 0032)
+    takes_slope = True
     config_model: type = CelConfig
     bodies: tuple[str, ...] = ()
     dim = 0  # axes of the grid, which pick the element kernels

@@ -68,6 +68,9 @@ class Cel2DSolver(CelSolver):
         if not cls.half_model(scene) and (body.kind in ("cone", "circular_plate") or cfg.mode == "axisymmetric"):
             raise ConfigError("solver.economies.symmetry", False, "the whole section is a plane-strain model: an "
                               "axisymmetric body is its own whole")
+        if not scene.soil.level_across("y"):
+            raise ConfigError("soil.downslope_direction_deg", scene.soil.downslope_direction_deg,
+                              "plane strain takes a slope across its section: 0 or 180 (cel3d takes any)")
         if body.vehicle and getattr(body, "view", "") == "longitudinal":
             raise ConfigError("geometry.view", body.view, "a vehicle's section is its cross-section, both tracks "
                               "side by side: the longitudinal view shows one track")

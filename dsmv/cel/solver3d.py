@@ -228,11 +228,11 @@ class Cel3DSolver(CelSolver):
         a turning body's turned by ``angles``, :func:`~dsmv.cel.contact.build_turned_contact`), and, drawn
         upright, the footprint its base presses (m², model)."""
         k_base = grid.row_of(0.0)
-        shape = self.shape()
         if self.rules.turning:
             body_contact = build_turned_contact(self.body_shape(grid, (0.0, 0.0, 0.0) if angles is None else angles),
                                                 grid, grid.z[k_base])
         else:
+            shape = self.shape()
             body_contact = build_plate_contact(shape, grid, k_base, self.scene.geometry.adhesion_factor,
                                                wall_area=math.pi / 4 if isinstance(shape, Disc) else 1.0,
                                                staircase=isinstance(shape, (Disc, TrackBody)))

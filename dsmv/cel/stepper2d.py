@@ -36,7 +36,7 @@ def lagrange_step(mesh, cells, faces, nodes, contact, par, body, energy, law):
     resistance, v_old = move_body(nodes, contact, par, body, energy, (0.0, 0.0, work[2], 0.0, 0.0, 0.0))
     sideways_before = momentum_along_the_slope(nodes, par)
     momentum_before, momentum_after = update_velocities(nodes, par.gravity, (par.gravity_x, par.gravity_y), par.dt,
-                                                      par.mass_floor)
+                                                        par.mass_floor)
     hold_nodes(cells, nodes, contact, par, body, energy, momentum_before, momentum_after, sideways_before)
     merge = contact.merge
     for k in range(merge.shape[0]):  # a sliver and its neighbour change volume as one

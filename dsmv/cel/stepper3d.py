@@ -68,8 +68,8 @@ def lagrange_step(mesh, cells, nodes, contact, par, body, energy, law):
               body[B_BESIDE_MZ])
     resistance, v_old = move_body(nodes, contact, par, body, energy, beside)
     sideways_before = momentum_along_the_slope(nodes, par)
-    momentum_before, momentum_after = update_velocities_in_blocks(nodes, par.gravity, (par.gravity_x, par.gravity_y), par.dt,
-                                                      par.mass_floor)
+    momentum_before, momentum_after = update_velocities_in_blocks(nodes, par.gravity, (par.gravity_x, par.gravity_y),
+                                                                  par.dt, par.mass_floor)
     hold_nodes(cells, nodes, contact, par, body, energy, momentum_before, momentum_after, sideways_before)
     work = np.zeros(N_SLAB_SUMS)
     update_stress_and_forces(mesh, cells, nodes, par, grid_velocity(body), contact.split_parent, law, work)

@@ -31,7 +31,7 @@ from typing import Optional
 import numpy as np
 
 from dsmv.cel import controller as C
-from dsmv.cel.body import _corner_views, inside_nodes
+from dsmv.cel.body import cells_reached
 from dsmv.cel.layout import B_ROT_X, B_ROT_Z
 from dsmv.cel.ledger import E_PUSH, E_REDRAW, E_SOIL_GRAV
 
@@ -47,8 +47,7 @@ def room_outside(shape, grid, solid: np.ndarray) -> np.ndarray:
     reaches no other)."""
     offsets = (np.arange(SAMPLES) + 0.5) / SAMPLES - 0.5  # about the centre: mirrored cells sample mirrored points
     room = np.ones(solid.shape)
-    near = np.nonzero(_grown(np.logical_or.reduce([np.asarray(view, dtype=bool) for view in _corner_views(
-        inside_nodes(shape, grid), solid.shape)])))
+    near = np.nonzero(_grown(cells_reached(shape, grid)))
     if len(near[0]):
         box = tuple(slice(int(n.min()), int(n.max()) + 1) for n in near)
         points = [(0.5 * (a[b][:-1] + a[b][1:])[:, None] + np.diff(a[b])[:, None] * offsets[None, :]).ravel()
@@ -234,12 +233,10 @@ def redraw(solver, state, angles: np.ndarray, room_was: np.ndarray):
     cells.gap[:] = new.gap
     cells.hourglass_factor[:] = hourglass_factor(new.openings.open_frac, solver.scene.solver.hourglass_cells(
         solver.scene.geometry.kind))
-    drawn_mesh, drawn_faces = solver.mesh_and_faces(grid, new)
+    _, drawn_faces = solver.mesh_and_faces(grid, new)  # a turning body closes no faces for the 3D remap
     for name in drawn_faces._fields:
         if name.startswith("aperture"):
             getattr(state.faces, name)[:] = getattr(drawn_faces, name)
-    if hasattr(mesh, "closed"):  # 3D: each cell's faces against the body
-        mesh.closed[:] = drawn_mesh.closed
     state.contact = new.contact
     nodal_mass(mesh, cells, par.density, nodes.mass)
     work_against_gravity = par.density * par.gravity * moved[-1]

@@ -140,7 +140,7 @@ class SoilConfig(Schema):
         d (normal to the seabed) the Tresca radius of its state at rest, ρ'·g·d·√((1 − K0)²·cos²β/4 + sin²β)
         (the at-rest normal stresses' difference, K0 = ν/(1 − ν) as the CEL sets them, and the slope's
         shear), stays below the intact strength su(d). su(d)/d is least at the ends of the table's
-        segments; None of it binds on level ground."""
+        segments. On level ground the check is not made."""
         if gravity_m_s2 <= 0.0:
             return 90.0
         table = self.strength
@@ -606,18 +606,16 @@ def settle_mesh(cfg: DictConfig | dict, mesh: Any, solver_cls) -> Any:
     return settled
 
 
-def check_slope(scene: Scene) -> None:
-    """A sloping seabed: in a solver that takes it (the CEL's, plane strain with the slope across the
-    section), and standing (its infinite slope does not fail at any depth under its own weight)."""
+def check_slope(scene: Scene, solver_cls) -> None:
+    """A sloping seabed: in a solver that takes it (``takes_slope``: the CEL's, the level grid with gravity
+    turned), and standing (its infinite slope does not fail under its own weight down to what the model
+    takes in)."""
     soil = scene.soil
     if soil.slope_deg == 0:
         return
-    if scene.solver.name not in ("cel2d", "cel3d"):
+    if not getattr(solver_cls, "takes_slope", False):
         raise ConfigError("soil.slope_deg", soil.slope_deg, "a sloping seabed runs in cel2d and cel3d (the level "
                           f"grid with gravity turned); {scene.solver.name} lands on a level one")
-    if scene.solver.name == "cel2d" and not soil.level_across("y"):
-        raise ConfigError("soil.downslope_direction_deg", soil.downslope_direction_deg,
-                          "plane strain takes a slope across its section: 0 or 180 (cel3d takes any)")
     # the soil the model holds below the body, and what enters at its base as the body sinks a width
     modelled = scene.landing.initial_depth_m + (scene.solver.domain_depth_widths + 1.0) * scene.geometry.width_m
     steepest = soil.steepest_slope_deg(scene.landing.gravity_m_s2, modelled)
@@ -663,7 +661,7 @@ def build_scene(cfg: DictConfig | dict) -> Scene:
                           "stands on two tracks that share its weight: 2")
     scene = Scene(study, soil, geometry, landing, mesh, solver, output, safety)
     check_touchdown_speed(scene)
-    check_slope(scene)
+    check_slope(scene, solver_cls)
     if geometry.kind in getattr(solver_cls, "bodies", ()):  # a solver that meshes the body
         check_core_cells(scene)
     check = getattr(solver_cls, "check_scene", None)

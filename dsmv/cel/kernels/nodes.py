@@ -162,10 +162,10 @@ def update_velocity_range(v, f, mass, gravity, sideways, dt, mass_floor, start, 
     dim = v.shape[0]
     up = dim - 1
     for a in range(up):
-        va, fa, ga = v[a], f[a], sideways[a]
+        va, fa, pull = v[a], f[a], dt * sideways[a]  # gravity along a sloping seabed, once per axis
         for k in range(start, stop):
             m = mass[k]
-            va[k] = va[k] + dt * fa[k] / m + dt * ga if m > mass_floor else 0.0
+            va[k] = va[k] + dt * fa[k] / m + pull if m > mass_floor else 0.0
     vu, fu = v[up], f[up]
     momentum_before = 0.0
     momentum_after = 0.0
