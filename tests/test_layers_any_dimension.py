@@ -199,11 +199,28 @@ def test_the_controller_steers_chunks_for_any_state():
         return n, 0
 
     run = C.Run(state=None, body=body, energy=np.zeros(10))
-    ending, _, _ = C.Controller(advance, [C.History(0.5), C.PushEnd(0.2), C.StepBudget(10_000)], 5, 10_000).run(run)
+    ending, _, _ = C.Controller(advance, [C.History(body.copy()), C.PushEnd(0.2), C.StepBudget(10_000)], 5, 10_000).run(run)
     assert ending.status == "ok" and ending.message.startswith("pushed to")
     assert run.history["sinkage_m"][0] == 0.0 and run.history["velocity_m_s"][0] == 0.5
     assert 0.2 <= run.sinkage_m < 0.2 + 0.025  # within a chunk of the target
     assert np.all(np.diff(run.history["time_s"]) > 0)
+
+
+def test_a_body_still_turning_is_not_at_rest_at_an_instant_s_stop():
+    """A body free to turn that stops for an instant while the soil's moment on it about its centre of
+    gravity exceeds the limit runs on (a vehicle rocked onto one track); under the limit it rests."""
+    from dsmv.cel.layout import B_FCOUNT, FORCE_SLOTS
+    from dsmv.cel.stepper import AT_REST, RUNNING
+
+    slot = int(FORCE_SLOTS[4])
+    rest = C.Rest(weightless=False, stop_at_rest=True, turns=(slot,), moment_limit_n_m=10.0)
+    body = np.zeros(N_BODY)
+    body[B_FCOUNT], body[slot] = 2.0, 2 * 25.0  # a mean moment of 25 N·m over the chunk
+    run = C.Run(state=None, body=body, energy=np.zeros(10), code=AT_REST)
+    assert rest.after_chunk(run) is None and run.code == RUNNING and rest.rest_time_s is None
+    body[slot], run.code = 2 * -9.0, AT_REST
+    ending = rest.after_chunk(run)
+    assert ending is not None and ending.status == "ok" and rest.rest_time_s is not None
 
 
 class Counting(C.Tracker):

@@ -9,6 +9,7 @@ single run exits with its status's code (:data:`dsmv.results.EXIT_CODES`); how a
 
 from __future__ import annotations
 
+import math
 import os
 import signal
 import sys
@@ -303,9 +304,10 @@ def _motion(metrics: dict, landing) -> str:
         words.append(f"slid {metrics['max_horizontal_displacement_m']:.4f} m at most")
     if moves & {"rx", "ry", "rz"}:
         words.append(f"its base's lowest point {metrics['max_edge_sinkage_m']:.4f} m deep at most")
-    if "max_sinkage_left_track_m" in metrics:  # a vehicle that may tilt: each track's own
-        words.append("its tracks {:.4f} m (−x) and {:.4f} m (+x) deep at most".format(
-            metrics["max_sinkage_left_track_m"], metrics["max_sinkage_right_track_m"]))
+    if "max_sinkage_left_track_m" in metrics:  # a vehicle that may tilt: each track's own, its deepest point
+        deepest = [max(metrics.get(f"max_sinkage_{side}_track{end}_m", -math.inf) for end in ("", "_front", "_rear"))
+                   for side in ("left", "right")]
+        words.append("its tracks {:.4f} m (−x) and {:.4f} m (+x) deep at most".format(*deepest))
     return "".join(f", {w}" for w in words)
 
 
@@ -392,6 +394,11 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
                                     "turn across them stay 0" if whole != m["cells"] else
                                     "none: the landing " + ("or the seabed's slope " if scene.soil.slope_deg else "")
                                     + "is not symmetric about the body's mid-planes, the whole body is modelled"))
+        if "attitude_drop_m" in m:  # a tilted touchdown: whether its staircase shows the tilt
+            drop, cells = m["attitude_drop_m"], m["attitude_drop_m"] / m["core_cell_size_m"]
+            print(f"  attitude: its base drops {drop:.3g} m across at touchdown, {cells:.2g} core cells" + (
+                ": under one cell, the staircase draws it level (finer mesh.cell_size_m shows the tilt)"
+                if cells < 1.0 else ""))
         if "redraws" in m:  # a body redrawn as it turned: whether its soil may part from it
             parts = ContactRules.of(scene, False, draws_turns=True).separation
             print(f"  turn    : redrawn into the grid {m['redraws']:.0f} times as it turned, a rough staircase " + (

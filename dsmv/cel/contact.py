@@ -127,11 +127,11 @@ class ContactRules:
 
 
 def turns_unheld(scene, held: tuple[str, ...]) -> bool:
-    """Whether a scene's body may turn (free to, or given a rate) about an axis the model's symmetry
-    planes (``held``) do not hold."""
+    """Whether a scene's body may turn (free to, or given a rate) or touches down turned (its attitude)
+    about an axis the model's symmetry planes (``held``) do not hold."""
     landing = scene.landing
-    return any((n in landing.freedoms or landing.given_velocity(n) != 0.0) and n not in held
-               for n in ("rx", "ry", "rz"))
+    return any((n in landing.freedoms or landing.given_velocity(n) != 0.0 or tilt != 0.0) and n not in held
+               for n, tilt in zip(("rx", "ry", "rz"), landing.attitude_rad))
 
 
 @dataclass

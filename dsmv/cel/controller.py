@@ -31,7 +31,7 @@ import sys
 import threading
 import time
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, Optional
 
 import numpy as np
@@ -271,11 +271,11 @@ class Controller:
 
 class History(Tracker):
     """The time history: time, sinkage, the body's downward velocity and the soil's force, per chunk,
-    from the touchdown on (downward velocity ``velocity0_m_s``); and the ``extra`` columns of a body
-    that slides or turns (:data:`MOTION_COLUMNS`)."""
+    from the touchdown on (the body's state then, ``touchdown``, a copy of its array); and the ``extra``
+    columns of a body that slides or turns (:data:`MOTION_COLUMNS`)."""
 
-    def __init__(self, velocity0_m_s: float, extra: tuple[str, ...] = (), held: tuple[str, ...] = ()):
-        self.velocity0_m_s = velocity0_m_s
+    def __init__(self, touchdown: np.ndarray, extra: tuple[str, ...] = (), held: tuple[str, ...] = ()):
+        self.touchdown = touchdown
         self.extra = extra
         self.zero = {name for name in extra if FREEDOMS[MOTION_COLUMNS[name][1]] in held}
 
@@ -285,11 +285,12 @@ class History(Tracker):
         return 0.0 if name in self.zero else run.column(name)
 
     def start(self, run: Run) -> None:
-        for name, value in (("time_s", 0.0), ("sinkage_m", run.start_sinkage_m), ("velocity_m_s", self.velocity0_m_s),
-                            ("force_n", 0.0)):
+        touchdown = replace(run, body=self.touchdown)  # the first row: before the first step
+        for name, value in (("time_s", 0.0), ("sinkage_m", touchdown.sinkage_m),
+                            ("velocity_m_s", -float(self.touchdown[B_VEL])), ("force_n", 0.0)):
             run.history[name].append(value)
         for name in self.extra:
-            run.history[name] = [0.0 if MOTION_COLUMNS[name][0] == "reaction" else self.value(run, name)]
+            run.history[name] = [0.0 if MOTION_COLUMNS[name][0] == "reaction" else self.value(touchdown, name)]
 
     def after_chunk(self, run: Run) -> None:
         h = run.history
@@ -503,15 +504,26 @@ class TopOfDomain(Tracker):
 @dataclass
 class Rest(Tracker):
     """A landing ends when the body first comes to rest, or (economy off) at twice that time. A body
-    that neither moves nor weighs anything stays at rest."""
+    that neither moves nor weighs anything stays at rest.
+
+    A body free to turn (``turns``: the slots of its free turns' reactions) is at rest only once the soil's
+    moment on it about its centre of gravity, where its weight acts, has fallen below ``moment_limit_n_m``:
+    a vehicle rocking onto one track stops for an instant at the end of each rock, its weight's moment
+    about that track still turning it."""
 
     weightless: bool
     stop_at_rest: bool
+    turns: tuple[int, ...] = ()
+    moment_limit_n_m: float = 0.0
     rest_time_s: Optional[float] = None
 
     def after_chunk(self, run: Run) -> Optional[Ending]:
         if run.code == RUNNING and abs(run.body[B_VEL]) < 1e-12 and self.weightless:
             return Ending("ok", "the body neither moves nor weighs anything: it stays at rest")
+        if run.code == AT_REST and self.rest_time_s is None and any(
+                abs(run.mean_reaction(slot)) > self.moment_limit_n_m for slot in self.turns):
+            run.code = RUNNING  # an instant's stop of a body still turning
+            return None
         if run.code == AT_REST and self.rest_time_s is None:
             self.rest_time_s = run.time_s
             run.message = f"came to rest at {run.max_sinkage_m:.4g} m after {self.rest_time_s:.4g} s"

@@ -37,8 +37,8 @@ from dsmv.cel.contact import ContactRules
 from dsmv.cel.grid import axis_through
 from dsmv.cel.kernels import DimensionKernels, for_dimension
 from dsmv.cel.layout import (
-    B_INFLOW, B_MAXEDGE, B_MAXROT, B_MAXSLIDE, B_TIME, B_VEL, FREEDOMS, N_BODY, POSE_SLOTS,
-    VELOCITY_SLOTS, CellRows, Cells, Inflow, Nodes, Params, SoilLawKernel, freedom_mask,
+    B_INFLOW, FORCE_SLOTS, B_MAXDISP, B_MAXEDGE, B_MAXROT, B_MAXSLIDE, B_ROT_X, B_ROT_Z, B_SINKAGE, B_TIME, B_VEL, FREEDOMS,
+    N_BODY, POSE_SLOTS, VELOCITY_SLOTS, CellRows, Cells, Inflow, Nodes, Params, SoilLawKernel, freedom_mask,
 )
 from dsmv.cel.state import Elastic, geostatic_state, hourglass_factor, step_parameters
 from dsmv.errors import ConfigError
@@ -115,6 +115,11 @@ class Start:
     sinkage_m: float        # the sinkage it has already (a trapped-soil track's grouser height)
 
 
+#: a body free to turn is at rest once the soil's moment on it about its centre of gravity is under this
+#: fraction of its weight times its reach (:class:`~dsmv.cel.controller.Rest`)
+REST_MOMENT_FRACTION = 0.05
+
+
 class CelSolver:
     """What every CEL solver shares: set-up → touchdown → controller → ledger → SolveResult.
 
@@ -153,6 +158,10 @@ class CelSolver:
         if refusal is not None:
             raise refusal
         landing = scene.landing
+        if landing.attitude_key and not rules.turning:
+            raise ConfigError(landing.attitude_key, getattr(landing, landing.attitude_key.split(".")[1]),
+                              "a body touching down tilted is drawn turned into the grid: it needs the remap "
+                              "(solver.remap=true)")
         if landing.kind == "drop":  # a landing's drift and turn at touchdown go on under the soil's reaction
             held = next((n for n in FREEDOM_NAMES if n != "z" and landing.given_velocity(n) and n not in landing.freedoms),
                         None)
@@ -293,6 +302,11 @@ class CelSolver:
             return 0.0
         return body.grouser_height_m
 
+    def plates_above_base_m(self) -> float:
+        """How far a track's plates lie above the body's base (m): the grouser height where the model has
+        its side (the base is the grousers' tips), 0 in its cross-section (the base is the plates)."""
+        return self.scene.geometry.grouser_height_m if self.models_track_side else 0.0
+
     @property
     def models_track_side(self) -> bool:
         """Whether a track's plates, grousers and sprockets are in the model (not its cross-section)."""
@@ -308,14 +322,43 @@ class CelSolver:
         speed = landing.velocity_m_s
         if landing.kind == "drop" and gh > 0:
             speed = math.sqrt(speed**2 + 2.0 * landing.weight_per_track_n / landing.inertia_per_track_kg * gh)
-        return Start(landing.initial_depth_m + gh, speed, landing.inertia_per_track_kg + trapped_kg,
-                     landing.weight_per_track_n + trapped_kg * landing.gravity_m_s2, gh)
+        low = self.lowest_corner_m()
+        return Start(landing.initial_depth_m + gh + low, speed, landing.inertia_per_track_kg + trapped_kg,
+                     landing.weight_per_track_n + trapped_kg * landing.gravity_m_s2, gh + low)
 
     def mudline_m(self, h: float) -> float:
         """The mudline's height above the body's base (m): the landing's initial depth rounded to a node
         row of the uniform core (beyond it a cell the mudline cuts is partly filled), and a trapped-soil
-        track's grouser height exactly, the same on every mesh."""
-        return h * round(self.scene.landing.initial_depth_m / h) + self.trapped_soil_m()
+        track's grouser height exactly, the same on every mesh; a body touching down tilted meets it with
+        its lowest corner (:meth:`lowest_corner_m`)."""
+        return h * round(self.scene.landing.initial_depth_m / h) + self.trapped_soil_m() + self.lowest_corner_m()
+
+    def lowest_corner_m(self) -> float:
+        """How high the lowest corner of the body's base lies above the upright base's plane at its attitude
+        at first contact (``landing.pitch_deg``, ``roll_deg``, turned about its centre of gravity; m, 0 for a
+        level touchdown), as the compiled loop measures it (:func:`~dsmv.cel.stepper.turned_base`)."""
+        rise, lift = self.attitude_base_m()
+        return rise - lift
+
+    def attitude_base_m(self) -> tuple[float, float]:
+        """How the body's attitude at first contact sets its base (m): the rise of its middle, and how far
+        its lowest corner lies below the middle (:func:`~dsmv.cel.stepper.turned_base`); 0, 0 level."""
+        landing = self.scene.landing
+        if not landing.attitude_key:
+            return 0.0, 0.0
+        from dsmv.cel.stepper import turned_base
+
+        return turned_base(*landing.attitude_rad[:2], *self.base_from_centre_of_gravity(), *self.base_half_spans())
+
+    def base_from_centre_of_gravity(self) -> tuple[float, float, float]:
+        """The middle of the base from the centre of gravity, x, y, z (m; a plane-strain model has no y)."""
+        cg = self.scene.landing.cg_offset_m
+        return -cg[0], -cg[1] if self.dim == 3 else 0.0, -cg[2]
+
+    def base_half_spans(self) -> tuple[float, float]:
+        """The base's half width across (x, a vehicle's to its tracks' outer walls) and half length along it
+        (y; 0 in plane strain) (m): its corners, where a turned base is lowest."""
+        return self.half_span_m(), 0.5 * (self.scene.geometry.contact_length_m or 0.0) if self.dim == 3 else 0.0
 
     # ------------------------------------------------------------------ run
 
@@ -325,7 +368,7 @@ class CelSolver:
         drop = landing.kind == "drop"
         B = self.characteristic_width_m(self.travel)
         zigzag = C.Zigzag(lambda: self.hourglass_modes(state))
-        trackers = [C.History(-state.body[B_VEL], self.motion_columns(), self.held_by_symmetry()), zigzag]
+        trackers = [C.History(state.body.copy(), self.motion_columns(), self.held_by_symmetry()), zigzag]
         if self.rules.turning:  # after the chunk's history: a redraw moves soil and rejoins the ties
             from dsmv.cel.turn import Redraw
 
@@ -352,7 +395,9 @@ class CelSolver:
             width = scene.geometry.width_m
             if self.cone or scene.soil.ks_pa_per_m > 0:
                 width = max(width, self.travel)
-            trackers += [C.Rest(state.par.body_weight == 0.0, cfg.economies.stop_at_rest),
+            turns = tuple(int(FORCE_SLOTS[FREEDOMS.index(n)]) for n in ("rx", "ry", "rz") if n in self.moving_freedoms())
+            trackers += [C.Rest(state.par.body_weight == 0.0, cfg.economies.stop_at_rest, turns,
+                                REST_MOMENT_FRACTION * self.start().weight_n * self.reach_m()),
                          C.BearingFailure(width, width == scene.geometry.width_m), C.TravelLimit(self.travel)]
             if {"x", "y"} & set(self.moving_freedoms()):
                 trackers.append(C.SlideFailure(scene.geometry.width_m))
@@ -575,7 +620,7 @@ class CelSolver:
             history = {k: v[finite] for k, v in history.items()}
         result = SolveResult(status, message, metrics, units, history)
         if self.scene.geometry.kind == "track":
-            add_plate_sinkage(result, self.scene.geometry.grouser_height_m if self.models_track_side else 0.0)
+            add_plate_sinkage(result, self.plates_above_base_m())
         return result
 
     def _push_metrics(self, history, metrics, units) -> None:
@@ -640,13 +685,10 @@ class CelSolver:
                         "end_moment_factor": -float(history["moment_n_m"][end].mean())
                         / (area * self.scene.geometry.width_m * su0)}
             units |= {"end_vertical_factor": "-", "end_horizontal_factor": "-", "end_moment_factor": "-"}
-        if self.scene.geometry.vehicle:  # each track's middle: the base's, turned about y at ± half the gauge
-            middle, turn = np.asarray(history["sinkage_m"]), np.radians(np.asarray(history["rotation_deg"]))
-            for side, sign in (("left", -1.0), ("right", 1.0)):
-                track = middle + np.sin(turn) * sign * self.scene.geometry.track_offset_m
-                metrics |= {f"max_sinkage_{side}_track_m": float(track.max()),
-                            f"final_sinkage_{side}_track_m": float(track[-1])}
-                units |= {f"max_sinkage_{side}_track_m": "m", f"final_sinkage_{side}_track_m": "m"}
+        if self.scene.landing.attitude_key:  # how far its tilt drops the base across, end to end
+            metrics["attitude_drop_m"], units["attitude_drop_m"] = 2.0 * self.attitude_base_m()[1], "m"
+        if self.scene.geometry.vehicle:
+            self._track_metrics(history, metrics, units)
         for name in self.motion_columns():
             unit = {"_n": "N", "_m": "N·m" if name.endswith("_n_m") else "m", "eg": "deg"}[name[-2:]]
             if C.MOTION_COLUMNS[name][0] == "reaction":
@@ -655,6 +697,32 @@ class CelSolver:
                 units[f"max_{name}"] = units[f"end_{name}"] = unit
             else:
                 metrics[name], units[name] = float(history[name][-1]), unit
+
+    def _track_metrics(self, history, metrics, units) -> None:
+        """A vehicle's tracks: each one's middle (``max_sinkage_left_track_m``, ``final_…``), and where the
+        model pitches its front (+y) and rear ends (``…_track_front_m``, ``…_track_rear_m``), the grousers'
+        tips; and its plates' deepest (``max_plate_sinkage_left_track_m``), the grouser height above them.
+        A point of the base x across and y along from its middle sits lower than the middle by
+        sin θy·x − cos θy·sin θx·y (the pose's last row, :meth:`~dsmv.cel.body.Pose.turned`)."""
+        body = self.scene.geometry
+        middle = np.asarray(history["sinkage_m"])
+        roll = np.radians(np.asarray(history["rotation_deg"]))
+        pitch = np.radians(np.asarray(history["pitch_deg"])) if "pitch_deg" in history else None
+        ends = {"": 0.0} if pitch is None else {"": 0.0, "_front": 0.5 * body.contact_length_m,
+                                                "_rear": -0.5 * body.contact_length_m}
+        plates = self.plates_above_base_m()
+        for side, sign in (("left", -1.0), ("right", 1.0)):
+            deepest = -math.inf
+            for end, along in ends.items():
+                track = middle + np.sin(roll) * sign * body.track_offset_m
+                if along:
+                    track = track - np.cos(roll) * np.sin(pitch) * along
+                name = f"{side}_track{end}"
+                metrics |= {f"max_sinkage_{name}_m": float(track.max()), f"final_sinkage_{name}_m": float(track[-1])}
+                units |= {f"max_sinkage_{name}_m": "m", f"final_sinkage_{name}_m": "m"}
+                deepest = max(deepest, float(track.max()))
+            metrics[f"max_plate_sinkage_{side}_track_m"] = deepest - plates
+            units[f"max_plate_sinkage_{side}_track_m"] = "m"
 
     def body_kinetic_energy(self, state: State) -> float:
         """The body's own kinetic energy in its free freedoms (J per unit thickness or per radian): a pushed
@@ -689,6 +757,12 @@ class CelSolver:
         speed = self.start().velocity_m_s
         for q, name in enumerate(FREEDOMS):
             body[VELOCITY_SLOTS[q]] = -speed if name == "z" else landing.given_velocity(name)
+        if landing.attitude_key:  # its attitude at first contact, and where that leaves its base
+            body[B_ROT_X:B_ROT_Z + 1] = landing.attitude_rad
+            body[B_MAXROT] = math.sqrt(sum(a * a for a in landing.attitude_rad))
+            rise, lift = self.attitude_base_m()
+            body[B_SINKAGE] = body[B_MAXDISP] = -rise
+            body[B_MAXEDGE] = lift - rise
         if not par.drop:
             apply_ties(state.contact, state.nodes, body)
             return
@@ -795,6 +869,8 @@ class CelSolver:
         rho = soil.density_kg_m3
         elastic = Elastic.of(soil)
         body_contact = self.body_contact(grid)
+        if self.scene.landing.attitude_key:  # drawn at its attitude (after the upright drawing's footprint)
+            body_contact = self.body_contact(grid, np.array(self.scene.landing.attitude_rad))
         body_contact = replace(body_contact, contact=self.seated(body_contact.contact))
         open_frac = body_contact.openings.open_frac
         phi, q = geostatic_state(grid, rho, grav, elastic.k0, self.mudline, open_frac, (gravity_x, gravity_y))
@@ -828,13 +904,11 @@ class CelSolver:
             law_active=self.law.active or not cfg.economies.skip_inactive_law, skip_void=cfg.economies.skip_void,
             separation=self.contact_separation(), free=freedom_mask(self.moving_freedoms()),
             **{f"inertia_{axis}": inertia / scale for axis, inertia in zip("xyz", self.rotational_inertia_kg_m2())},
-            base_x=-landing.cg_offset_m[0], base_y=-landing.cg_offset_m[1] if self.dim == 3 else 0.0,
-            base_z=-landing.cg_offset_m[2],
+            **dict(zip(("base_x", "base_y", "base_z"), self.base_from_centre_of_gravity())),
             # a drifting drop is at rest once it also slides slower than 1 % of its speed at touchdown
             rest_speed=0.01 * max(start.velocity_m_s, math.hypot(landing.horizontal_velocity_m_s,
                                                                 landing.lateral_velocity_m_s)),
-            base_half_x=self.half_span_m(),
-            base_half_y=0.5 * (scene.geometry.contact_length_m or 0.0) if self.dim == 3 else 0.0,
+            **dict(zip(("base_half_x", "base_half_y"), self.base_half_spans())),
             tresca=cfg.yield_surface == "tresca" or (cfg.yield_surface == "auto" and self.axisym),
         )
         nodal_mass(mesh, cells, rho, nodes.mass)

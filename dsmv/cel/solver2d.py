@@ -61,6 +61,9 @@ class Cel2DSolver(CelSolver):
             key = landing.beyond_vertical_key
             raise ConfigError(key, landing.model_dump()[key.split(".")[1]], "a body slides and turns in plane "
                               "strain on a strip or a track's cross-section")
+        if landing.pitch_deg:
+            raise ConfigError("landing.pitch_deg", landing.pitch_deg, "plane strain turns about y (landing.roll_deg): "
+                              "a pitched touchdown runs in cel3d")
         beyond_plane = [n for n in ("y", "rx", "rz") if n in landing.freedoms or landing.given_velocity(n)]
         if beyond_plane:
             raise ConfigError("landing.free" if beyond_plane[0] in landing.freedoms else f"landing.{RATE_KEYS[beyond_plane[0]]}",

@@ -220,6 +220,17 @@ def hold_nodes(cells, nodes, contact, par, body, energy, momentum_before, moment
                                                + par.gravity_y * (sideways_before[1] + after[1]))
 
 
+@njit(cache=True)
+def turned_base(angle_x, angle_y, base_x, base_y, base_z, half_x, half_y):
+    """How the base of a body turned by (``angle_x``, ``angle_y``) (rad; R = Rz·Ry·Rx, :meth:`Pose.turned`,
+    whose last row, (−sin θy, cos θy·sin θx, cos θy·cos θx), a turn about z leaves alone) about its
+    centre of gravity sits (m): the rise of the middle of its base (at ``base_*`` from the centre of
+    gravity) and how far its lowest corner (``half_x``, ``half_y`` from the middle) lies below the middle."""
+    sx, cx, sy, cy = math.sin(angle_x), math.cos(angle_x), math.sin(angle_y), math.cos(angle_y)
+    rise = -sy * base_x + cy * sx * base_y + (cy * cx - 1.0) * base_z
+    return rise, half_x * abs(sy) + half_y * abs(cy * sx)
+
+
 @njit(**INLINE)
 def advance_clock(par, body):
     """The end of a step's Lagrangian phase: the body's pose and the grid (which follows its vertical
@@ -230,13 +241,15 @@ def advance_clock(par, body):
         body[POSE_SLOTS[q]] += body[VELOCITY_SLOTS[q]] * par.dt
     body[B_TIME] += par.dt
     body[B_STEP] += 1.0
-    # the middle of the base moves with the centre of gravity and, turned by θ (small), by (θ × r)_z
-    sinkage = -(body[B_OFFSET] + body[B_ROT_X] * par.base_y - body[B_ROT_Y] * par.base_x)
+    # the middle of the base moves with the centre of gravity and as it turns about it; its lowest corner
+    # lies lower by the turn's lift across the base
+    rise, lift = turned_base(body[B_ROT_X], body[B_ROT_Y], par.base_x, par.base_y, par.base_z, par.base_half_x,
+                             par.base_half_y)
+    sinkage = -(body[B_OFFSET] + rise)
     body[B_SINKAGE] = sinkage
     if sinkage > body[B_MAXDISP]:
         body[B_MAXDISP] = sinkage
-    edge = sinkage + abs(body[B_ROT_Y]) * par.base_half_x + abs(body[B_ROT_X]) * par.base_half_y
-    body[B_MAXEDGE] = max(body[B_MAXEDGE], edge)
+    body[B_MAXEDGE] = max(body[B_MAXEDGE], sinkage + lift)
     rotation = math.sqrt(body[B_ROT_X] ** 2 + body[B_ROT_Y] ** 2 + body[B_ROT_Z] ** 2)
     body[B_MAXROT] = max(body[B_MAXROT], rotation)
     body[B_MAXSLIDE] = max(body[B_MAXSLIDE], math.sqrt(body[B_OFFSET_X] ** 2 + body[B_OFFSET_Y] ** 2))

@@ -181,7 +181,7 @@ class Redraw(C.Tracker):
     def __init__(self, solver, state, fraction: float):
         self.solver, self.state = solver, state
         self.step_rad = fraction * solver.h / solver.reach_m()
-        self.drawn = np.zeros(3)
+        self.drawn = state.body[B_ROT_X:B_ROT_Z + 1].copy()  # upright, or its attitude at first contact
         self.room = room_outside(solver.body_shape(state.grid), state.grid, state.cells.solid)
         self.redraws = 0
 

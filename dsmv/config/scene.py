@@ -287,7 +287,8 @@ FREEDOM_NAMES = ("x", "y", "z", "rx", "ry", "rz")
 #: the landing keys of the freedoms beyond the vertical, at the values that keep a body vertical
 VERTICAL_LANDING = {"free": None, "horizontal_velocity_m_s": 0.0, "lateral_velocity_m_s": 0.0, "roll_rate_rad_s": 0.0,
                     "pitch_rate_rad_s": 0.0, "yaw_rate_rad_s": 0.0, "rotation_deg": None, "cg_offset_m": [0.0, 0.0, 0.0],
-                    "rotational_inertia_kg_m2": None, "cycles": 0, "stroke_m": None}
+                    "rotational_inertia_kg_m2": None, "cycles": 0, "stroke_m": None, "pitch_deg": 0.0,
+                    "roll_deg": 0.0}
 #: the landing key of each freedom's given speed (z's is downward)
 RATE_KEYS = {"x": "horizontal_velocity_m_s", "y": "lateral_velocity_m_s", "z": "velocity_m_s",
              "rx": "pitch_rate_rad_s", "ry": "roll_rate_rad_s", "rz": "yaw_rate_rad_s"}
@@ -323,6 +324,10 @@ class LandingConfig(Schema):
     pitch_rate_rad_s: Number = Field(0.0, description="rotation rate about x (rad/s; + raises the +y end)")
     roll_rate_rad_s: Number = Field(0.0, description="rotation rate about y (rad/s; + lowers the +x side)")
     yaw_rate_rad_s: Number = Field(0.0, description="rotation rate about z (rad/s; + turns +x towards +y)")
+    pitch_deg: Number = Field(0.0, gt=-30, lt=30, description=(
+        "attitude at first contact about x (degrees; + raises the +y end): the body touches the mudline "
+        "with its lowest point"))
+    roll_deg: Number = Field(0.0, gt=-30, lt=30, description="attitude at first contact about y (degrees; + lowers the +x side)")
     rotation_deg: Optional[Number] = Field(None, gt=0, description="push: rotation to reach (degrees)")
     cg_offset_m: list[Number] = Field([0.0, 0.0, 0.0], min_length=3, max_length=3, description=(
         "the centre of gravity's offset (x, y, z) from the middle of the body's base (m)"))
@@ -397,7 +402,8 @@ class LandingConfig(Schema):
         whatever freedoms it has."""
         across, tilt = ("x", "ry") if axis == "x" else ("y", "rx")
         return (self.given_velocity(across) == 0 and self.given_velocity(tilt) == 0
-                and self.given_velocity("rz") == 0 and self.cg_offset_m["xy".index(axis)] == 0)
+                and self.given_velocity("rz") == 0 and self.cg_offset_m["xy".index(axis)] == 0
+                and self.attitude_rad[FREEDOM_NAMES.index(tilt) - 3] == 0)
 
     @property
     def symmetric(self) -> bool:
@@ -413,7 +419,19 @@ class LandingConfig(Schema):
         rate = next((RATE_KEYS[n] for n in FREEDOM_NAMES if n != "z" and self.given_velocity(n)), None)
         if rate:
             return f"landing.{rate}"
+        if self.attitude_key:
+            return self.attitude_key
         return "landing.cg_offset_m" if any(self.cg_offset_m[:2]) else None
+
+    @property
+    def attitude_rad(self) -> tuple[float, float, float]:
+        """The body's attitude at first contact, about x, y and z (rad): ``pitch_deg``, ``roll_deg``, 0."""
+        return math.radians(self.pitch_deg), math.radians(self.roll_deg), 0.0
+
+    @property
+    def attitude_key(self) -> Optional[str]:
+        """The first landing key that tilts the body at first contact, or None: it touches down level."""
+        return next((f"landing.{key}" for key in ("pitch_deg", "roll_deg") if getattr(self, key)), None)
 
     @property
     def turn_key(self) -> Optional[str]:
@@ -545,6 +563,9 @@ class Scene:
             motion += f", free in {', '.join(landing.freedoms)}"
         if any(landing.cg_offset_m):
             motion += f", centre of gravity {tuple(landing.cg_offset_m)} m off"
+        if landing.attitude_key:
+            motion += ", touching down " + " and ".join(f"{word} {angle:g}°" for word, angle in (
+                ("pitched", landing.pitch_deg), ("rolled", landing.roll_deg)) if angle)
         body = self.geometry.name
         if self.geometry.vehicle:
             body += f" (two tracks {self.geometry.gauge_m:g} m apart, each carrying half)"
