@@ -131,14 +131,25 @@ def conform(phi: np.ndarray, q: np.ndarray, vol: np.ndarray, room_was: np.ndarra
             for other in _face_neighbours(here, phi.shape):
                 if phi[other] > 0.0 and room_was[other] > 0.0 and phi[other] / room_was[other] > share:
                     share, cell = min(phi[other] / room_was[other], 1.0), other
-        if cell is not None:
-            wanted[here] = share * (room[here] - room_was[here]) * vol[here]
+        if cell is not None:  # a cell the remap filled beyond the room it had takes only what is left
+            wanted[here] = min(share * (room[here] - room_was[here]), max(room[here] - phi[here], 0.0)) * vol[here]
             source[(slice(None), *here)] = q[(slice(None), *cell)]
     # what the body's cells and the cells it cuts hold beyond their room (the remap's own overshoot
     # elsewhere, a fraction of a percent, is the remap's business)
     excess = np.where(room < 1.0, np.maximum(phi - room, 0.0), 0.0) * vol
     excess[excess < 1e-12 * vol] = 0.0
     given = excess.sum()
+    # and, for what the retreating side takes beyond that, what the cells beside the last drawing hold
+    # beyond their room: between drawings the tied nodes turn with the body while its cells stay, so the
+    # soil that follows a retreating face piles up through the remap in the cell beside it (the closed
+    # face carries none: +0.02 a remap under a strip's rising corner), the room the face left being the
+    # body's cell's until now; taken before the free surface, or the pile grows redraw after redraw
+    spare = np.where((room >= 1.0) & _grown(room_was < 1.0), np.maximum(phi - room, 0.0), 0.0) * vol
+    spare[spare < 1e-12 * vol] = 0.0
+    short, spared = wanted.sum() - given, spare.sum()
+    if short > 0.0 and spared > 0.0:
+        excess += spare * (min(short, spared) / spared)
+        given = excess.sum()
     gives = excess > 0.0
     mixed = (q * excess).reshape(rows, -1).sum(axis=1) / given if given > 0.0 else np.zeros(rows)
     phi[gives] -= excess[gives] / vol[gives]
