@@ -97,6 +97,33 @@ def add_plate_sinkage(result: SolveResult, grouser_height_m: float) -> None:
         result.history["plate_sinkage_m"] = np.asarray(result.history["sinkage_m"], dtype=float) - grouser_height_m
 
 
+def add_track_sinkages(metrics: dict, units: dict, history: dict, body, plates_m: float) -> None:
+    """A vehicle's tracks, from the history of the middle of its base (``sinkage_m``), its roll
+    (``rotation_deg``, about y) and, where the model pitches, its pitch (``pitch_deg``, about x): each
+    track's middle (``max_sinkage_left_track_m``, ``final_…``), its front (+y) and rear ends where it
+    pitches (``…_track_front_m``, ``…_track_rear_m``), the grousers' tips; and its plates' deepest
+    (``max_plate_sinkage_left_track_m``), ``plates_m`` above the tips. A point of the base x across and y
+    along from its middle sits lower than the middle by sin θy·x − cos θy·sin θx·y (the last row of the
+    body's turn, :meth:`dsmv.cel.body.Pose.turned`)."""
+    middle = np.asarray(history["sinkage_m"])
+    roll = np.radians(np.asarray(history["rotation_deg"]))
+    pitch = np.radians(np.asarray(history["pitch_deg"])) if "pitch_deg" in history else None
+    ends = {"": 0.0} if pitch is None else {"": 0.0, "_front": 0.5 * body.contact_length_m,
+                                            "_rear": -0.5 * body.contact_length_m}
+    for side, sign in (("left", -1.0), ("right", 1.0)):
+        deepest = -np.inf
+        for end, along in ends.items():
+            track = middle + np.sin(roll) * sign * body.track_offset_m
+            if along:
+                track = track - np.cos(roll) * np.sin(pitch) * along
+            name = f"{side}_track{end}"
+            metrics |= {f"max_sinkage_{name}_m": float(track.max()), f"final_sinkage_{name}_m": float(track[-1])}
+            units |= {f"max_sinkage_{name}_m": "m", f"final_sinkage_{name}_m": "m"}
+            deepest = max(deepest, float(track.max()))
+        metrics[f"max_plate_sinkage_{side}_track_m"] = deepest - plates_m
+        units[f"max_plate_sinkage_{side}_track_m"] = "m"
+
+
 def write_history(run_dir: Path, history: dict[str, np.ndarray]) -> Path:
     """Write the time history as CSV with a header of its columns (:func:`history_columns`)."""
     path = Path(run_dir) / HISTORY_FILE

@@ -222,3 +222,30 @@ def test_the_green_envelope_extrapolates_each_direction_from_its_two_finest_cell
     assert len(extrapolated) == 2
     for row in extrapolated:
         assert float(row["lambda"]) == pytest.approx(1.0, abs=1e-9)
+
+
+def test_the_vehicle_s_safe_region_is_mapped_with_the_limits_each_landing_broke(run_cli, tmp_path):
+    """``study_vehicle_safety`` on three speeds × two masses (the fast vehicle model): the map and its
+    table, each landing judged as its own verdict says, the count of jobs right (the experiment's own
+    sweep counted), and the region safe below and unsafe above: a landing faster or heavier than an
+    unsafe one is unsafe (sinkage and tilt grow with both)."""
+    done = run_cli("dsmv", "experiment=study_vehicle_safety", "tracking=disabled",
+                   "landing.velocity_m_s=0.5,1.5,3", "landing.mass_kg=3000,9000")
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "(6 of 6 jobs done)" in done.stdout + done.stderr
+    sweep = _sweep_dir(tmp_path)
+    assert (sweep / "safe_region.png").stat().st_size > 10_000
+    rows = _read_csv(sweep / "safe_region.csv")
+    verdicts = {(float(r["landing.velocity_m_s"]), float(r["landing.mass_kg"])): r for r in rows}
+    assert len(verdicts) == 6
+    for (speed, mass), row in verdicts.items():
+        job = next(p for p in sweep.glob("*/result.json")
+                   if f"landing.velocity_m_s={speed:g}" in (p.parent / ".hydra" / "overrides.yaml").read_text()
+                   and f"landing.mass_kg={mass:g}" in (p.parent / ".hydra" / "overrides.yaml").read_text())
+        assert int(row["safe"]) == int(json.loads(job.read_text())["metrics"]["safe"])
+        if not int(row["safe"]):
+            assert row["broken"] and all(float(row[f"margin_{what}"]) < 0 for what in row["broken"].split(" & "))
+    assert int(verdicts[0.5, 3000.0]["safe"]) == 1 and int(verdicts[3.0, 9000.0]["safe"]) == 0
+    for (speed, mass), row in verdicts.items():
+        if not int(row["safe"]):
+            assert all(not int(other["safe"]) for (s, m), other in verdicts.items() if s >= speed and m >= mass)

@@ -77,6 +77,11 @@ STEPS_PER_WIDTH = 1000
 #: vanishing speed (the power law's terminal speed scales with the excess force to the power 1/n):
 #: the CEL, whose soil rebounds elastically, ends such a landing at its first rest
 REST_SPEED_FRACTION = 1e-3
+#: a body free to turn is at rest once the soil's moment on it about its centre of gravity, where its
+#: weight acts, is under this fraction of its weight times its reach: a vehicle rocked onto one track
+#: stops for an instant with its weight's whole moment about that track still turning it (cel3d's rule,
+#: :class:`dsmv.cel.controller.Rest`, and the fast vehicle model's)
+REST_MOMENT_FRACTION = 0.05
 #: the depth (in body widths) beyond which the body is said not to stop
 LARGEST_SINKAGE_WIDTHS = 20.0
 
@@ -228,12 +233,13 @@ def sinkage(landing: Landing, factor: Callable, c: Coefficients, bearing_factor:
     return rest
 
 
-@lru_cache(maxsize=1)
-def default_config() -> AnalyticDynamicConfig:
-    """``conf/solver/analytic_dynamic.yaml``: the coefficients the model was fitted with."""
+@lru_cache(maxsize=2)
+def default_config(form: str = "analytic_dynamic") -> AnalyticDynamicConfig:
+    """``conf/solver/<form>.yaml``: the coefficients the model was fitted with, to the 2D section's CEL
+    landings (``analytic_dynamic``) or the 3D track's (``analytic_dynamic_3d``)."""
     from omegaconf import OmegaConf
 
-    values = OmegaConf.to_container(OmegaConf.load(Path(CONFIG_DIR) / "solver" / "analytic_dynamic.yaml"))
+    values = OmegaConf.to_container(OmegaConf.load(Path(CONFIG_DIR) / "solver" / f"{form}.yaml"))
     return AnalyticDynamicConfig.model_validate(values)
 
 
@@ -258,12 +264,19 @@ class AnalyticDynamicSolver:
                               "the dynamic model lands tracks and strips; use solver=cel2d for this body")
         if scene.landing.kind == "push":
             raise ConfigError("landing.kind", "push", "the dynamic model lands bodies; a push is solver=analytic_energy")
+        if scene.geometry.vehicle:  # the fast vehicle model: it sinks, pitches and rolls
+            from dsmv.analytic.vehicle import check_vehicle_scene
+
+            check_vehicle_scene(scene)
+            return
         refuse_beyond_the_closed_form(scene, "the dynamic model", bent_profile=True)
 
     def __init__(self, scene: Scene, config: AnalyticDynamicConfig | None = None, check: bool = True):
         if check:  # off only for fast_landing, an estimate for another solver
             self.check_scene(scene)
         self.scene = scene
+        # a vehicle scene of its own lands the vehicle (dsmv.analytic.vehicle); another solver's estimate, one track
+        self.vehicle = check and scene.geometry.vehicle
         self.config = cfg = config or scene.solver
         body, landing, soil = scene.geometry, scene.landing, scene.soil
         if cfg.shape_factor == "plane_strain" or body.kind == "strip":
@@ -284,6 +297,10 @@ class AnalyticDynamicSolver:
         self.factor = lambda xi, rate: law.strength_factor(xi, rate, *(np.full(np.shape(xi), s) for s in state))
 
     def solve(self, run_dir=None) -> SolveResult:
+        if self.vehicle:
+            from dsmv.analytic.vehicle import VehicleModel
+
+            return VehicleModel(self.scene, self.config, self.factor).solve()
         cfg, lb = self.config, self.landing
         coefficients = cfg.coefficients()
         rest, depth, speed = sinkage(lb, self.factor, coefficients, cfg.bearing_factor, cfg.buoyancy, history=True)

@@ -271,8 +271,9 @@ def _answer(scene: Scene, result: SolveResult) -> str:
         plates = result.metrics.get("plate_sinkage_m", sinkage)
         where = (f" at the grouser tips, {plates:.4f} m at the plates" if plates != sinkage else
                  " of the 2D cross-section" if is_cross_section(scene) else "")
-        if scene.geometry.vehicle:
-            where += ", each track"
+        if scene.geometry.vehicle:  # the middle of its base: each track's own, when it tilts, follows
+            where = (where + ", each track" if "max_sinkage_left_track_m" not in result.metrics
+                     else " (the base's middle)" + where)
         if "max_sinkage_error_m" in result.metrics:  # solver.error_estimate: the mesh's share of doubt
             return (f"max sinkage {sinkage:.4f} m{where}; extrapolated {result.metrics['max_sinkage_extrapolated_m']:.4f} m "
                     f"± {result.metrics['max_sinkage_error_m']:.4f} m (mesh){motion}")
@@ -323,7 +324,8 @@ def is_cross_section(scene: Scene) -> bool:
     body = scene.geometry
     if body.kind != "track" or getattr(body, "view", "cross_section") != "cross_section":
         return False
-    flat_section = getattr(scene.solver, "shape_factor", None) == "plane_strain" and not getattr(scene.solver, "grousers", False)
+    flat_section = (getattr(scene.solver, "shape_factor", None) == "plane_strain" and not getattr(scene.solver, "grousers", False)
+                    and not body.vehicle)  # the fast models land a vehicle as cel3d does
     return scene.solver.name in ("cel2d", "cel2d_check") or flat_section
 
 
@@ -401,7 +403,9 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
                 if cells < 1.0 else ""))
         if "redraws" in m:  # a body redrawn as it turned: whether its soil may part from it
             parts = ContactRules.of(scene, False, draws_turns=True).separation
-            print(f"  turn    : redrawn into the grid {m['redraws']:.0f} times as it turned, a rough staircase " + (
+            step_deg = math.degrees(math.atan(m["core_cell_size_m"] / (2.0 * scene.geometry.half_span_m)))
+            print(f"  turn    : redrawn into the grid {m['redraws']:.0f} times as it turned, a rough staircase of "
+                  f"cells that draws a tilt across its span in steps of about {step_deg:.2g}° (one cell), " + (
                 "whose soil lets go where it pulls away (contact separation)" if parts else
                 "tied to its soil (solver.contact_separation=false: the soil holds it in tension)"))
     print(f"  outputs : {run_dir}")

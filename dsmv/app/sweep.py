@@ -52,7 +52,12 @@ class MlflowSweepCallback(Callback):
         if "optuna" in sweeper.lower():  # its trials, proposed batch by batch
             runs.write_sweep_size(sweep_dir, int(config.hydra.sweeper.n_trials))
         elif "cases" not in sweeper:  # the case sweeper counts its own
-            runs.write_sweep_size(sweep_dir, runs.basic_sweep_size(list(config.hydra.overrides.task)))
+            # the basic sweeper sweeps the experiment's hydra.sweeper.params too, the command line winning
+            task = list(config.hydra.overrides.task)
+            given = {o.split("=", 1)[0].lstrip("+~") for o in task}
+            params = config.hydra.sweeper.get("params") or {}
+            swept = [f"{key}={value}" for key, value in params.items() if key not in given] + task
+            runs.write_sweep_size(sweep_dir, runs.basic_sweep_size(swept))
         runs.open_sweep_run(config, sweep_dir)
 
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:

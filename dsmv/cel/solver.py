@@ -27,7 +27,7 @@ from typing import Optional
 import numpy as np
 
 from dsmv import registry
-from dsmv.analytic.dynamic import fast_landing
+from dsmv.analytic.dynamic import REST_MOMENT_FRACTION, fast_landing
 from dsmv.analytic.energy import energy_estimate, sinkage_in_profile
 from dsmv.cel import controller as C
 from dsmv.cel import cost as cost_model
@@ -42,7 +42,7 @@ from dsmv.cel.layout import (
 )
 from dsmv.cel.state import Elastic, geostatic_state, hourglass_factor, step_parameters
 from dsmv.errors import ConfigError
-from dsmv.results import SolveResult, add_plate_sinkage
+from dsmv.results import SolveResult, add_plate_sinkage, add_track_sinkages
 from dsmv.config.scene import FREEDOM_NAMES, RATE_KEYS, Scene
 
 #: s/B at which push curves are sampled for the bearing factor q/su0 (averaged over ±0.005·B)
@@ -113,11 +113,6 @@ class Start:
     inertia_kg: float
     weight_n: float
     sinkage_m: float        # the sinkage it has already (a trapped-soil track's grouser height)
-
-
-#: a body free to turn is at rest once the soil's moment on it about its centre of gravity is under this
-#: fraction of its weight times its reach (:class:`~dsmv.cel.controller.Rest`)
-REST_MOMENT_FRACTION = 0.05
 
 
 class CelSolver:
@@ -193,13 +188,10 @@ class CelSolver:
         ``landing.rotational_inertia_kg_m2``, else a uniform box B wide (a vehicle: across its tracks), L
         long and as high as a track's sprockets (else B): m·(L² + height²)/12, m·(B² + height²)/12,
         m·(B² + L²)/12."""
-        landing, body = self.scene.landing, self.scene.geometry
+        landing = self.scene.landing
         if landing.rotational_inertia_kg_m2 is not None:
             return tuple(landing.rotational_inertia_kg_m2)
-        B, L = 2.0 * self.half_span_m(), body.contact_length_m or body.width_m
-        height = 2.0 * body.sprocket_radius_m if body.kind == "track" else B
-        m = self.start().inertia_kg
-        return m * (L**2 + height**2) / 12.0, m * (B**2 + height**2) / 12.0, m * (B**2 + L**2) / 12.0
+        return self.scene.geometry.box_inertia_kg_m2(self.start().inertia_kg)
 
     @staticmethod
     def is_axisymmetric(scene: Scene) -> bool:
@@ -244,7 +236,7 @@ class CelSolver:
 
     def half_span_m(self) -> float:
         """Half the body's width across x (m): B/2, or a vehicle's from its middle to its tracks' outer walls."""
-        return 0.5 * self.scene.geometry.width_m + self.scene.geometry.track_offset_m
+        return self.scene.geometry.half_span_m
 
     def reach_m(self) -> float:
         """How far the body's farthest point in the x–z plane lies from its centre of gravity (m): the lever
@@ -688,7 +680,7 @@ class CelSolver:
         if self.scene.landing.attitude_key:  # how far its tilt drops the base across, end to end
             metrics["attitude_drop_m"], units["attitude_drop_m"] = 2.0 * self.attitude_base_m()[1], "m"
         if self.scene.geometry.vehicle:
-            self._track_metrics(history, metrics, units)
+            add_track_sinkages(metrics, units, history, self.scene.geometry, self.plates_above_base_m())
         for name in self.motion_columns():
             unit = {"_n": "N", "_m": "N·m" if name.endswith("_n_m") else "m", "eg": "deg"}[name[-2:]]
             if C.MOTION_COLUMNS[name][0] == "reaction":
@@ -697,32 +689,6 @@ class CelSolver:
                 units[f"max_{name}"] = units[f"end_{name}"] = unit
             else:
                 metrics[name], units[name] = float(history[name][-1]), unit
-
-    def _track_metrics(self, history, metrics, units) -> None:
-        """A vehicle's tracks: each one's middle (``max_sinkage_left_track_m``, ``final_…``), and where the
-        model pitches its front (+y) and rear ends (``…_track_front_m``, ``…_track_rear_m``), the grousers'
-        tips; and its plates' deepest (``max_plate_sinkage_left_track_m``), the grouser height above them.
-        A point of the base x across and y along from its middle sits lower than the middle by
-        sin θy·x − cos θy·sin θx·y (the pose's last row, :meth:`~dsmv.cel.body.Pose.turned`)."""
-        body = self.scene.geometry
-        middle = np.asarray(history["sinkage_m"])
-        roll = np.radians(np.asarray(history["rotation_deg"]))
-        pitch = np.radians(np.asarray(history["pitch_deg"])) if "pitch_deg" in history else None
-        ends = {"": 0.0} if pitch is None else {"": 0.0, "_front": 0.5 * body.contact_length_m,
-                                                "_rear": -0.5 * body.contact_length_m}
-        plates = self.plates_above_base_m()
-        for side, sign in (("left", -1.0), ("right", 1.0)):
-            deepest = -math.inf
-            for end, along in ends.items():
-                track = middle + np.sin(roll) * sign * body.track_offset_m
-                if along:
-                    track = track - np.cos(roll) * np.sin(pitch) * along
-                name = f"{side}_track{end}"
-                metrics |= {f"max_sinkage_{name}_m": float(track.max()), f"final_sinkage_{name}_m": float(track[-1])}
-                units |= {f"max_sinkage_{name}_m": "m", f"final_sinkage_{name}_m": "m"}
-                deepest = max(deepest, float(track.max()))
-            metrics[f"max_plate_sinkage_{side}_track_m"] = deepest - plates
-            units[f"max_plate_sinkage_{side}_track_m"] = "m"
 
     def body_kinetic_energy(self, state: State) -> float:
         """The body's own kinetic energy in its free freedoms (J per unit thickness or per radian): a pushed

@@ -203,6 +203,20 @@ class BodyConfig(Schema):
         """How far each track's centre stands off the body's middle across x (m): half a vehicle's gauge, else 0."""
         return 0.5 * self.gauge_m if self.vehicle else 0.0
 
+    @property
+    def half_span_m(self) -> float:
+        """Half the body's width across x (m): B/2, or a vehicle's from its middle to its tracks' outer walls."""
+        return 0.5 * self.width_m + self.track_offset_m
+
+    def box_inertia_kg_m2(self, mass_kg: float) -> tuple[float, float, float]:
+        """A uniform box of ``mass_kg`` as wide as the body's span, L long and as high as a track's sprockets
+        (else B): its inertia about x, y and z through its centre, m·(L² + h²)/12, m·(B² + h²)/12,
+        m·(B² + L²)/12 (kg·m²)."""
+        B, L = 2.0 * self.half_span_m, self.contact_length_m or self.width_m
+        height = 2.0 * self.sprocket_radius_m if self.kind == "track" else B
+        return (mass_kg * (L**2 + height**2) / 12.0, mass_kg * (B**2 + height**2) / 12.0,
+                mass_kg * (B**2 + L**2) / 12.0)
+
 
 class TrackGeometry(BodyConfig):
     """The Pioneering-I track (section 2.3 of the reference study)."""
@@ -502,7 +516,7 @@ class SafetyConfig(Schema):
 #: the sweep-level plots an experiment can ask for with ``sweep_plot: <name>`` (drawn by
 #: :data:`dsmv.post.plots.SWEEP_PLOT_MAKERS`)
 SWEEP_PLOTS = ("fall_cone", "one_at_a_time", "compare_analytic", "mesh_study", "section_factors", "bearing_curves",
-               "green_envelope")
+               "green_envelope", "safe_region")
 
 
 class TrackingConfig(Schema):

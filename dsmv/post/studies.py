@@ -552,3 +552,61 @@ def _pyplot():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def safe_region(sweep_dir: Path, path: Path) -> Path | None:
+    """The verdicts of a sweep over two parameters (``hydra.sweeper.params``, the first across, the second
+    up) as a map of the safe region: each landing safe or unsafe and why (the limits it broke), and
+    the line where the smallest margin, each taken over its limit, passes 0 (interpolated between the
+    landings). Writes ``safe_region.csv`` (per landing: both values, status, ``safe``, each margin) and the
+    PNG. None without two swept parameters or a judged landing."""
+    config = _sweep_config(sweep_dir)
+    params = list(OmegaConf.to_container(config.hydra.sweeper.get("params") or {})) if config is not None else []
+    jobs = [job for job in sweep_jobs(sweep_dir) if len(params) >= 2 and all(p in job.values for p in params[:2])]
+    if len(params) < 2 or not any("safe" in job.result["metrics"] for job in jobs):
+        return None
+    across, up = params[:2]
+    limits = {what: float(config.safety[key]) for key, what in (("max_sinkage_m", "sinkage"), ("max_tilt_deg", "tilt"),
+              ("max_slide_m", "slide"), ("max_deceleration_g", "deceleration")) if config.safety.get(key) is not None}
+    rows, points = [], []
+    for job in jobs:
+        x, y = float(job.values[across]), float(job.values[up])
+        margins = {what: job.metric(f"safety_margin_{what}") for what in limits}
+        broken = [what for what, margin in margins.items() if margin < 0.0]
+        if job.result["status"] == "bearing_failure":
+            broken.append("the soil did not stop it")
+        worst = min((margin / limits[what] for what, margin in margins.items()), default=np.nan)
+        safe = job.metric("safe") == 1.0
+        rows.append({across: x, up: y, "status": job.result["status"], "safe": int(safe),
+                     **{f"margin_{what}": margin for what, margin in margins.items()},
+                     "broken": " & ".join(broken)})
+        points.append((x, y, safe, worst, " & ".join(broken)))
+    rows.sort(key=lambda r: (r[across], r[up]))
+    _write_csv(Path(path).with_suffix(".csv"), rows)
+
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6.4, 4.8), constrained_layout=True)
+    xs, ys = sorted({p[0] for p in points}), sorted({p[1] for p in points})
+    grid = np.full((len(ys), len(xs)), np.nan)
+    for x, y, _, worst, _ in points:
+        grid[ys.index(y), xs.index(x)] = worst
+    if len(xs) > 1 and len(ys) > 1 and np.isfinite(grid).sum() >= 4:
+        ax.contourf(xs, ys, grid, levels=[-np.inf, 0.0, np.inf], colors=["#f4c7c3", "#cfe8cf"], alpha=0.8)
+        ax.contour(xs, ys, grid, levels=[0.0], colors="k", linewidths=1.2)
+    causes = sorted({p[4] for p in points if not p[2]})
+    markers = dict(zip(causes, "xsd^v<>p*h"))
+    ax.plot([p[0] for p in points if p[2]], [p[1] for p in points if p[2]], "o", color="tab:green", label="safe")
+    for cause in causes:
+        chosen = [p for p in points if not p[2] and p[4] == cause]
+        ax.plot([p[0] for p in chosen], [p[1] for p in chosen], markers[cause], color="tab:red",
+                label=f"unsafe: {cause or 'not judged'}")
+    ax.set_xlabel(across)
+    ax.set_ylabel(up)
+    judged = ", ".join(f"{what} ≤ {limit:g}" for what, limit in limits.items())
+    ax.set_title(f"{config.get('study', '')}: the safe region ({judged}; the line: the smallest margin 0)",
+                 fontsize=9)
+    ax.legend(fontsize=7, loc="best")
+    ax.grid(alpha=0.3)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return Path(path)

@@ -1,0 +1,74 @@
+"""The fast vehicle model (``solver=analytic_dynamic`` on a vehicle, :mod:`dsmv.analytic.vehicle`).
+
+Truths: a level vehicle with its centre of gravity over its middle is each track's fast landing with
+half the weight (the step's error first order, shrinking with the step); mirror symmetry (a centre of
+gravity at +e and −e rolls the vehicle as mirror images, its tracks' sinkages swapped, to round-off);
+the sense of the turns.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dsmv.analytic import vehicle
+from dsmv.analytic.dynamic import AnalyticDynamicSolver
+from dsmv.config.scene import build_scene
+
+VEHICLE = ["geometry=vehicle_pioneer_i", "solver=analytic_dynamic", "tracking=disabled"]
+
+
+def land(compose_cfg, *overrides):
+    return AnalyticDynamicSolver(build_scene(compose_cfg([*VEHICLE, *overrides]))).solve()
+
+
+def test_a_level_vehicle_is_each_track_s_fast_landing_with_half_the_weight(compose_cfg, monkeypatch):
+    """The default vehicle, upright, its centre of gravity over its middle: its sinkage is one track's
+    fast landing with half the weight (2250 kg, ``analytic_dynamic_3d``) within 0.3 % (measured
+    0.27 %, then 0.13 % and 0.064 %), the gap halving with the step (first order); it does not tilt."""
+    one = build_scene(compose_cfg(["solver=analytic_dynamic_3d", "tracking=disabled", "landing.mass_kg=2250"]))
+    track = AnalyticDynamicSolver(one).solve()
+    reference = track.metrics["max_sinkage_m"]
+    gaps = []
+    for fraction in (0.05, 0.025, 0.0125):
+        monkeypatch.setattr(vehicle, "STEP_FRACTION", fraction)
+        result = land(compose_cfg)
+        assert result.status == "ok", result.message
+        assert result.metrics["max_rotation_deg"] == 0.0
+        assert result.metrics["max_sinkage_left_track_m"] == result.metrics["max_sinkage_right_track_m"]
+        gaps.append(result.metrics["max_sinkage_m"] / reference - 1.0)
+    assert 0.0 < gaps[0] <= 3e-3
+    assert gaps[1] == pytest.approx(gaps[0] / 2, rel=0.1) and gaps[2] == pytest.approx(gaps[1] / 2, rel=0.1)
+
+
+def test_a_vehicle_heavier_on_one_side_rolls_as_its_mirror_image(compose_cfg):
+    """The centre of gravity 0.3 m towards either track, free to roll: the rolls are mirror images and the
+    tracks' sinkages swap, to round-off; the heavier side sinks deeper."""
+    right, left = (land(compose_cfg, "landing.free=[z,ry]", f"landing.cg_offset_m=[{e},0,0]") for e in (0.3, -0.3))
+    assert right.status == left.status == "ok"
+    assert right.metrics["max_rotation_deg"] > 0.1 and right.metrics["rotation_deg"] > 0.0
+    assert right.metrics["max_sinkage_right_track_m"] > right.metrics["max_sinkage_left_track_m"]
+    assert left.metrics["rotation_deg"] == pytest.approx(-right.metrics["rotation_deg"], rel=1e-12)
+    for a, b in (("max_sinkage_right_track_m", "max_sinkage_left_track_m"),
+                 ("final_sinkage_right_track_m", "final_sinkage_left_track_m")):
+        assert right.metrics[a] == pytest.approx(left.metrics[b], rel=1e-12), a
+    a, b = np.asarray(right.history["rotation_deg"]), -np.asarray(left.history["rotation_deg"])
+    assert np.abs(a - b).max() <= 1e-12 * np.abs(a).max()
+
+
+def test_a_vehicle_heavier_at_its_front_pitches_nose_down_and_a_rolled_one_rights_itself(compose_cfg):
+    """The centre of gravity 0.5 m forward (+y): it pitches its front down (− about x, the front ends
+    deeper than the rear); touching down rolled 4° it turns back through level."""
+    nose = land(compose_cfg, "landing.free=[z,rx]", "landing.cg_offset_m=[0,0.5,0]")
+    assert nose.status == "ok" and nose.metrics["pitch_deg"] < 0.0
+    assert nose.metrics["max_sinkage_left_track_front_m"] > nose.metrics["max_sinkage_left_track_rear_m"]
+    rolled = land(compose_cfg, "landing.free=[z,ry]", "landing.roll_deg=4")
+    assert rolled.status == "ok" and rolled.metrics["max_rotation_deg"] == pytest.approx(4.0)
+    assert abs(rolled.metrics["rotation_deg"]) < 4.0
+
+
+def test_a_drift_in_the_fast_vehicle_model_is_refused_naming_its_key(run_cli):
+    """It sinks, pitches and rolls: a drift or a slide runs in cel3d (one line, exit 2)."""
+    result = run_cli("dsmv", *VEHICLE, "landing.free=[z,x]", "landing.horizontal_velocity_m_s=0.2")
+    assert result.returncode == 2
+    assert "landing.free" in result.stderr and len(result.stderr.strip().splitlines()) == 1
