@@ -67,6 +67,17 @@ def test_a_vehicle_heavier_at_its_front_pitches_nose_down_and_a_rolled_one_right
     assert abs(rolled.metrics["rotation_deg"]) < 4.0
 
 
+def test_a_tilting_vehicle_s_summary_names_its_assumed_mass_layout_and_each_track(run_cli):
+    """The study gives no vehicle: a vehicle free to turn names its centre of gravity and its default
+    inertia as assumed, and the summary gives each track's deepest point and the tilt."""
+    done = run_cli("dsmv", *VEHICLE, "landing.free=[z,ry]", "landing.cg_offset_m=[0.3,0,0]")
+    assert done.returncode == 0, done.stderr
+    assumed = next(line for line in done.stdout.splitlines() if line.strip().startswith("assumed"))
+    assert "geometry.gauge_m = 2.6 m" in assumed and "landing.cg_offset_m = [0.3, 0.0, 0.0] m" in assumed
+    assert "landing.rotational_inertia_kg_m2 = a uniform box" in assumed
+    assert "(the base's middle)" in done.stdout and "its tracks" in done.stdout and "turned" in done.stdout
+
+
 def test_a_drift_in_the_fast_vehicle_model_is_refused_naming_its_key(run_cli):
     """It sinks, pitches and rolls: a drift or a slide runs in cel3d (one line, exit 2)."""
     result = run_cli("dsmv", *VEHICLE, "landing.free=[z,x]", "landing.horizontal_velocity_m_s=0.2")

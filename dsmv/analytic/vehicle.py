@@ -59,8 +59,8 @@ def check_vehicle_scene(scene: Scene) -> None:
             key = "landing.free" if name in landing.freedoms else "landing." + {
                 "x": "horizontal_velocity_m_s", "y": "lateral_velocity_m_s", "rz": "yaw_rate_rad_s"}[name]
             raise ConfigError(key, landing.free if name in landing.freedoms else landing.given_velocity(name),
-                              "the fast vehicle model sinks, pitches and rolls; a drift, a slide or a "
-                                         "yaw runs in solver=cel3d")
+                              "the fast vehicle model sinks, pitches and rolls; a drift, a slide or a yaw runs "
+                              "in solver=cel3d")
 
 
 def turn_rows(angle_x: float, angle_y: float) -> np.ndarray:

@@ -374,6 +374,12 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
     assumed = registry.load("soil_laws", scene.soil.law, "soil.law")(scene.soil).assumptions()
     if scene.geometry.vehicle:  # the study gives no vehicle
         assumed = [*assumed, f"geometry.gauge_m = {scene.geometry.gauge_m:g} m"]
+        landing = scene.landing
+        if {"rx", "ry", "rz"} & set(landing.freedoms):  # a vehicle that may turn: its mass's layout
+            assumed.append(f"landing.cg_offset_m = {list(landing.cg_offset_m)} m (its height above the base included)")
+            if landing.rotational_inertia_kg_m2 is None:
+                assumed.append("landing.rotational_inertia_kg_m2 = a uniform box of the vehicle's span, length and "
+                               "sprocket height")
     if assumed:
         print(f"  assumed : {', '.join(assumed)} (provisional: no published source)")
     print(f"  message : {result.message}")
