@@ -8,7 +8,8 @@ import pytest
 from scipy.optimize import brentq
 
 from dsmv.analytic.bearing import PRANDTL_NC
-from dsmv.analytic.dynamic import AnalyticDynamicSolver, gradient_factor
+from dsmv.analytic.dynamic import AnalyticDynamicSolver
+from dsmv.analytic.landing_model import gradient_factor
 from dsmv.analytic.energy import sinkage_from_energy
 from dsmv.config.scene import build_scene
 

@@ -51,7 +51,7 @@ from functools import lru_cache
 import numpy as np
 from pydantic import Field
 
-from dsmv.analytic.dynamic import REST_SPEED_FRACTION
+from dsmv.analytic.landing_model import REST_SPEED_FRACTION
 from dsmv.config.profile import StrengthSegments
 from dsmv.config.schema import Number, Schema
 

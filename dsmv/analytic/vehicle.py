@@ -9,7 +9,7 @@ The patch at r from the centre of gravity lies at depth d = d_cg − (R·r)_z, R
 (:meth:`dsmv.cel.body.Pose.turned`), and moves down at ḋ_cg − ωx·(R·r)_y + ωy·(R·r)_x.
 
 On a patch the soil presses with the fast landing model's pressure at the patch's depth and downward
-speed, p(d, v) = R(d, v)/A (:func:`dsmv.analytic.dynamic.resistance`, the track's width B in its
+speed, p(d, v) = R(d, v)/A (:func:`dsmv.analytic.landing_model.resistance`, the track's width B in its
 factors) of the 3D track (``solver=analytic_dynamic_3d``: its grousers cut in first, Skempton's shape
 factor, its coefficients fitted to the 3D CEL; the section's ``analytic_dynamic`` lands a vehicle with
 them too) while the patch goes
@@ -23,7 +23,7 @@ weight.
 stepped with the symplectic Euler step, Δt a twentieth of the period of the patches' stiffness. As in
 cel3d, the vehicle is at rest once its fall has stopped and it moves and turns (at its reach) no
 faster than 1 % of its touchdown speed while the soil's moment about its centre of gravity is under
-5 % of its weight times its reach (:data:`dsmv.analytic.dynamic.REST_MOMENT_FRACTION`).
+5 % of its weight times its reach (:data:`dsmv.analytic.landing_model.REST_MOMENT_FRACTION`).
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from dsmv.analytic.dynamic import (
+from dsmv.analytic.landing_model import (
     LARGEST_SINKAGE_WIDTHS, REST_MOMENT_FRACTION, Landing, cut_in, default_config, resistance,
 )
 from dsmv.config.scene import Scene
@@ -71,7 +71,7 @@ def turn_rows(angle_x: float, angle_y: float) -> np.ndarray:
 
 class VehicleModel:
     """The fast vehicle model of a vehicle scene (module docstring), with the fast landing model's
-    coefficients ``config`` (:class:`dsmv.analytic.dynamic.AnalyticDynamicConfig`)."""
+    coefficients ``config`` (:class:`dsmv.analytic.landing_model.AnalyticDynamicConfig`)."""
 
     def __init__(self, scene: Scene, config, factor):
         check_vehicle_scene(scene)

@@ -27,7 +27,8 @@ from typing import Optional
 import numpy as np
 
 from dsmv import registry
-from dsmv.analytic.dynamic import REST_MOMENT_FRACTION, fast_landing
+from dsmv.analytic.dynamic import fast_landing
+from dsmv.analytic.landing_model import REST_MOMENT_FRACTION
 from dsmv.analytic.energy import energy_estimate, sinkage_in_profile
 from dsmv.cel import controller as C
 from dsmv.cel import cost as cost_model

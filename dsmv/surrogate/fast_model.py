@@ -8,7 +8,7 @@ reference study's Table 1). The law is the dataset's (``einav_randolph`` unless 
 another); its NumPy twin runs on all rows at once, reading a soil whose varied values are arrays.
 
 ``python -m dsmv.surrogate.fast_model DATASET.csv`` fits the coefficients the module
-:mod:`dsmv.analytic.dynamic` takes from the CEL (least squares on log sinkage) and prints the
+:mod:`dsmv.analytic.landing_model` takes from the CEL (least squares on log sinkage) and prints the
 model's error against the CEL, in sample and held out (5-fold).
 """
 
@@ -23,7 +23,7 @@ import numpy as np
 import pandas as pd
 
 from dsmv import registry
-from dsmv.analytic.dynamic import Coefficients, Landing, sinkage
+from dsmv.analytic.landing_model import Coefficients, Landing, sinkage
 from dsmv.surrogate.dataset import TARGET_METRIC
 from dsmv.surrogate.features import LeakFreeFeatures, physics, target
 

@@ -47,7 +47,7 @@ import pandas as pd
 from omegaconf import DictConfig, OmegaConf
 from pydantic import Field
 
-from dsmv.analytic.dynamic import LARGEST_SINKAGE_WIDTHS
+from dsmv.analytic.landing_model import LARGEST_SINKAGE_WIDTHS
 from dsmv.config.scene import _resolve, build_scene, build_tracking
 from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError, DsmvError
