@@ -38,8 +38,8 @@ from dsmv.cel.contact import ContactRules
 from dsmv.cel.grid import axis_through
 from dsmv.cel.kernels import DimensionKernels, for_dimension
 from dsmv.cel.layout import (
-    B_INFLOW, FORCE_SLOTS, B_MAXDISP, B_MAXEDGE, B_MAXROT, B_MAXSLIDE, B_ROT_X, B_ROT_Z, B_SINKAGE, B_TIME, B_VEL, FREEDOMS,
-    N_BODY, POSE_SLOTS, VELOCITY_SLOTS, CellRows, Cells, Inflow, Nodes, Params, SoilLawKernel, freedom_mask,
+    B_INFLOW, B_MAXDISP, B_MAXEDGE, B_MAXROT, B_MAXSLIDE, B_ROT_X, B_ROT_Z, B_SINKAGE, B_TIME, B_VEL, FORCE_SLOTS,
+    FREEDOMS, N_BODY, POSE_SLOTS, VELOCITY_SLOTS, CellRows, Cells, Inflow, Nodes, Params, SoilLawKernel, freedom_mask,
 )
 from dsmv.cel.state import Elastic, geostatic_state, hourglass_factor, step_parameters
 from dsmv.errors import ConfigError
