@@ -97,9 +97,10 @@ def add_plate_sinkage(result: SolveResult, grouser_height_m: float) -> None:
         result.history["plate_sinkage_m"] = np.asarray(result.history["sinkage_m"], dtype=float) - grouser_height_m
 
 
-def add_track_sinkages(metrics: dict, units: dict, history: dict, body, plates_m: float) -> None:
-    """A vehicle's tracks, from the history of the middle of its base (``sinkage_m``), its roll
-    (``rotation_deg``, about y) and, where the model pitches, its pitch (``pitch_deg``, about x): each
+def add_vehicle_answers(metrics: dict, units: dict, history: dict, body, plates_m: float) -> None:
+    """A vehicle's tilt and tracks, from the history of the middle of its base (``sinkage_m``), its roll
+    (``rotation_deg``, about y) and, where the model pitches, its pitch (``pitch_deg``, about x): its
+    largest roll and pitch either way (``max_roll_deg``, ``max_pitch_deg``, the history's samples); each
     track's middle (``max_sinkage_left_track_m``, ``final_…``), its front (+y) and rear ends where it
     pitches (``…_track_front_m``, ``…_track_rear_m``), the grousers' tips; and its plates' deepest
     (``max_plate_sinkage_left_track_m``), ``plates_m`` above the tips. A point of the base x across and y
@@ -108,6 +109,9 @@ def add_track_sinkages(metrics: dict, units: dict, history: dict, body, plates_m
     middle = np.asarray(history["sinkage_m"])
     roll = np.radians(np.asarray(history["rotation_deg"]))
     pitch = np.radians(np.asarray(history["pitch_deg"])) if "pitch_deg" in history else None
+    for name, angle in (("max_roll_deg", roll), ("max_pitch_deg", pitch)):
+        if angle is not None:
+            metrics[name], units[name] = float(np.degrees(np.abs(angle).max())), "deg"
     ends = {"": 0.0} if pitch is None else {"": 0.0, "_front": 0.5 * body.contact_length_m,
                                             "_rear": -0.5 * body.contact_length_m}
     for side, sign in (("left", -1.0), ("right", 1.0)):

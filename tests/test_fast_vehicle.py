@@ -61,6 +61,7 @@ def test_a_vehicle_heavier_at_its_front_pitches_nose_down_and_a_rolled_one_right
     deeper than the rear); touching down rolled 4° it turns back through level."""
     nose = land(compose_cfg, "landing.free=[z,rx]", "landing.cg_offset_m=[0,0.5,0]")
     assert nose.status == "ok" and nose.metrics["pitch_deg"] < 0.0
+    assert nose.metrics["max_pitch_deg"] >= -nose.metrics["pitch_deg"] and nose.metrics["max_roll_deg"] == 0.0
     assert nose.metrics["max_sinkage_left_track_front_m"] > nose.metrics["max_sinkage_left_track_rear_m"]
     rolled = land(compose_cfg, "landing.free=[z,ry]", "landing.roll_deg=4")
     assert rolled.status == "ok" and rolled.metrics["max_rotation_deg"] == pytest.approx(4.0)

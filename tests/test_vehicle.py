@@ -107,6 +107,9 @@ def test_a_vehicle_heavier_on_one_side_rolls_and_its_mirror_image_rolls_back(com
     assert left["max_sinkage_left_track_m"] == pytest.approx(right["max_sinkage_right_track_m"], rel=1e-12)
     assert left["max_sinkage_right_track_m"] == pytest.approx(right["max_sinkage_left_track_m"], rel=1e-12)
     assert left["max_rotation_deg"] == pytest.approx(right["max_rotation_deg"], rel=1e-12)
+    # the largest roll from the history's samples: within the kernel's step by step, and mirrored
+    assert 0.0 < right["max_roll_deg"] <= right["max_rotation_deg"] and "max_pitch_deg" not in right
+    assert left["max_roll_deg"] == pytest.approx(right["max_roll_deg"], rel=1e-12)
 
 
 def test_the_3d_vehicle_rolls_as_its_mirror_image(compose_cfg):

@@ -38,7 +38,7 @@ from dsmv.analytic.landing_model import (
 )
 from dsmv.config.scene import Scene
 from dsmv.errors import ConfigError
-from dsmv.results import SolveResult, add_plate_sinkage, add_track_sinkages
+from dsmv.results import SolveResult, add_plate_sinkage, add_vehicle_answers
 
 #: patches along each track and across it: from 24 × 4 to 48 × 8 the tilts move by at most 0.3 % (the
 #: vehicle with its centre of gravity 0.3 m across or 0.5 m forward, or touching down rolled 4°)
@@ -191,7 +191,7 @@ class VehicleModel:
         units = {"max_sinkage_m": "m", "max_edge_sinkage_m": "m", "max_rotation_deg": "deg",
                  "max_horizontal_displacement_m": "m", "rotation_deg": "deg", "pitch_deg": "deg", "time_to_rest_s": "s",
                  "sinkage_over_width": "-", "weight_per_track_n": "N", "steps": "-"}
-        add_track_sinkages(metrics, units, history, body, self.grouser_height_m)
+        add_vehicle_answers(metrics, units, history, body, self.grouser_height_m)
         result = SolveResult(status, message, metrics, units, history)
         add_plate_sinkage(result, self.grouser_height_m)
         return result

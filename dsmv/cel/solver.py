@@ -43,7 +43,7 @@ from dsmv.cel.layout import (
 )
 from dsmv.cel.state import Elastic, geostatic_state, hourglass_factor, step_parameters
 from dsmv.errors import ConfigError
-from dsmv.results import SolveResult, add_plate_sinkage, add_track_sinkages
+from dsmv.results import SolveResult, add_plate_sinkage, add_vehicle_answers
 from dsmv.config.scene import FREEDOM_NAMES, RATE_KEYS, Scene
 
 #: s/B at which push curves are sampled for the bearing factor q/su0 (averaged over ±0.005·B)
@@ -681,7 +681,7 @@ class CelSolver:
         if self.scene.landing.attitude_key:  # how far its tilt drops the base across, end to end
             metrics["attitude_drop_m"], units["attitude_drop_m"] = 2.0 * self.attitude_base_m()[1], "m"
         if self.scene.geometry.vehicle:
-            add_track_sinkages(metrics, units, history, self.scene.geometry, self.plates_above_base_m())
+            add_vehicle_answers(metrics, units, history, self.scene.geometry, self.plates_above_base_m())
         for name in self.motion_columns():
             unit = {"_n": "N", "_m": "N·m" if name.endswith("_n_m") else "m", "eg": "deg"}[name[-2:]]
             if C.MOTION_COLUMNS[name][0] == "reaction":
