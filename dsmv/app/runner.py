@@ -409,9 +409,14 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
                 if cells < 1.0 else ""))
         if "redraws" in m:  # a body redrawn as it turned: whether its soil may part from it
             parts = ContactRules.of(scene, False, draws_turns=True).separation
-            step_deg = math.degrees(math.atan(m["core_cell_size_m"] / (2.0 * scene.geometry.half_span_m)))
+            def step_deg(span_m):  # one core cell across a span, as an angle
+                return math.degrees(math.atan(m["core_cell_size_m"] / span_m))
+
+            steps = f"across its span in steps of about {step_deg(2.0 * scene.geometry.half_span_m):.2g}°"
+            if scene.solver.name == "cel3d":
+                steps += f" and along its length of {step_deg(scene.geometry.contact_length_m):.2g}°"
             print(f"  turn    : redrawn into the grid {m['redraws']:.0f} times as it turned, a rough staircase of "
-                  f"cells that draws a tilt across its span in steps of about {step_deg:.2g}° (one cell), " + (
+                  f"cells that draws a tilt {steps} (one cell), " + (
                 "whose soil lets go where it pulls away (contact separation)" if parts else
                 "tied to its soil (solver.contact_separation=false: the soil holds it in tension)"))
     print(f"  outputs : {run_dir}")
