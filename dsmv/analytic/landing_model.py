@@ -71,6 +71,9 @@ STEPS_PER_WIDTH = 1000
 #: vanishing speed (the power law's terminal speed scales with the excess force to the power 1/n):
 #: the CEL, whose soil rebounds elastically, ends such a landing at its first rest
 REST_SPEED_FRACTION = 1e-3
+#: a body whose fall has stopped is at rest once it also slides, and turns at its reach, no faster than this
+#: fraction of its speed at touchdown (cel3d's rule and the fast vehicle model's)
+REST_SPEED_AFTER_FALL = 0.01
 #: a body free to turn is at rest once the soil's moment on it about its centre of gravity, where its
 #: weight acts, is under this fraction of its weight times its reach: a vehicle rocked onto one track
 #: stops for an instant with its weight's whole moment about that track still turning it (cel3d's rule,

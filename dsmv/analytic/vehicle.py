@@ -34,7 +34,7 @@ from dataclasses import replace
 import numpy as np
 
 from dsmv.analytic.landing_model import (
-    LARGEST_SINKAGE_WIDTHS, REST_MOMENT_FRACTION, Landing, cut_in, default_config, resistance,
+    LARGEST_SINKAGE_WIDTHS, REST_MOMENT_FRACTION, REST_SPEED_AFTER_FALL, Landing, cut_in, default_config, resistance,
 )
 from dsmv.config.scene import Scene
 from dsmv.errors import ConfigError
@@ -107,7 +107,7 @@ class VehicleModel:
                                  for sx in (-1.0, 1.0) for sy in (-1.0, 1.0)]).T
         self.middle = -cg  # the middle of the base from the centre of gravity
         self.reach_m = float(np.sqrt((self.corners**2).sum(axis=0)).max())
-        c = config.coefficients()
+        self.coefficients = c = config.coefficients()
         self.elastic_depth_m = (c.elastic_coefficient * config.bearing_factor * body.width_m * soil.su0_pa
                                 / soil.youngs_modulus_pa)
         # the soil's radiation dashpot per unit area under a footing moving up or down, Lysmer's analog
@@ -126,7 +126,7 @@ class VehicleModel:
         p = np.zeros_like(depth)
         if bearing.any():
             p[bearing] = resistance(self.patch_soil, depth[bearing], np.maximum(speed[bearing], 0.0), self.factor,
-                                    cfg.coefficients(), cfg.bearing_factor, cfg.buoyancy)
+                                    self.coefficients, cfg.bearing_factor, cfg.buoyancy)
         return np.maximum(p, 0.0)
 
     def solve(self) -> SolveResult:
@@ -140,7 +140,7 @@ class VehicleModel:
         pressed = np.zeros(self.arms.shape[1])
         area, mass, weight = self.patch_area_m2, self.mass_kg, self.weight_n
         floor = self.config.bearing_factor * self.scene.soil.su0_pa  # the weakest full pressure (Pa)
-        rest_speed, moment_limit = 0.01 * self.speed_m_s, REST_MOMENT_FRACTION * weight * self.reach_m
+        rest_speed, moment_limit = REST_SPEED_AFTER_FALL * self.speed_m_s, REST_MOMENT_FRACTION * weight * self.reach_m
         time, fell, status, message = 0.0, False, "ok", ""
         samples = []
         largest = {"middle": -np.inf, "edge": -np.inf, "turn": float(np.hypot(*angles))}

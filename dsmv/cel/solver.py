@@ -28,7 +28,7 @@ import numpy as np
 
 from dsmv import registry
 from dsmv.analytic.dynamic import fast_landing
-from dsmv.analytic.landing_model import REST_MOMENT_FRACTION
+from dsmv.analytic.landing_model import REST_MOMENT_FRACTION, REST_SPEED_AFTER_FALL
 from dsmv.analytic.energy import energy_estimate, sinkage_in_profile
 from dsmv.cel import controller as C
 from dsmv.cel import cost as cost_model
@@ -873,7 +873,7 @@ class CelSolver:
             **{f"inertia_{axis}": inertia / scale for axis, inertia in zip("xyz", self.rotational_inertia_kg_m2())},
             **dict(zip(("base_x", "base_y", "base_z"), self.base_from_centre_of_gravity())),
             # a drifting drop is at rest once it also slides slower than 1 % of its speed at touchdown
-            rest_speed=0.01 * max(start.velocity_m_s, math.hypot(landing.horizontal_velocity_m_s,
+            rest_speed=REST_SPEED_AFTER_FALL * max(start.velocity_m_s, math.hypot(landing.horizontal_velocity_m_s,
                                                                 landing.lateral_velocity_m_s)),
             **dict(zip(("base_half_x", "base_half_y"), self.base_half_spans())),
             tresca=cfg.yield_surface == "tresca" or (cfg.yield_surface == "auto" and self.axisym),
