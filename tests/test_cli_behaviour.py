@@ -33,6 +33,15 @@ def dsmv(tmp_path, *overrides, tracking="disabled"):
     return proc, result
 
 
+def test_a_store_that_cannot_be_written_is_a_warning_and_the_answer_is_kept(tmp_path):
+    """The MLflow store fails (here its path runs through a file): the run still answers, exit 0, its
+    result.json complete, and says in one line that its MLflow run was not written."""
+    (tmp_path / "afile").write_text("")
+    proc, result = dsmv(tmp_path, f"tracking.uri=sqlite:///{tmp_path / 'afile' / 'mlflow.db'}", tracking="local")
+    assert proc.returncode == 0 and result["status"] == "ok" and result["metrics"]["max_sinkage_m"] > 0.0
+    assert "warning: the MLflow run was not written (FileExistsError" in proc.stderr
+
+
 @pytest.mark.parametrize("overrides, status", [
     ((), "ok"),
     (("solver.cfl=1.0",), "unstable"),

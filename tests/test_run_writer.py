@@ -62,3 +62,53 @@ def test_a_store_that_cannot_be_written_is_a_writer_error(tmp_path):
     with pytest.raises(WriterError):
         writer.answer(opened)
     assert writer.alive  # one failed request leaves the writer serving
+
+
+def test_a_run_the_store_could_not_open_fails_at_once_each_time_and_closes_without_waiting(tmp_path):
+    """The open's failure is the job's answer to every later question about its run: finishing raises it,
+    asking for the run's id again raises it at once (its answer was taken: waiting again would hang the
+    job for ever), and closing the run is a no-op. The writer goes on serving."""
+    from dsmv.config.scene import TrackingConfig
+    from dsmv.results import SolveResult
+    from dsmv.tracking.runs import JobTracker
+
+    (tmp_path / "afile").write_text("")
+    tracking = TrackingConfig(enabled=True, uri=f"sqlite:///{tmp_path / 'afile' / 'mlflow.db'}")
+    tracker = JobTracker(tracking, "test", "a run", {}, {}, tmp_path)
+    with pytest.raises(WriterError):
+        tracker.finish(SolveResult("ok", "done"), [])
+    with pytest.raises(WriterError):
+        tracker.run_id
+    tracker.terminate("FAILED")
+    with pytest.raises(ValueError, match="already taken"):
+        tracker.writer.answer(tracker._opened)
+    assert tracker.writer.alive
+
+
+def test_a_file_jobs_poll_for_is_never_seen_half_written(tmp_path):
+    """The sweep's parent-run and socket files are polled for by jobs (exists, then read): written with
+    write_atomically, a reader never finds one empty or cut short, however often it is rewritten."""
+    import threading
+
+    path, seen, stop = tmp_path / "parent.json", [], threading.Event()
+
+    def poll():
+        while not stop.is_set():
+            if path.exists():
+                try:
+                    seen.append(json.loads(path.read_text())["run_id"])
+                except FileNotFoundError:  # removed between the two calls below: not a torn read
+                    pass
+
+    reader = threading.Thread(target=poll)
+    reader.start()
+    try:
+        for k in range(3000):
+            run_writer.write_atomically(path, json.dumps({"run_id": "x" * 200 + str(k)}))
+            if k % 2:
+                path.unlink()
+    finally:
+        stop.set()
+        reader.join()
+    assert seen and all(value.startswith("x" * 200) for value in seen)
+    assert [p.name for p in tmp_path.iterdir()] in ([], ["parent.json"])

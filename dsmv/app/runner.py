@@ -32,6 +32,7 @@ from dsmv.cel.contact import ContactRules
 from dsmv.post.plots import FIELD_PLOT_FILE, HISTORY_PLOT_FILE, plot_field_contours, plot_history
 from dsmv.results import EXIT_CODES, SolveResult, write_history, write_result
 from dsmv.tracking import runs
+from dsmv.tracking.run_writer import WriterError
 
 RESOLVED_CONFIG_FILE = "config_resolved.yaml"
 
@@ -133,8 +134,14 @@ def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, sweep_dir: Path | None, caug
             files = write_outputs(scene, result, run_dir)
             if tracker is not None:
                 judged = safety.verdict(scene.safety, result)
-                tracker.finish(result, files, error_text, note=f"{result.status}: {_answer(scene, result)}",
-                               tags={"dsmv.safety": judged} if judged else None)
+                try:
+                    tracker.finish(result, files, error_text, note=f"{result.status}: {_answer(scene, result)}",
+                                   tags={"dsmv.safety": judged} if judged else None)
+                except WriterError as error:  # the answer is on disk; the store's failure is said, not fatal
+                    print(f"dsmv: warning: the MLflow run was not written ({error}); result.json in {run_dir} "
+                          f"holds the answer", file=sys.stderr)
+                    tracker.terminate("FAILED")  # as far as the store lets it
+                    tracker = None  # the summary names no run
             end_status = None
     except KeyboardInterrupt:  # a second signal while the outputs were being written
         end_status = "KILLED"

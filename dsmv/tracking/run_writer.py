@@ -96,6 +96,14 @@ def experiment_id(client, name: str, artifact_location: str | None) -> str:
         return found.experiment_id
 
 
+def write_atomically(path: Path, text: str) -> None:
+    """Write a file others poll for: whole or not there (a reader that sees it half-written would fail)."""
+    path = Path(path)
+    partial = path.with_name(f".{path.name}.{os.getpid()}.partial")
+    partial.write_text(text)
+    os.replace(partial, path)
+
+
 def _chunks(items: list, size: int):
     for start in range(0, len(items), size):
         yield items[start : start + size]
@@ -163,7 +171,7 @@ def _open(clients: _Clients, uri: str, artifact_location: str | None, experiment
     run_id = client.create_run(experiment_id(client, experiment, artifact_location), tags=tags,
                                run_name=run_name).info.run_id
     if write_to is not None:
-        Path(write_to).write_text(json.dumps({"run_id": run_id, "uri": client.tracking_uri}))
+        write_atomically(Path(write_to), json.dumps({"run_id": run_id, "uri": client.tracking_uri}))
     for chunk in _chunks([Param(k, v) for k, v in params.items()], PARAMS_PER_BATCH):
         client.log_batch(run_id, params=chunk)
     return run_id
@@ -339,7 +347,10 @@ class Writer:
         return self.asked
 
     def answer(self, ticket: int):
-        """The answer to a request (waits for it); raises :class:`WriterError` if it failed."""
+        """The answer to a request (waits for it); raises :class:`WriterError` if it failed. Each answer
+        is handed out once: asking again would wait for ever."""
+        if ticket <= self.answered and ticket not in self.answers:
+            raise ValueError(f"the answer to request {ticket} was already taken")
         while ticket not in self.answers:
             try:
                 self.answers[self.answered + 1] = self.conn.recv()
@@ -380,7 +391,7 @@ def serve_sweep(sweep_dir: Path) -> Writer:
     _serving = (str(sweep_dir), os.getpid())
     path = os.path.join(tempfile.gettempdir(), f"dsmv-writer-{os.getpid()}-{os.urandom(4).hex()}.sock")
     own.answer(own.ask("listen", path))
-    (Path(sweep_dir) / SOCKET_FILE).write_text(json.dumps({"socket": path, "host": socket.gethostname()}))
+    write_atomically(Path(sweep_dir) / SOCKET_FILE, json.dumps({"socket": path, "host": socket.gethostname()}))
     return own
 
 

@@ -28,7 +28,7 @@ from omegaconf import DictConfig, OmegaConf
 from dsmv.config.scene import RESULT_NEUTRAL_SOLVER_KEYS, TrackingConfig, build_tracking
 from dsmv.numba_cache import source_hash
 from dsmv.results import SolveResult, history_columns
-from dsmv.tracking.run_writer import for_job, open_client, resolve_uri, serve_sweep
+from dsmv.tracking.run_writer import WriterError, for_job, open_client, resolve_uri, serve_sweep
 
 PARENT_RUN_FILE = "mlflow_parent_run.json"
 #: how many jobs a sweep has, in its sweep dir (written before they start), for the jobs' progress
@@ -146,11 +146,18 @@ class JobTracker:
         self._opened = self.writer.ask("open", self.uri, tracking.artifact_location, experiment_name(study), run_name,
                                        {k: v[:6000] for k, v in params.items()}, tags, parent_file)
         self._run_id: str | None = None
+        self._open_error: str | None = None  # why the run could not be opened (its answer is taken once)
 
     @property
     def run_id(self) -> str:
         if self._run_id is None:
-            self._run_id = self.writer.answer(self._opened)
+            if self._open_error is not None:
+                raise WriterError(self._open_error)
+            try:
+                self._run_id = self.writer.answer(self._opened)
+            except WriterError as error:
+                self._open_error = str(error)
+                raise
             record_job_run(self.run_dir, self._run_id, reused=False)
         return self._run_id
 
@@ -174,8 +181,12 @@ class JobTracker:
                                            [str(path) for path in files], end_status))
 
     def terminate(self, end_status: str) -> None:
-        """Close the run without its outcome (the job was stopped while writing it)."""
-        self.writer.answer(self.writer.ask("terminate", self.uri, self.run_id, end_status))
+        """Close the run without its outcome (the job was stopped while writing it, or the store failed):
+        as far as the store lets it; a run never opened has nothing to close."""
+        try:
+            self.writer.answer(self.writer.ask("terminate", self.uri, self.run_id, end_status))
+        except WriterError:
+            pass
 
 
 def _history_metrics(history: dict, timestamp_ms: int) -> list:
