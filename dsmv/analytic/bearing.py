@@ -37,16 +37,51 @@ def green_vertical(h: float) -> float:
     return 1.0 + math.pi - math.asin(h) + math.sqrt(1.0 - h * h)
 
 
-def scoop_moment_upper_bound() -> float:
-    """A kinematic (upper) bound on the pure moment M/(B²·su) a rough strip bonded to weightless Tresca
-    soil carries (no vertical or horizontal load): the soil under it turns with it as a rigid circular
-    segment through both edges (the "scoop"), dissipating su along the arc; derived here. A chord B
-    subtending 2α at radius R = B/(2 sin α) dissipates su·2α·R² per unit rotation, least at
-    tan α = 2α: M/(B²·su) ≤ min α/(2 sin²α) = 0.690."""
-    from scipy.optimize import brentq
+def scoop_moment_upper_bound(extent_over_chord: float = math.inf) -> float:
+    """A kinematic (upper) bound on the pure moment M/(A·c·su) a rough body bonded to weightless Tresca
+    soil carries (no vertical or horizontal load), turned about an axis along its extent e, across its
+    chord c (A = c·e; a strip: e = ∞, M/(c²·su) per metre); derived here. The soil under it turns with it
+    as a rigid segment of a circular cylinder through both edges (the "scoop"). A chord subtending 2α at
+    radius R = c/(2 sin α) dissipates su·2α·R²·e per unit rotation on its arc and, where e is finite,
+    su·∫ r dA on each plane end, r the distance from the cylinder's axis (a segment's ∫ r dA:
+    [2α·R³ − d³·(sec α·tan α + ln(sec α + tan α))]/3, d = R cos α the chord's distance from the axis).
+    The strip's bound, least at tan α = 2α: min α/(2 sin²α) = 0.690; a rectangle L/B = 2 turned across
+    B: 0.790, along L (e/c = 1/2): 1.082."""
+    from scipy.optimize import minimize_scalar
 
-    alpha = brentq(lambda a: math.tan(a) - 2.0 * a, 1.0, 1.5)
-    return alpha / (2.0 * math.sin(alpha) ** 2)
+    def moment(alpha: float) -> float:
+        arc = alpha / (2.0 * math.sin(alpha) ** 2)
+        if math.isinf(extent_over_chord):
+            return arc
+        radius = 0.5 / math.sin(alpha)  # chord 1
+        to_chord = radius * math.cos(alpha)
+        sec, tan = 1.0 / math.cos(alpha), math.tan(alpha)
+        ends = (2.0 * alpha * radius**3 - to_chord**3 * (sec * tan + math.log(sec + tan))) / 3.0
+        return arc + 2.0 * ends / extent_over_chord
+
+    if not extent_over_chord > 0.0:
+        raise ValueError(f"the extent over the chord must be positive, not {extent_over_chord}")
+    return minimize_scalar(moment, bounds=(0.05, 0.5 * math.pi - 1e-9), method="bounded",
+                           options={"xatol": 1e-12}).fun
+
+
+def spherical_scoop_moment_upper_bound() -> float:
+    """The same bound for a rough circular plate of diameter D: the soil within a spherical cap through
+    its rim turns with it about a horizontal axis through the sphere's centre, dissipating su·ω·ρ on
+    the cap, ρ the distance from that axis (tangent to the sphere, so the cap slides on it):
+    M/(A·D·su) ≤ min over the cap's half-angle α of R³·∫∫ ρ/R sin θ dθ dφ / (π D³/4), R = D/(2 sin α):
+    0.670 at α = 66.7°; derived here. Randolph & Puzrin (2003) and Vulpe, Gourvenec & Power (2014)
+    give 0.67 for a surface circular foundation under pure moment."""
+    from scipy import integrate
+    from scipy.optimize import minimize_scalar
+
+    def moment(alpha: float) -> float:
+        on_cap, _ = integrate.dblquad(lambda phi, theta: math.sqrt((math.sin(theta) * math.cos(phi)) ** 2
+                                                                   + math.cos(theta) ** 2) * math.sin(theta),
+                                      0.0, alpha, 0.0, 2.0 * math.pi, epsabs=1e-12, epsrel=1e-12)
+        return (0.5 / math.sin(alpha)) ** 3 * on_cap / (0.25 * math.pi)
+
+    return minimize_scalar(moment, bounds=(0.3, 1.5), method="bounded", options={"xatol": 1e-10}).fun
 
 
 def effective_width_moment(v: float) -> float:

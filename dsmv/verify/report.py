@@ -136,6 +136,20 @@ CHECKS = (
           ("experiment=verify_prandtl", "hydra.mode=RUN", "solver.contact_separation=false", "landing.velocity_m_s=0",
            "landing.roll_rate_rad_s=0.1", "landing.rotation_deg=4", "landing.free=[x,z]"),
           (0.025, 0.05, 0.1), None, 1.0),
+    Check("moment_circle_3d", "Bonded rough circular plate turned 4° free to slide, 3D half model, small strain, "
+          "M/(A·D·su)", "end_moment_factor", 0.670,
+          "the spherical scoop's rigorous upper bound 0.670 (`spherical_scoop_moment_upper_bound`); Vulpe, Gourvenec "
+          "& Power (2014) tabulate 0.67",
+          (*SMALL_STRAIN, "solver=cel3d", "geometry=circular_plate", "solver.yield_surface=tresca",
+           "landing.velocity_m_s=0", "landing.roll_rate_rad_s=0.1", "landing.rotation_deg=4", "landing.free=[x,y,z]"),
+          (0.05, 0.1, 0.2), None, 1.0, "D"),
+    Check("moment_rectangle_3d", "Bonded rough rectangular plate L/B = 2 turned 4° across B free to slide, 3D half "
+          "model, small strain, M/(A·B·su)", "end_moment_factor", None,
+          "its own value extrapolated; under the cylindrical scoop's rigorous 0.790 (`scoop_moment_upper_bound(2)`)",
+          (*SMALL_STRAIN, "solver=cel3d", "geometry=rectangular_plate", "geometry.contact_length_m=2",
+           "solver.yield_surface=tresca", "landing.velocity_m_s=0", "landing.roll_rate_rad_s=0.1",
+           "landing.rotation_deg=4", "landing.free=[x,y,z]"),
+          (0.05, 0.1, 0.2), None, 1.0),
     Check("landing_default", "Default landing: max sinkage (m), Einav–Randolph, no exact answer", "max_sinkage_m",
           None,
           "its own value extrapolated from the three finest meshes", ("solver=cel2d",),
@@ -233,7 +247,7 @@ def check_section(check: Check, outcomes: list[Outcome]) -> tuple[str, dict]:
 
 #: parts of a check's name that the figure's legend leaves out (the table beside it says them)
 LEGEND_DROPS = ("small strain", "q/su", "pushed", "steady", "su = su0", "no exact answer", "axisymmetric",
-                "3D quarter")
+                "3D quarter", "3D half")
 
 
 def short_name(check: Check) -> str:
