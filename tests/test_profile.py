@@ -143,3 +143,25 @@ def test_the_energy_method_lands_through_a_bent_profile_on_its_energy_balance(co
     assert np.all(np.diff(history["sinkage_m"]) >= 0) and np.all(np.diff(history["time_s"]) > 0)
     assert history["sinkage_m"][-1] == z and history["velocity_m_s"][-1] == 0.0
     assert np.all(history["velocity_m_s"] >= -1e-12)
+
+
+def test_a_table_scaled_carries_a_body_as_heavy_to_the_same_depth(compose_cfg):
+    """soil.profile_scale multiplies the table's strengths: in the energy method a landing s times as
+    heavy (weight and inertia) on strengths s times as high stops at the same depth (the energy balance
+    is linear in both), and the segments the CEL kernels read (soil.strength) are scaled. At scale 1 the scene and
+    its hash are the table's own; a scale on a straight line is refused in one line."""
+    from dsmv.analytic.energy import AnalyticEnergySolver
+    from dsmv.config.tree import compose_scene
+
+    base = ["solver=analytic_energy", "soil=ccz_box_core", "landing.velocity_m_s=2.5", "tracking=disabled"]
+    as_measured = AnalyticEnergySolver(build_scene(compose_cfg([*base, "landing.mass_kg=9000"]))).solve()
+    scaled = AnalyticEnergySolver(build_scene(compose_cfg([*base, "landing.mass_kg=11700",
+                                                           "soil.profile_scale=1.3"]))).solve()
+    assert scaled.metrics["max_sinkage_m"] == pytest.approx(as_measured.metrics["max_sinkage_m"], rel=1e-12)
+    one = compose_scene(["soil=ccz_box_core", "soil.profile_scale=1"])
+    assert one.config_hash == compose_scene(["soil=ccz_box_core"]).config_hash
+    strength = compose_scene(["soil=ccz_box_core", "soil.profile_scale=1.3"]).soil.strength
+    np.testing.assert_allclose(strength.intercept, 1.3 * one.soil.strength.intercept, rtol=1e-15)
+    np.testing.assert_allclose(strength.slope, 1.3 * one.soil.strength.slope, rtol=1e-15)
+    with pytest.raises(ConfigError, match="soil.profile_scale = 1.3: scales a table"):
+        compose_scene(["soil.profile_scale=1.3"])

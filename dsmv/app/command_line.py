@@ -281,12 +281,17 @@ def _node(tree, key: str):
     return node
 
 
+#: dsmv-calibrate's known values, nested as the config's keys are
+SYNTHETIC_TRUTH = "calibrate.synthetic.truth."
+
+
 def _check_key(o, tree, known: set[str], program: str) -> None:
     """An override of a key the config does not have fails in one line, with or without ``+``.
 
     Exceptions, where a new key is legal: ``+``/``++`` under ``hydra.`` (Hydra's own, e.g.
     ``hydra.job.env_set``); a new key in a mapping the config leaves empty for them (``soil.params``,
-    ``surrogate.params``); a key of a solver plugin whose config model allows extra keys.
+    ``surrogate.params``); a key of a solver plugin whose config model allows extra keys; a synthetic
+    calibration's known value of a soil key the config has (``+calibrate.synthetic.truth.soil.…``).
     """
     key = o.key_or_group
     if key in known:
@@ -299,6 +304,8 @@ def _check_key(o, tree, known: set[str], program: str) -> None:
     if added and isinstance(parent, DictConfig) and len(parent) == 0:
         return
     if added and key.startswith("solver.") and _solver_allows_extra(tree):
+        return
+    if added and key.startswith(SYNTHETIC_TRUTH) and key[len(SYNTHETIC_TRUTH):] in known:
         return
     value = _value_text(o) if o.is_sweep_override() or o.is_delete() else o.value()
     # the closest key: a sibling first (same parent), else any key of the config but the key's own parents

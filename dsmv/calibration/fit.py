@@ -47,8 +47,10 @@ from dsmv.errors import ConfigError
 DEFAULT_BOUNDS = {
     "soil.su0_pa": (1.0, 1.0e6), "soil.ks_pa_per_m": (0.0, 1.0e6), "soil.sensitivity": (1.0, 100.0),
     "soil.xi95": (1.0, 500.0), "soil.rate.eta": (0.0, 10.0), "soil.rate.n": (0.01, 1.0),
-    "soil.rate.gamma_dot_ref": (1e-12, 1.0), "soil.rate.mu": (0.0, 5.0),
+    "soil.rate.gamma_dot_ref": (1e-12, 1.0), "soil.rate.mu": (0.0, 5.0), "soil.profile_scale": (0.05, 20.0),
 }
+#: a table's strengths are its own (soil.profile_scale sets their level); a straight line's are su0 and ks
+TABLE_SETS = ("soil.su0_pa", "soil.ks_pa_per_m")
 
 
 def _get(tree: dict, key: str):
@@ -86,9 +88,12 @@ class Problem:
     def __post_init__(self):
         if not self.keys:
             raise ConfigError("calibrate.parameters", [], "name at least one soil key to fit")
-        if self.soil.get("profile") is not None:
-            raise ConfigError("soil.profile", "a table", "the calibration fits su0 + ks·z; start from a soil "
-                              "without a table")
+        if self.soil.get("profile") is not None and (fixed := [k for k in self.keys if k in TABLE_SETS]):
+            raise ConfigError("calibrate.parameters", fixed, "the soil's table (soil.profile) sets its strengths: "
+                              "fit soil.profile_scale, their level")
+        if self.soil.get("profile") is None and "soil.profile_scale" in self.keys:
+            raise ConfigError("calibrate.parameters", "soil.profile_scale", "scales a table (soil.profile); this "
+                              "soil is su0 + ks·z: fit soil.su0_pa and soil.ks_pa_per_m")
         self._law_cls = registry.load("soil_laws", self.soil["law"], "soil.law")
         self.start = np.array([float(_get(self.soil, k)) for k in self.keys])
         for key, value, (low, high) in zip(self.keys, self.start, self.bounds):

@@ -28,6 +28,7 @@ from dsmv.analytic.penetrometer import PenetrometerModel, tbar_resistance
 from dsmv.calibration.data import KINDS, MEASURED, SiteTest, read_test, write_test
 from dsmv.calibration.fit import DEFAULT_BOUNDS, Calibration, Problem, _get, calibrate
 from dsmv.config.location import CONFIG_DIR, data_path
+from dsmv.config.profile import read_points
 from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError
 from dsmv.surrogate.dataset import COLUMNS
@@ -244,11 +245,14 @@ def _scene_overrides(soil, test: SiteTest, velocity: float, axis_depth: float, t
             "soil.rate.eta": soil.rate.eta, "soil.rate.n": soil.rate.n, "soil.rate.gamma_dot_ref": soil.rate.gamma_dot_ref,
             "soil.rate.mu": soil.rate.mu, "soil.density_kg_m3": soil.density_kg_m3,
             "soil.youngs_modulus_pa": soil.youngs_modulus_pa, "soil.poisson_ratio": soil.poisson_ratio}
+    # a table (its own strengths, at the fitted level) in Hydra's list syntax
+    table = ([f"soil.profile=[{','.join(f'[{float(d)!r},{float(su)!r}]' for d, su in read_points(soil.profile))}]",
+              f"soil.profile_scale={float(soil.profile_scale)!r}"] if soil.profile is not None else [])
     return ["geometry=tbar", "landing=push", "solver=cel2d", f"geometry.width_m={float(D)!r}",
             f"landing.velocity_m_s={float(velocity)!r}", f"landing.displacement_m={float(travel)!r}",
             f"landing.initial_depth_m={float(axis_depth + D / 2.0)!r}", f"mesh.cell_size_m={float(D / cells)!r}",
             "solver.contact_separation=false", "output.plots=false",
-            *(f"{k}={v}" if isinstance(v, str) else f"{k}={float(v)!r}" for k, v in flat.items())]
+            *(f"{k}={v}" if isinstance(v, str) else f"{k}={float(v)!r}" for k, v in flat.items()), *table]
 
 
 # ----------------------------------------------------------------------------- outputs

@@ -98,6 +98,9 @@ class SoilConfig(Schema):
     profile: Optional[Union[list[list[Number]], str]] = Field(None, description=(
         "su_intact against depth: [[depth_m, su_pa], ...] or a CSV path (columns depth_m|depth_cm, su_pa|su_kpa); "
         "null: su0 + ks·z"))
+    profile_scale: Number = Field(1.0, gt=0, description=(
+        "factor on the table's strengths (-): the profile's shape from the site, its level fitted "
+        "(dsmv-calibrate); a straight line's level is su0_pa and ks_pa_per_m"))
     slope_deg: Number = Field(0.0, ge=0, lt=90, description=(
         "seabed slope β (°): the level grid with gravity turned by β, the soil at rest as an infinite slope, "
         "depths and strengths normal to the seabed"))
@@ -108,6 +111,9 @@ class SoilConfig(Schema):
     def _profile_sets_the_mudline(self):
         """A table is the strength: su0 and ks become its mudline strength and first gradient, so that every
         reader of them (scales, normalisations) sees the table's."""
+        if self.profile is None and self.profile_scale != 1.0:
+            raise ConfigError("soil.profile_scale", self.profile_scale, "scales a table (soil.profile); a straight "
+                              "line's strength is soil.su0_pa and soil.ks_pa_per_m")
         if self.profile is not None:
             table = self.strength
             object.__setattr__(self, "su0_pa", float(table.su(0.0)))
@@ -119,7 +125,10 @@ class SoilConfig(Schema):
         """su_intact(z) as segments (:class:`dsmv.config.profile.StrengthSegments`)."""
         if self.profile is None:
             return straight_line(self.su0_pa, self.ks_pa_per_m)
-        return segments(read_points(self.profile))
+        points = read_points(self.profile)
+        if self.profile_scale != 1.0:
+            points = points * np.array([1.0, self.profile_scale])
+        return segments(points)
 
     def gravity_components(self, gravity_m_s2: float) -> tuple[float, float, float]:
         """Gravity in the grid's frame, which lies along the seabed (m/s²): along +x and +y (downslope
@@ -593,8 +602,8 @@ class Scene:
             # a soil without a table keeps the hash it had before tables existed
             # (and on a level seabed, the hash it had before slopes existed)
             "soil": {k: v for k, v in self.soil.model_dump().items() if not (
-                (k == "profile" and v is None) or (k in ("slope_deg", "downslope_direction_deg")
-                                                   and self.soil.slope_deg == 0))},
+                (k == "profile" and v is None) or (k == "profile_scale" and v == 1.0)
+                or (k in ("slope_deg", "downslope_direction_deg") and self.soil.slope_deg == 0))},
             # a lone track keeps the hash it had before vehicles existed
             "geometry": {k: v for k, v in self.geometry.model_dump().items() if k != "gauge_m" or v is not None},
             # the keys of the body's other freedoms count once they differ from a vertical landing's,
