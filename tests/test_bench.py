@@ -55,3 +55,27 @@ def test_the_reference_landing_is_the_extrapolated_answer(tmp_path, monkeypatch)
     monkeypatch.setattr(bench, "solve", first_order)
     monkeypatch.setattr(bench, "solver_fingerprint", lambda overrides: "version-a")
     assert bench.landing_reference(bench.FULL, tmp_path) == pytest.approx(0.2, abs=1e-12)
+
+
+def test_the_vehicle_bench_measures_each_mesh_against_the_extrapolated_sinkage(tmp_path, monkeypatch):
+    """dsmv-bench --vehicle's table: a sinkage exactly second order in h, z = 0.08 + 2·h², extrapolates to
+    0.08 m, and each mesh's error is against that, with the wall time against two minutes and the verdict
+    of the run's own limits."""
+    from dsmv import safety
+    from dsmv.config.tree import compose_scene
+    from dsmv.results import SolveResult
+    from dsmv.verify import bench_vehicle
+
+    def second_order(cell_m, run_dir):
+        scene = compose_scene([*bench_vehicle.SCENE, f"mesh.cell_size_m={cell_m}"])
+        result = SolveResult("ok", "", {"max_sinkage_m": 0.08 + 2.0 * cell_m**2, "cells": 1e4 / cell_m,
+                                        "steps": 10.0 / cell_m, "wall_s": 6.0})
+        safety.assess(scene, result)
+        return scene, result
+
+    monkeypatch.setattr(bench_vehicle, "land", second_order)
+    answer = bench_vehicle.main(tmp_path)
+    assert answer["extrapolated_m"] == pytest.approx(0.08, abs=1e-12)
+    table = (tmp_path / "bench_vehicle.md").read_text()
+    assert "| 0.075 m | 133,333 | 133 | 6.0 | 0.09125 | +14.06 % | 0.05 | safe — sinkage 0.0912 m ≤ 0.15 m" in table
+    assert "wall / 120 s = 0.050, |error| / 2 % = 7.031" in table
