@@ -279,7 +279,8 @@ def test_a_known_value_may_be_added_for_a_soil_key_the_config_has_and_no_other(t
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0 and "profile_scale: 1.3" in proc.stdout, proc.stderr
     proc = subprocess.run([str(BIN / "dsmv-calibrate"), "site=synthetic_ccz", "tracking=disabled",
-                           "+calibrate.synthetic.truth.soil.profile_scal=1.3"], cwd=tmp_path, env=env,
+                           "+calibrate.synthetic.truth.soil.profile_scal=1.3", "calibrate.bootstrap=2",
+                           "calibrate.cel_check=false", f"paths.runs_dir={tmp_path / 'runs'}"], cwd=tmp_path, env=env,
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 2 and "no such config key" in proc.stderr
     assert proc.stderr.strip().splitlines() == [proc.stderr.strip()]

@@ -37,27 +37,31 @@ def green_vertical(h: float) -> float:
     return 1.0 + math.pi - math.asin(h) + math.sqrt(1.0 - h * h)
 
 
+def segment_distance_integral(half_angle: float, radius: float) -> float:
+    """∫ r dA over a circular segment (m³): the chord subtending 2α at radius R, r the distance from
+    the circle's centre. The sector's 2α·R³/3 less the triangle's d³·(sec α·tan α + ln(sec α + tan α))/3,
+    d = R·cos α the chord's distance from the centre."""
+    sec, tan = 1.0 / math.cos(half_angle), math.tan(half_angle)
+    to_chord = radius * math.cos(half_angle)
+    return (2.0 * half_angle * radius**3 - to_chord**3 * (sec * tan + math.log(sec + tan))) / 3.0
+
+
 def scoop_moment_upper_bound(extent_over_chord: float = math.inf) -> float:
     """A kinematic (upper) bound on the pure moment M/(A·c·su) a rough body bonded to weightless Tresca
     soil carries (no vertical or horizontal load), turned about an axis along its extent e, across its
     chord c (A = c·e; a strip: e = ∞, M/(c²·su) per metre); derived here. The soil under it turns with it
     as a rigid segment of a circular cylinder through both edges (the "scoop"). A chord subtending 2α at
     radius R = c/(2 sin α) dissipates su·2α·R²·e per unit rotation on its arc and, where e is finite,
-    su·∫ r dA on each plane end, r the distance from the cylinder's axis (a segment's ∫ r dA:
-    [2α·R³ − d³·(sec α·tan α + ln(sec α + tan α))]/3, d = R cos α the chord's distance from the axis).
-    The strip's bound, least at tan α = 2α: min α/(2 sin²α) = 0.690; a rectangle L/B = 2 turned across
-    B: 0.790, along L (e/c = 1/2): 1.082."""
+    su·∫ r dA on each plane end (:func:`segment_distance_integral`). The strip's bound, least at
+    tan α = 2α: min α/(2 sin²α) = 0.690; a rectangle L/B = 2 turned across B, M/(A·B·su): 0.790; turned
+    along L (e/c = 1/2), M/(A·L·su): 1.082."""
     from scipy.optimize import minimize_scalar
 
     def moment(alpha: float) -> float:
         arc = alpha / (2.0 * math.sin(alpha) ** 2)
         if math.isinf(extent_over_chord):
             return arc
-        radius = 0.5 / math.sin(alpha)  # chord 1
-        to_chord = radius * math.cos(alpha)
-        sec, tan = 1.0 / math.cos(alpha), math.tan(alpha)
-        ends = (2.0 * alpha * radius**3 - to_chord**3 * (sec * tan + math.log(sec + tan))) / 3.0
-        return arc + 2.0 * ends / extent_over_chord
+        return arc + 2.0 * segment_distance_integral(alpha, 0.5 / math.sin(alpha)) / extent_over_chord  # chord 1
 
     if not extent_over_chord > 0.0:
         raise ValueError(f"the extent over the chord must be positive, not {extent_over_chord}")

@@ -281,7 +281,7 @@ def _node(tree, key: str):
     return node
 
 
-#: dsmv-calibrate's known values, nested as the config's keys are
+#: dsmv-calibrate's known values, nested as the soil's keys are
 SYNTHETIC_TRUTH = "calibrate.synthetic.truth."
 
 
@@ -305,7 +305,8 @@ def _check_key(o, tree, known: set[str], program: str) -> None:
         return
     if added and key.startswith("solver.") and _solver_allows_extra(tree):
         return
-    if added and key.startswith(SYNTHETIC_TRUTH) and key[len(SYNTHETIC_TRUTH):] in known:
+    if added and program == "dsmv-calibrate" and key.startswith(SYNTHETIC_TRUTH + "soil.") and (
+            key[len(SYNTHETIC_TRUTH):] in known or key.startswith(SYNTHETIC_TRUTH + "soil.params.")):
         return
     value = _value_text(o) if o.is_sweep_override() or o.is_delete() else o.value()
     # the closest key: a sibling first (same parent), else any key of the config but the key's own parents

@@ -100,7 +100,12 @@ def _run(cfg: DictConfig, hydra_cfg, run_dir: Path, sweep_dir: Path | None, caug
         scene = build_scene(cfg)
         if multirun and cfg.get("resume") and (earlier := runs.finished_run(cfg, scene)) is not None:
             return _reuse(earlier, scene, run_dir, names)
-        tracker = runs.start_job(cfg, scene, run_dir, runs.run_name(scene, hydra_cfg.overrides.task), sweep_dir)
+        try:
+            tracker = runs.start_job(cfg, scene, run_dir, runs.run_name(scene, hydra_cfg.overrides.task), sweep_dir)
+        except WriterError as error:  # the writer cannot be reached: the run answers into result.json alone
+            print(f"dsmv: warning: no MLflow run ({error}); result.json in {run_dir} will hold the answer",
+                  file=sys.stderr)
+            tracker = None
     except DsmvError as error:
         if not multirun:  # (dsmv.app.command_line.check_command_line refuses most before Hydra makes the run dir)
             print(f"dsmv: error: {error}", file=sys.stderr)

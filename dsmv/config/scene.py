@@ -100,7 +100,7 @@ class SoilConfig(Schema):
         "null: su0 + ks·z"))
     profile_scale: Number = Field(1.0, gt=0, description=(
         "factor on the table's strengths (-): the profile's shape from the site, its level fitted "
-        "(dsmv-calibrate); a straight line's level is su0_pa and ks_pa_per_m"))
+        "(dsmv-calibrate); a straight line's level is su0_pa and ks_pa_per_m; youngs_modulus_pa is not scaled"))
     slope_deg: Number = Field(0.0, ge=0, lt=90, description=(
         "seabed slope β (°): the level grid with gravity turned by β, the soil at rest as an infinite slope, "
         "depths and strengths normal to the seabed"))

@@ -100,8 +100,11 @@ def write_atomically(path: Path, text: str) -> None:
     """Write a file others poll for: whole or not there (a reader that sees it half-written would fail)."""
     path = Path(path)
     partial = path.with_name(f".{path.name}.{os.getpid()}.partial")
-    partial.write_text(text)
-    os.replace(partial, path)
+    try:
+        partial.write_text(text)
+        os.replace(partial, path)
+    finally:
+        partial.unlink(missing_ok=True)  # gone once replaced; a failed write leaves nothing behind
 
 
 def _chunks(items: list, size: int):

@@ -19,6 +19,7 @@ from __future__ import annotations
 import json
 import os
 import subprocess
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -184,9 +185,13 @@ class JobTracker:
         """Close the run without its outcome (the job was stopped while writing it, or the store failed):
         as far as the store lets it; a run never opened has nothing to close."""
         try:
-            self.writer.answer(self.writer.ask("terminate", self.uri, self.run_id, end_status))
-        except WriterError:
-            pass
+            run_id = self.run_id
+        except WriterError:  # never opened: nothing to close
+            return
+        try:
+            self.writer.answer(self.writer.ask("terminate", self.uri, run_id, end_status))
+        except WriterError as error:
+            print(f"dsmv: warning: MLflow run {run_id} could not be closed {end_status} ({error})", file=sys.stderr)
 
 
 def _history_metrics(history: dict, timestamp_ms: int) -> list:
@@ -350,14 +355,22 @@ def opened_sweep_run(sweep_dir: Path):
     """The sweep's parent run once its writer has opened it: ``(writer, run id, store URI)``, or None
     (tracking off, or the run could not be opened)."""
     writer, ticket, uri = _parent_runs.pop(str(sweep_dir), (None, None, None))
-    run_id = writer.answer(ticket) if writer is not None else None
+    try:
+        run_id = writer.answer(ticket) if writer is not None else None
+    except WriterError as error:  # the sweep's summary and tally still come
+        print(f"dsmv: warning: the sweep's MLflow run could not be opened ({error})", file=sys.stderr)
+        return None
     return None if run_id is None else (writer, run_id, uri)
 
 
 def finish_sweep_run(parent, metrics: list, files: list[str], status: str) -> None:
-    """Close the parent run :func:`opened_sweep_run` gave with the sweep's metrics, files and status."""
+    """Close the parent run :func:`opened_sweep_run` gave with the sweep's metrics, files and status (a
+    store that fails is said in one line: the sweep's summary and tally still come)."""
     writer, run_id, uri = parent
-    writer.answer(writer.ask("finish", uri, run_id, metrics, {}, {}, files, status))
+    try:
+        writer.answer(writer.ask("finish", uri, run_id, metrics, {}, {}, files, status))
+    except WriterError as error:
+        print(f"dsmv: warning: the sweep's MLflow run {run_id} was not closed ({error})", file=sys.stderr)
 
 
 def kill_sweep_runs(config: DictConfig, sweep_dir: Path) -> None:
