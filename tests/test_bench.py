@@ -79,3 +79,20 @@ def test_the_vehicle_bench_measures_each_mesh_against_the_extrapolated_sinkage(t
     table = (tmp_path / "bench_vehicle.md").read_text()
     assert "| 0.075 m | 133,333 | 133 | 6.0 | 0.09125 | +14.06 % | 0.05 | safe — sinkage 0.0912 m ≤ 0.15 m" in table
     assert "wall / 120 s = 0.050, |error| / 2 % = 7.031" in table
+
+
+def test_a_benchmark_runs_on_the_threads_it_asks_for_unless_the_user_set_them():
+    """dsmv is imported (and with it Numba) before a benchmark asks for its threads: the pool runs them
+    anyway, and the variable reaches its child processes; a NUMBA_NUM_THREADS the user set wins."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("import dsmv.verify.bench, numba, os; from dsmv.verify.threads import threads_unless_set; "
+            "print(threads_unless_set(1), numba.get_num_threads(), os.environ['NUMBA_NUM_THREADS'])")
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_NUM_THREADS"}
+    unset = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    assert unset.stdout.split() == ["1", "1", "1"], unset.stderr
+    given = subprocess.run([sys.executable, "-c", code], env={**env, "NUMBA_NUM_THREADS": "2"}, capture_output=True,
+                           text=True, timeout=120)
+    assert given.stdout.split()[2] == "2" and given.stdout.split()[0] == given.stdout.split()[1], given.stderr

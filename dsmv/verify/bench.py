@@ -45,6 +45,7 @@ from dsmv.config.scene import OutputConfig
 from dsmv.config.tree import compose_scene
 from dsmv.convergence import richardson
 from dsmv.verify import bench_cost, bench_sweeps, canonical, regression
+from dsmv.verify.threads import threads_unless_set
 
 #: the Prandtl case: the canonical verification scene (conf/experiment/verify_prandtl.yaml: a rough
 #: strip B = 1 m on weightless Tresca soil, su 10 kPa, E = 500·su, the soil free to part from its
@@ -453,7 +454,7 @@ def main(argv: list[str] | None = None) -> None:
         bench_vehicle.main(Path(args.out), args.quick)
         return
     if args.freedoms:
-        os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+        threads_unless_set(1)
         from dsmv.verify import bench_freedoms
 
         bench_freedoms.main(Path(args.out), args.quick)
@@ -465,7 +466,7 @@ def main(argv: list[str] | None = None) -> None:
         bench_sweeps.main(Path(args.out), args.quick)
         return
     if args.regression:
-        os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+        threads_unless_set(1)
         results = regression.write(Path(args.regression), args.scenes)
         if args.against:
             print("\n".join(regression.compare(json.loads(Path(args.against).read_text()), results)))
@@ -476,7 +477,7 @@ def main(argv: list[str] | None = None) -> None:
     if args.solid:
         solid_throughput(out)
         return
-    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    threads_unless_set(1)
     started = time.perf_counter()
 
     print("dsmv-bench: warming the compiled kernels", flush=True)

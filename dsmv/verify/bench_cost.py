@@ -16,7 +16,6 @@ and the progress ETA against actual runs.
 from __future__ import annotations
 
 import json
-import os
 import statistics
 import time
 from dataclasses import dataclass, field
@@ -28,6 +27,7 @@ from dsmv import registry
 from dsmv.cel import controller as C
 from dsmv.cel import cost as cost_model
 from dsmv.config.tree import compose_scene
+from dsmv.verify.threads import threads_unless_set
 
 COMMON = ["tracking=disabled", "output.plots=false", "solver.progress=off"]
 LAWS = ("tresca", "einav_randolph")
@@ -178,7 +178,7 @@ def write_page(text: str, page: Path = PAGE) -> bool:
 def main(out: Path, quick: bool = False) -> None:
     from dsmv.verify.report import provenance
 
-    os.environ.setdefault("NUMBA_NUM_THREADS", "2")
+    threads_unless_set(2)
     out.mkdir(parents=True, exist_ok=True)
     stamp = provenance()
     if not quick:
