@@ -112,7 +112,8 @@ def test_a_vehicle_heavier_on_one_side_rolls_and_its_mirror_image_rolls_back(com
     assert left["max_roll_deg"] == pytest.approx(right["max_roll_deg"], rel=1e-12)
 
 
-def test_the_3d_vehicle_rolls_as_its_mirror_image(compose_cfg):
+@pytest.mark.slow  # 200 s: two 3D landings to rest; the default suite mirrors the 3D turn on a plate (test_turn)
+def test_the_3d_vehicle_rolls_as_its_mirror_image(compose_cfg):  # and the vehicle's roll in its section (above)
     """cel3d, the vehicle with its centre of gravity 0.3 m towards either track (cells 0.15 m, half model:
     the plane across the tracks kept), free to sink, slide and roll, redrawn as it rolls (every 0.05 of a
     cell, so that its half-degree roll is redrawn): rolls and
