@@ -74,8 +74,8 @@ def spherical_scoop_moment_upper_bound() -> float:
     its rim turns with it about a horizontal axis through the sphere's centre, dissipating su·ω·ρ on
     the cap, ρ the distance from that axis (tangent to the sphere, so the cap slides on it):
     M/(A·D·su) ≤ min over the cap's half-angle α of R³·∫∫ ρ/R sin θ dθ dφ / (π D³/4), R = D/(2 sin α):
-    0.670 at α = 66.7°; derived here. Randolph & Puzrin (2003) and Vulpe, Gourvenec & Power (2014)
-    give 0.67 for a surface circular foundation under pure moment."""
+    0.670 at α = 66.7°; derived here. Vulpe, Gourvenec & Power (2014) tabulate 0.67 for a surface
+    circular foundation under pure moment."""
     from scipy import integrate
     from scipy.optimize import minimize_scalar
 

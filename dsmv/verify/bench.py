@@ -445,8 +445,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--freedoms", action="store_true", help="instead: what a body free to slide and turn "
                         "costs against one that only sinks (bench_freedoms.md under --out)")
     parser.add_argument("--vehicle", action="store_true", help="instead: the default vehicle's 3D landing, time "
-                        "against mesh error on NUMBA_NUM_THREADS threads, unset: one per core (bench_vehicle.md under --out; "
-                        "--quick: two meshes)")
+                        "against mesh error on NUMBA_NUM_THREADS threads, unset: one per core (bench_vehicle.md "
+                        "under --out; --quick: two meshes)")
     args = parser.parse_args(argv)
     if args.vehicle:  # on the threads NUMBA_NUM_THREADS gives (unset: one per core)
         from dsmv.verify import bench_vehicle
