@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 from dsmv.errors import DsmvError
-from dsmv.tracking.run_writer import resolve_uri, store_missing
+from dsmv.tracking.run_writer import open_client, store_missing
 
 #: table column → the config key it is read from (MLflow param), units in the column name
 PARAMETERS: dict[str, str] = {
@@ -105,9 +105,7 @@ def _number(text: str | None, column: str) -> float:
 def search_study_runs(tracking_uri: str, study: str) -> list:
     """Every job run tagged ``dsmv.study = study`` (runs with a ``dsmv.role``, sweep parents and
     surrogate trainings, are not jobs)."""
-    from mlflow.tracking import MlflowClient
-
-    client = MlflowClient(tracking_uri=resolve_uri(tracking_uri))
+    client = open_client(tracking_uri)
     experiment_ids = [e.experiment_id for e in client.search_experiments()]
     if not experiment_ids:
         return []

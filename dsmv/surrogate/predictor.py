@@ -21,7 +21,7 @@ from dsmv import registry
 from dsmv.errors import DsmvError
 from dsmv.surrogate.intervals import CALIBRATION_FILE, SCORES, BinnedScale, ScoreScale, residual_quantile
 from dsmv.surrogate.model import TrainedSurrogate, load_registered
-from dsmv.tracking.run_writer import resolve_uri, store_missing
+from dsmv.tracking.run_writer import open_client, resolve_uri, store_missing
 
 CALIBRATION_KEY = "conformal"  # or the same record inside the model metadata
 TARGET_SCALES = {"z_over_b": "width", "max_sinkage_m": "metre"}  # how a residual becomes metres
@@ -144,13 +144,12 @@ def _calibration(model: TrainedSurrogate, client, run_id: str) -> Calibration | 
 def load_predictor(name: str, tracking_uri: str, version: str = "latest") -> Predictor:
     """The registered model ``name`` (``latest`` or a version number) with its calibration."""
     from mlflow.exceptions import MlflowException
-    from mlflow.tracking import MlflowClient
 
     if store_missing(tracking_uri):
         raise PredictError(f"no MLflow store at {tracking_uri}: train a surrogate first (dsmv-train), "
                            "or point tracking.uri at the store that holds it")
     uri = resolve_uri(tracking_uri)
-    client = MlflowClient(tracking_uri=uri)
+    client = open_client(uri)
     try:
         versions = client.search_model_versions(f"name='{name}'")
     except MlflowException as error:

@@ -58,9 +58,9 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         runs = Path(tmp) / "runs"
         subprocess.run([dsmv, *SWEEP, f"paths.runs_dir={runs}"], check=True, capture_output=True)
-        from mlflow.tracking import MlflowClient
+        from dsmv.tracking.run_writer import open_client
 
-        client = MlflowClient(f"sqlite:///{runs / 'mlflow.db'}")
+        client = open_client(f"sqlite:///{runs / 'mlflow.db'}")
         (experiment,) = [e for e in client.search_experiments() if e.name.startswith("dsmv-")]
         jobs = [r for r in client.search_runs([experiment.experiment_id]) if r.data.tags.get("dsmv.role") != "sweep"]
         ui = subprocess.Popen([dsmv, "ui", "--port", str(free_port()), f"paths.runs_dir={runs}"],

@@ -21,6 +21,7 @@ This module also holds what both sides need of the store: :func:`resolve_uri`, :
 
 from __future__ import annotations
 
+import fcntl
 import json
 import logging
 import os
@@ -31,6 +32,7 @@ import sys
 import tempfile
 import threading
 import time
+from contextlib import contextmanager
 from multiprocessing.connection import Connection
 from pathlib import Path
 
@@ -67,9 +69,32 @@ def artifact_uri(artifact_location: str) -> str:
 
 
 def open_client(uri: str):
+    """A client of the store, the store created or upgraded first if need be (one process at a time)."""
     from mlflow.tracking import MlflowClient
 
-    return MlflowClient(tracking_uri=resolve_uri(uri))
+    uri = resolve_uri(uri)
+    with _schema_lock(uri):
+        return MlflowClient(tracking_uri=uri)  # (the client opens its store, migrating it if it must)
+
+
+@contextmanager
+def _schema_lock(uri: str):
+    """Hold an exclusive lock on ``<store>.lock`` beside a SQLite store while it is opened. MLflow
+    creates a new store's tables and then runs its schema migrations; two processes opening one new
+    store at once (a sweep's writer and its sweeper reading the study) both migrate, and one fails
+    ("Online migration expected to match one row"). Other stores need no lock."""
+    prefix = "sqlite:///"
+    if not uri.startswith(prefix):
+        yield
+        return
+    path = Path(uri[len(prefix):])
+    path.parent.mkdir(parents=True, exist_ok=True)  # (as MLflow would for the store itself)
+    with open(path.with_name(path.name + ".lock"), "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
 
 
 def experiment_description(name: str) -> str:
