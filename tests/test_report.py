@@ -55,6 +55,20 @@ def test_a_run_that_did_not_end_ok_is_shown_and_left_out_of_the_estimate():
     assert row["finest"] == "5.05 (B/20)" and row["order"] == "1.00"
 
 
+def test_the_derived_figures_read_the_runs_signs():
+    """A run reports −H and −M (the soil's reaction on the body); the figures derived from them are 1 on
+    Green's envelope and on the effective width's curve, whichever way the strip was pushed or turned."""
+    from dsmv.analytic.bearing import effective_width_moment, green_vertical
+
+    for sign in (1.0, -1.0):
+        on_green = {"end_horizontal_factor": -sign * 0.5, "end_vertical_factor": green_vertical(0.5)}
+        assert report.DERIVED["green_radial_factor"](on_green) == pytest.approx(1.0, abs=1e-9)
+        on_width = {"end_moment_factor": -sign * effective_width_moment(2.0), "end_vertical_factor": 2.0}
+        assert report.DERIVED["effective_width_factor"](on_width) == pytest.approx(1.0, abs=1e-12)
+    beyond = {"end_horizontal_factor": -1.1, "end_vertical_factor": 0.0}  # a slide 10 % over B·su
+    assert report.DERIVED["green_radial_factor"](beyond) == pytest.approx(1.1, abs=1e-9)
+
+
 def test_a_figure_the_report_does_not_have_fails_in_one_line():
     """A page that quotes a check, a figure or a mesh the report has not measured cannot build."""
     numbers = {"checks": [{"key": "a_push", "name": "A push", "metric": "nc_at_0p05B", "reference": 5.0,

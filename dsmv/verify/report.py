@@ -29,6 +29,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from dsmv import registry
+from dsmv.analytic.bearing import effective_width_moment, green_radial_factor
 from dsmv.convergence import richardson
 from dsmv.results import EXIT_CODES
 from dsmv.verify.regression import QUIET
@@ -40,6 +41,22 @@ FIGURE = "report_convergence.png"
 #: the small-strain push of the exact strip and plate solutions: weightless Tresca soil, su 10 kPa,
 #: the analysis on the undeformed grid (what the exact solutions refer to)
 SMALL_STRAIN = ("experiment=verify_prandtl", "hydra.mode=RUN", "solver.remap=false", "solver.contact_separation=false")
+
+
+#: the figures a check may read that a run does not report itself, each from the run's own metrics:
+#: how far the strip's end load lies beyond Green's V–H envelope along its ray (1: on it), and the
+#: moment of a strip that holds no tension over Meyerhof's effective width's at the same V
+DERIVED = {
+    "green_radial_factor": lambda m: green_radial_factor(abs(m["end_horizontal_factor"]), m["end_vertical_factor"]),
+    "effective_width_factor": lambda m: abs(m["end_moment_factor"]) / effective_width_moment(m["end_vertical_factor"]),
+}
+
+
+def push_along(degrees: float) -> tuple[str, str]:
+    """A push at 0.1 m/s ``degrees`` below the horizontal (+x), as landing overrides."""
+    angle = math.radians(degrees)
+    return (f"landing.velocity_m_s={0.1 * math.sin(angle):.6f}",
+            f"landing.horizontal_velocity_m_s={0.1 * math.cos(angle):.6f}")
 
 
 @dataclass(frozen=True)
@@ -119,6 +136,13 @@ CHECKS = (
           "end_horizontal_factor", 1.0, "Green (1954): H = B·su, the strip slides along its base",
           (*SMALL_STRAIN, "landing.velocity_m_s=0", "landing.horizontal_velocity_m_s=0.1", "landing.displacement_m=0.05"),
           (0.025, 0.05, 0.1), (0.05, 0.1, 0.2), 1.0),
+    *(Check(f"green_h{str(h).replace('.', 'p')}", f"Rough strip pushed {degrees:g}° below the horizontal 0.05 B, whole "
+            f"section, small strain, ending near h = {h}: λ, its end load over Green's envelope along its ray",
+            "green_radial_factor", 1.0,
+            "Green (1954): λ = 1 on V/(B·su) = 1 + π − arcsin h + √(1 − h²), h = H/(B·su)",
+            (*SMALL_STRAIN, *push_along(degrees), "landing.displacement_m=0.05"), (0.025, 0.05, 0.1), None, 1.0)
+      # the directions end on the envelope near h = 0.25, 0.5, 0.75 extrapolated (0.249, 0.504, 0.755)
+      for h, degrees in ((0.25, 48.5), (0.5, 37.0), (0.75, 26.3))),
     Check("slide_followed", "Rough strip slid sideways 0.5 B, the grid following it (large deformation), "
           "whole section, H/(B·su) at its end", "end_horizontal_factor", None,
           "its own value extrapolated; Green's B·su for a slide along the base, before any soil is ploughed",
@@ -130,6 +154,15 @@ CHECKS = (
           (*SMALL_STRAIN, "landing.velocity_m_s=0", "landing.roll_rate_rad_s=0.1", "landing.rotation_deg=4",
            "landing.free=[x,z]"),
           (0.025, 0.05, 0.1), None, 1.0),
+    *(Check(f"moment_no_tension_{ratio}", f"Rough strip that holds no tension, turned 4° while pushed down (its edge "
+            f"{ratio}× as fast as its middle) free to slide, whole section, small strain: M over the effective "
+            "width's at its V", "effective_width_factor", None,
+            "its own value extrapolated; Meyerhof's (1953) effective width is a lower bound (`effective_width_moment`): "
+            "at least 1",
+            ("experiment=verify_prandtl", "hydra.mode=RUN", "solver.remap=false", "solver.contact_separation=true",
+             "landing.free=[x]", "landing.roll_rate_rad_s=0.1", f"landing.velocity_m_s={0.05 / ratio:g}",
+             "landing.rotation_deg=4", "landing.displacement_m=0.05"), (0.025, 0.05, 0.1), None, 1.0)
+      for ratio in (2, 4)),
     Check("moment_turned", "Bonded rough strip turned 4° free to slide, redrawn as it turns (large deformation), "
           "whole section, M/(B²·su) at its end", "end_moment_factor", None,
           "its own value extrapolated; the small-strain moment above",
@@ -182,7 +215,9 @@ def run(check: Check, cell_m: float) -> Outcome:
 
     scene = compose_scene([*check.overrides, f"mesh.cell_size_m={cell_m}", "solver.progress=off", *QUIET])
     result = registry.load("solvers", scene.solver.name, "solver.name")(scene).solve()
-    value = result.metrics.get(check.metric, math.nan)
+    metrics = result.metrics
+    value = DERIVED[check.metric](metrics) if check.metric in DERIVED and result.status == "ok" else \
+        metrics.get(check.metric, math.nan)
     return Outcome(cell_m, result.status, float(value), float(result.metrics.get("wall_s", math.nan)))
 
 
