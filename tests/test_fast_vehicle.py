@@ -84,3 +84,61 @@ def test_a_drift_in_the_fast_vehicle_model_is_refused_naming_its_key(run_cli):
     result = run_cli("dsmv", *VEHICLE, "landing.free=[z,x]", "landing.horizontal_velocity_m_s=0.2")
     assert result.returncode == 2
     assert "landing.free" in result.stderr and len(result.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("overrides", [
+    ["landing.free=[z,ry]", "landing.cg_offset_m=[0.3,0,0]"],
+    ["landing.free=[z,rx,ry]", "landing.cg_offset_m=[0.2,-0.4,0.1]", "landing.pitch_deg=2", "soil.law=tresca"],
+])
+def test_vehicles_landed_together_land_as_each_alone(compose_cfg, overrides):
+    """task=exceedance lands a block of vehicles at once (one row each): the scene's own vehicle among
+    them, beside others with their strength, speed and mass drawn, lands as it does alone, and each of
+    the others as its own scene alone, to round-off."""
+    from dsmv.surrogate.model import scene_table
+    from dsmv.surrogate.vehicle_exceedance import land_samples
+
+    scene = build_scene(compose_cfg([*VEHICLE, *overrides]))
+    others = [build_scene(compose_cfg([*VEHICLE, *overrides, *drawn])) for drawn in (
+        ["soil.su0_pa=3500", "soil.youngs_modulus_pa=1750000", "landing.velocity_m_s=2.2"],
+        ["landing.mass_kg=6000", "soil.ks_pa_per_m=900", "soil.sensitivity=3.5", "soil.xi95=18"])]
+    landed = land_samples(scene, scene_table([scene, *others]))
+    for k, alone in enumerate(AnalyticDynamicSolver(s).solve() for s in (scene, *others)):
+        assert landed.status[k] == alone.status == "ok"
+        deepest = max(alone.metrics["max_sinkage_m"], alone.metrics["max_edge_sinkage_m"])
+        assert landed.sinkage_m[k] == pytest.approx(deepest, rel=1e-12)
+        assert landed.tilt_deg[k] == pytest.approx(alone.metrics["max_rotation_deg"], rel=1e-12)
+    assert len(set(np.round(landed.tilt_deg, 6))) == 3  # the draws changed the landings
+
+
+def test_a_vehicles_exceedance_gives_its_tilts_beside_its_sinkage_and_its_mirror_the_same(run_cli, tmp_path):
+    """dsmv-predict task=exceedance on a vehicle: the fast vehicle model lands each sample (no registered
+    model needed) and gives P(tilt > limit) beside P(sinkage > limit); its centre of gravity on the other
+    side gives the same probabilities exactly (mirror images)."""
+    import json
+
+    answers = []
+    for side in ("0.3", "-0.3"):
+        done = run_cli("dsmv-predict", "task=exceedance", "sinkage_limit_m=0.12", *VEHICLE[:2],
+                       "landing.free=[z,ry]", f"landing.cg_offset_m=[{side},0,0]", "safety.max_tilt_deg=0.7",
+                       "uncertainty.samples=200", f"hydra.run.dir=answer{side}")
+        assert done.returncode == 0, done.stderr
+        assert "P(tilt > 0.7°)" in done.stdout and "P(sinkage > 0.12 m)" in done.stdout
+        answers.append(json.loads((tmp_path / f"answer{side}" / "prediction.json").read_text()))
+        assert (tmp_path / f"answer{side}" / "exceedance.png").stat().st_size > 10_000
+    right, left = answers
+    assert 0.0 < right["tilt_exceedance_probability"] < 1.0 and 0.0 < right["exceedance_probability"] < 1.0
+    for key in ("exceedance_probability", "tilt_exceedance_probability", "unsafe_probability"):
+        assert left[key] == right[key], key
+    assert left["tilt_median_deg"] == pytest.approx(right["tilt_median_deg"], rel=1e-12)
+    assert right["unsafe_probability"] >= max(right["exceedance_probability"], right["tilt_exceedance_probability"])
+
+
+@pytest.mark.parametrize("args, message", [
+    (["task=predict"], "task = 'predict': a vehicle scene answers task=exceedance"),
+    (["task=exceedance", "sinkage_limit_m=0.1", "landing.free=[z,x]", "landing.horizontal_velocity_m_s=0.2"],
+     "landing.free"),
+])
+def test_a_vehicle_question_the_fast_model_cannot_answer_is_one_line_with_exit_2(run_cli, args, message):
+    done = run_cli("dsmv-predict", *VEHICLE[:2], *args)
+    assert done.returncode == 2, done.stderr
+    assert message in done.stderr and len(done.stderr.strip().splitlines()) == 1, done.stderr

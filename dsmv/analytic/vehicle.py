@@ -29,7 +29,7 @@ faster than 1 % of its touchdown speed while the soil's moment about its centre 
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import fields, replace
 
 import numpy as np
 
@@ -63,17 +63,30 @@ def check_vehicle_scene(scene: Scene) -> None:
                               "in solver=cel3d")
 
 
-def turn_rows(angle_x: float, angle_y: float) -> np.ndarray:
-    """R = Ry·Rx, the body's turn about x then y (rad; :meth:`dsmv.cel.body.Pose.turned` without yaw)."""
-    sx, cx, sy, cy = math.sin(angle_x), math.cos(angle_x), math.sin(angle_y), math.cos(angle_y)
-    return np.array([[cy, sy * sx, sy * cx], [0.0, cx, -sx], [-sy, cy * sx, cy * cx]])
+def turn_rows(angle_x, angle_y) -> np.ndarray:
+    """R = Ry·Rx, the body's turn about x then y (rad; :meth:`dsmv.cel.body.Pose.turned` without yaw): (3, 3),
+    or (…, 3, 3) for arrays of angles."""
+    sx, cx, sy, cy = np.sin(angle_x), np.cos(angle_x), np.sin(angle_y), np.cos(angle_y)
+    zero = np.zeros_like(sx)
+    return np.stack([np.stack([cy, sy * sx, sy * cx], -1), np.stack([zero, cx, -sx], -1),
+                     np.stack([-sy, cy * sx, cy * cx], -1)], -2)
+
+
+#: a landing's end, per vehicle of a batch (:meth:`VehicleModel.land`)
+RUNNING, AT_REST, PASSED, UNSETTLED = 0, 1, 2, 3
+STATUS = {AT_REST: "ok", PASSED: "bearing_failure", UNSETTLED: "unstable"}
 
 
 class VehicleModel:
     """The fast vehicle model of a vehicle scene (module docstring), with the fast landing model's
-    coefficients ``config`` (:class:`dsmv.analytic.landing_model.AnalyticDynamicConfig`)."""
+    coefficients ``config`` (:class:`dsmv.analytic.landing_model.AnalyticDynamicConfig`).
 
-    def __init__(self, scene: Scene, config, factor):
+    ``tracks`` lands a batch of vehicles at once, the scene's geometry and attitude each, the rest per
+    vehicle: one per entry of the per-track :class:`~dsmv.analytic.landing_model.Landing`'s arrays, and
+    ``factor`` the soil law's strength factor of each (its arrays a column, one row per vehicle). By
+    default the scene's own vehicle, one."""
+
+    def __init__(self, scene: Scene, config, factor, tracks: Landing | None = None):
         check_vehicle_scene(scene)
         if config.shape_factor == "plane_strain":  # the section's coefficients: a vehicle's tracks are 3D tracks
             config = default_config("analytic_dynamic_3d")
@@ -81,20 +94,28 @@ class VehicleModel:
         body, landing, soil = scene.geometry, scene.landing, scene.soil
         shape = 1.0 + 0.2 * body.width_m / body.contact_length_m if config.shape_factor == "skempton" \
             else float(config.shape_factor)
-        track = cut_in(Landing(  # per track, its grousers cut in first (tips gh deep, the trapped soil carried)
-            weight_n=np.asarray(landing.weight_per_track_n), inertia_kg=np.asarray(landing.inertia_per_track_kg),
-            velocity_m_s=np.asarray(landing.velocity_m_s), width_m=np.asarray(body.width_m),
-            area_m2=np.asarray(body.contact_area_m2), su0_pa=np.asarray(soil.su0_pa),
-            ks_pa_per_m=np.asarray(soil.ks_pa_per_m), density_kg_m3=np.asarray(soil.density_kg_m3),
-            youngs_modulus_pa=np.asarray(soil.youngs_modulus_pa), gravity_m_s2=np.asarray(landing.gravity_m_s2),
-            shape_factor=np.asarray(shape), grouser_height_m=body.grouser_height_m,
-            strength=soil.strength if soil.profile is not None and not soil.strength.straight else None))
-        self.patch_soil = replace(track, area_m2=np.asarray(1.0))  # the pressure: the resistance of a unit area
-        self.mass_kg, self.weight_n = 2.0 * float(track.inertia_kg), 2.0 * float(track.weight_n)
-        self.speed_m_s = float(track.velocity_m_s)
+        if tracks is None:
+            tracks = Landing(
+                weight_n=landing.weight_per_track_n, inertia_kg=landing.inertia_per_track_kg,
+                velocity_m_s=landing.velocity_m_s, width_m=body.width_m, area_m2=body.contact_area_m2,
+                su0_pa=soil.su0_pa, ks_pa_per_m=soil.ks_pa_per_m, density_kg_m3=soil.density_kg_m3,
+                youngs_modulus_pa=soil.youngs_modulus_pa, gravity_m_s2=landing.gravity_m_s2, shape_factor=shape,
+                grouser_height_m=body.grouser_height_m,
+                strength=soil.strength if soil.profile is not None and not soil.strength.straight else None)
+        column = {f.name: np.asarray(getattr(tracks, f.name), dtype=float).reshape(-1, 1) for f in fields(Landing)
+                  if f.name not in ("strength", "grouser_height_m")}
+        count = max(len(a) for a in column.values())
+        column = {k: np.broadcast_to(a, (count, 1)) for k, a in column.items()}
+        # per track, its grousers cut in first (tips gh deep, the trapped soil carried); one row per vehicle
+        track = cut_in(replace(tracks, grouser_height_m=body.grouser_height_m, **column))
+        self.count = count
+        self.patch_soil = replace(track, area_m2=np.ones((count, 1)))  # the pressure: the resistance of a unit area
+        self.mass_kg, self.weight_n = 2.0 * track.inertia_kg[:, 0], 2.0 * track.weight_n[:, 0]
+        self.speed_m_s = track.velocity_m_s[:, 0]
         self.grouser_height_m = body.grouser_height_m
-        self.inertia = (2.0 * np.asarray(landing.rotational_inertia_kg_m2, dtype=float)
-                        if landing.rotational_inertia_kg_m2 is not None else np.array(body.box_inertia_kg_m2(self.mass_kg)))
+        self.inertia = (np.broadcast_to(2.0 * np.asarray(landing.rotational_inertia_kg_m2, dtype=float), (count, 3))
+                        if landing.rotational_inertia_kg_m2 is not None
+                        else np.outer(self.mass_kg, body.box_inertia_kg_m2(1.0)))  # (a box's is linear in its mass)
         cg = np.asarray(landing.cg_offset_m, dtype=float)
         along = body.contact_length_m * ((np.arange(PATCHES_ALONG) + 0.5) / PATCHES_ALONG - 0.5)
         across = body.width_m * ((np.arange(PATCHES_ACROSS) + 0.5) / PATCHES_ACROSS - 0.5)
@@ -108,86 +129,104 @@ class VehicleModel:
         self.middle = -cg  # the middle of the base from the centre of gravity
         self.reach_m = float(np.sqrt((self.corners**2).sum(axis=0)).max())
         self.coefficients = c = config.coefficients()
-        self.elastic_depth_m = (c.elastic_coefficient * config.bearing_factor * body.width_m * soil.su0_pa
-                                / soil.youngs_modulus_pa)
+        su0, stiff = track.su0_pa[:, 0], track.youngs_modulus_pa[:, 0]
+        self.elastic_depth_m = c.elastic_coefficient * config.bearing_factor * body.width_m * su0 / stiff
         # the soil's radiation dashpot per unit area under a footing moving up or down, Lysmer's analog
         # ρ'·V_La with V_La = 3.4·Vs/(π·(1 − ν)) (Gazetas 1991, J. Geotech. Eng. 117(9) 1363–1381): on the
         # buoyant density, the mass the CEL's soil carries
-        shear_pa = soil.youngs_modulus_pa / (2.0 * (1.0 + soil.poisson_ratio))
-        wave_speed = 3.4 * math.sqrt(shear_pa / soil.density_kg_m3) / (math.pi * (1.0 - soil.poisson_ratio))
-        self.dashpot_pa_s_per_m = soil.density_kg_m3 * wave_speed
+        density = track.density_kg_m3[:, 0]
+        shear_pa = stiff / (2.0 * (1.0 + soil.poisson_ratio))
+        wave_speed = 3.4 * np.sqrt(shear_pa / density) / (math.pi * (1.0 - soil.poisson_ratio))
+        self.dashpot_pa_s_per_m = density * wave_speed
+        self.floor_pa = config.bearing_factor * su0  # the weakest full pressure (Pa)
         self.free = np.array([name in landing.freedoms for name in ("rx", "ry")], dtype=float)
 
     def pressure(self, depth: np.ndarray, speed: np.ndarray) -> np.ndarray:
-        """The fast landing model's pressure (Pa) on patches whose grousers' tips are ``depth`` deep, moving
-        down at ``speed``; 0 until the grousers have cut in."""
+        """The fast landing model's pressure (Pa) on patches (vehicles × patches) whose grousers' tips are
+        ``depth`` deep, moving down at ``speed``; 0 until the grousers have cut in."""
         gh, cfg = self.grouser_height_m, self.config
         bearing = depth > gh
-        p = np.zeros_like(depth)
-        if bearing.any():
-            p[bearing] = resistance(self.patch_soil, depth[bearing], np.maximum(speed[bearing], 0.0), self.factor,
-                                    self.coefficients, cfg.bearing_factor, cfg.buoyancy)
-        return np.maximum(p, 0.0)
+        p = resistance(self.patch_soil, np.where(bearing, depth, gh), np.maximum(speed, 0.0), self.factor,
+                       self.coefficients, cfg.bearing_factor, cfg.buoyancy)
+        return np.where(bearing, np.maximum(p, 0.0), 0.0)
 
-    def solve(self) -> SolveResult:
+    def land(self, history: bool = False) -> dict:
+        """Land the batch: per vehicle its end (:data:`STATUS`), time (s), steps, its base's middle's and
+        lowest point's deepest (m), its largest turn from level and its roll and pitch at the end (rad);
+        with ``history``, each step's samples of the first vehicle too."""
         landing, body = self.scene.landing, self.scene.geometry
-        angles = np.array(landing.attitude_rad[:2])
-        rates = np.array([landing.given_velocity("rx"), landing.given_velocity("ry")])
-        rows = turn_rows(*angles)
-        depth_cg = self.grouser_height_m + float((rows[2] @ self.corners).min())  # its lowest corner gh deep
-        speed = self.speed_m_s
-        deepest = np.full(self.arms.shape[1], -np.inf)  # each patch's deepest, and its pressure there
-        pressed = np.zeros(self.arms.shape[1])
-        area, mass, weight = self.patch_area_m2, self.mass_kg, self.weight_n
-        floor = self.config.bearing_factor * self.scene.soil.su0_pa  # the weakest full pressure (Pa)
-        rest_speed, moment_limit = REST_SPEED_AFTER_FALL * self.speed_m_s, REST_MOMENT_FRACTION * weight * self.reach_m
-        time, fell, status, message = 0.0, False, "ok", ""
+        n, area = self.count, self.patch_area_m2
+        angles = np.tile(np.array(landing.attitude_rad[:2], dtype=float), (n, 1))
+        rates = np.tile(np.array([landing.given_velocity("rx"), landing.given_velocity("ry")], dtype=float), (n, 1))
+        rows = turn_rows(angles[:, 0], angles[:, 1])
+        depth_cg = self.grouser_height_m + (rows[:, 2] @ self.corners).min(axis=1)  # its lowest corner gh deep
+        speed, before = self.speed_m_s.copy(), np.full(n, np.nan)
+        deepest = np.full((n, self.arms.shape[1]), -np.inf)  # each patch's deepest, and its pressure there
+        pressed = np.zeros_like(deepest)
+        mass, weight, inertia = self.mass_kg, self.weight_n, self.inertia[:, :2]
+        rest_speed = REST_SPEED_AFTER_FALL * self.speed_m_s
+        moment_limit = REST_MOMENT_FRACTION * weight * self.reach_m
+        time, steps, fell, end = np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool), np.full(n, RUNNING)
+        middle_most, edge_most, turn_most = np.full(n, -np.inf), np.full(n, -np.inf), np.hypot(*angles.T)
         samples = []
-        largest = {"middle": -np.inf, "edge": -np.inf, "turn": float(np.hypot(*angles))}
-        while True:
-            arm = rows @ self.arms
-            depth = depth_cg - arm[2]
-            down = speed - rates[0] * arm[1] + rates[1] * arm[0]
+        while (running := end == RUNNING).any():
+            arm = rows @ self.arms  # (vehicles, 3, patches)
+            depth = depth_cg[:, None] - arm[:, 2]
+            down = speed[:, None] - rates[:, :1] * arm[:, 1] + rates[:, 1:] * arm[:, 0]
             load = self.pressure(depth, down)
             deeper = depth >= deepest
             below = np.where(deeper, 0.0, deepest - depth)  # how far each patch has risen from its deepest
-            elastic = (pressed - pressed / self.elastic_depth_m * below if self.elastic_depth_m > 0.0
-                       else np.where(below > 0.0, 0.0, pressed))
-            elastic = elastic + self.dashpot_pa_s_per_m * down  # the soil it rises from radiates
+            with np.errstate(divide="ignore", invalid="ignore"):  # no elastic depth: a risen patch lets go
+                elastic = np.where(self.elastic_depth_m[:, None] > 0.0,
+                                   pressed - pressed / self.elastic_depth_m[:, None] * below,
+                                   np.where(below > 0.0, 0.0, pressed))
+            elastic = elastic + self.dashpot_pa_s_per_m[:, None] * down  # the soil it rises from radiates
             p = np.where(deeper, load, np.clip(np.minimum(elastic, load), 0.0, None))
             deepest, pressed = np.where(deeper, depth, deepest), np.where(deeper, load, pressed)
             force = p * area
-            moment = np.array([arm[1] @ force, -(arm[0] @ force)])
-            middle = depth_cg - float(rows[2] @ self.middle)
-            largest["middle"] = max(largest["middle"], middle)
-            largest["edge"] = max(largest["edge"], depth_cg - float((rows[2] @ self.corners).min()))
-            largest["turn"] = max(largest["turn"], float(np.hypot(*angles)))
-            samples.append((time, middle, speed, force.sum() / 2.0, *np.degrees(angles), *(moment / 2.0)))
-            stiffness = area * np.maximum(pressed, floor).sum() / max(self.elastic_depth_m, 1e-6 * body.width_m)
-            dt = STEP_FRACTION * math.sqrt(mass / stiffness)
-            fell |= len(samples) > 1 and samples[-2][2] > 0.0 >= speed  # its fall has stopped
-            turning = np.abs(rates * self.free).max() * self.reach_m
-            if fell and abs(speed) <= rest_speed and turning <= rest_speed and np.abs(moment * self.free).max() <= moment_limit:
-                message = f"came to rest at {largest['middle']:.4g} m after {time:.3g} s"
-                break
-            if middle > LARGEST_SINKAGE_WIDTHS * body.width_m:
-                status, message = "bearing_failure", f"the vehicle passes {LARGEST_SINKAGE_WIDTHS:g} B without stopping"
-                break
-            if time > LONGEST_S:
-                status, message = "unstable", f"the vehicle did not settle within {LONGEST_S:g} s"
-                break
-            speed += dt * (weight - force.sum()) / mass
-            rates += dt * moment / self.inertia[:2] * self.free
-            depth_cg += dt * speed
-            angles = angles + dt * rates
-            rows = turn_rows(*angles)
-            time += dt
-        history = self._history(samples)
-        metrics = {"max_sinkage_m": largest["middle"], "max_edge_sinkage_m": largest["edge"],
-                   "max_rotation_deg": math.degrees(largest["turn"]), "max_horizontal_displacement_m": 0.0,
+            moment = np.stack([(arm[:, 1] * force).sum(axis=1), -(arm[:, 0] * force).sum(axis=1)], axis=1)
+            total = force.sum(axis=1)
+            middle = depth_cg - rows[:, 2] @ self.middle
+            middle_most = np.maximum(middle_most, middle)
+            edge_most = np.maximum(edge_most, depth_cg - (rows[:, 2] @ self.corners).min(axis=1))
+            turn_most = np.maximum(turn_most, np.hypot(*angles.T))
+            if history:
+                samples.append((time[0], middle[0], speed[0], total[0] / 2.0, *np.degrees(angles[0]), *(moment[0] / 2.0)))
+            stiffness = area * np.maximum(pressed, self.floor_pa[:, None]).sum(axis=1) / np.maximum(
+                self.elastic_depth_m, 1e-6 * body.width_m)
+            dt = STEP_FRACTION * np.sqrt(mass / stiffness)
+            fell |= (before > 0.0) & (speed <= 0.0)  # its fall has stopped
+            turning = np.abs(rates * self.free).max(axis=1) * self.reach_m
+            rest = (fell & (np.abs(speed) <= rest_speed) & (turning <= rest_speed)
+                    & (np.abs(moment * self.free).max(axis=1) <= moment_limit))
+            end = np.where(running & rest, AT_REST, end)
+            end = np.where((end == RUNNING) & (middle > LARGEST_SINKAGE_WIDTHS * body.width_m), PASSED, end)
+            end = np.where((end == RUNNING) & (time > LONGEST_S), UNSETTLED, end)
+            moving = (end == RUNNING)[:, None]
+            steps += running
+            before = speed
+            speed = np.where(moving[:, 0], speed + dt * (weight - total) / mass, speed)
+            rates = np.where(moving, rates + dt[:, None] * moment / inertia * self.free, rates)
+            depth_cg = np.where(moving[:, 0], depth_cg + dt * speed, depth_cg)
+            angles = np.where(moving, angles + dt[:, None] * rates, angles)
+            rows = turn_rows(angles[:, 0], angles[:, 1])
+            time = np.where(moving[:, 0], time + dt, time)
+        return {"end": end, "time_s": time, "steps": steps, "middle_m": middle_most, "edge_m": edge_most,
+                "turn_rad": turn_most, "roll_rad": angles[:, 1], "pitch_rad": angles[:, 0], "samples": samples}
+
+    def solve(self) -> SolveResult:
+        body = self.scene.geometry
+        landed = self.land(history=True)
+        status, time, middle = STATUS[int(landed["end"][0])], float(landed["time_s"][0]), float(landed["middle_m"][0])
+        message = {"ok": f"came to rest at {middle:.4g} m after {time:.3g} s",
+                   "bearing_failure": f"the vehicle passes {LARGEST_SINKAGE_WIDTHS:g} B without stopping",
+                   "unstable": f"the vehicle did not settle within {LONGEST_S:g} s"}[status]
+        history = self._history(landed["samples"])
+        metrics = {"max_sinkage_m": middle, "max_edge_sinkage_m": float(landed["edge_m"][0]),
+                   "max_rotation_deg": math.degrees(landed["turn_rad"][0]), "max_horizontal_displacement_m": 0.0,
                    "rotation_deg": float(history["rotation_deg"][-1]), "pitch_deg": float(history["pitch_deg"][-1]),
-                   "time_to_rest_s": time, "sinkage_over_width": largest["middle"] / body.width_m,
-                   "weight_per_track_n": 0.5 * weight, "steps": float(len(samples))}
+                   "time_to_rest_s": time, "sinkage_over_width": middle / body.width_m,
+                   "weight_per_track_n": 0.5 * float(self.weight_n[0]), "steps": float(landed["steps"][0])}
         units = {"max_sinkage_m": "m", "max_edge_sinkage_m": "m", "max_rotation_deg": "deg",
                  "max_horizontal_displacement_m": "m", "rotation_deg": "deg", "pitch_deg": "deg", "time_to_rest_s": "s",
                  "sinkage_over_width": "-", "weight_per_track_n": "N", "steps": "-"}

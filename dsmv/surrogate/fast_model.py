@@ -49,8 +49,15 @@ def default_settings(solver: str = "cel2d") -> dict:
     form (grousers, shape factor) and the default soil's and track's other values. A surrogate
     records them, so that its features stay what they were trained on if the defaults change."""
     scene = _default_scene(FAST_MODEL_CONFIG.get(solver, "analytic_dynamic"))
-    soil, rate, model = scene.soil, scene.soil.rate, scene.solver
-    return {"coefficients": asdict(model.coefficients()), "law": "einav_randolph",
+    return scene_settings(scene, scene.solver)
+
+
+def scene_settings(scene, model) -> dict:
+    """What the fast model ``model`` (an :class:`~dsmv.analytic.landing_model.AnalyticDynamicConfig`)
+    takes that a table does not hold, from ``scene``: its coefficients and form, the soil's law and
+    other values, E/su0 the scene's ratio (a row's E is its su0 times it)."""
+    soil, rate = scene.soil, scene.soil.rate
+    return {"coefficients": asdict(model.coefficients()), "law": soil.law,
             "density_kg_m3": soil.density_kg_m3,
             "youngs_modulus_over_su0": soil.youngs_modulus_pa / soil.su0_pa,
             "rate": {"law": rate.law, "n": rate.n, "gamma_dot_ref": rate.gamma_dot_ref, "mu": rate.mu},
@@ -80,12 +87,17 @@ def table_shape_factor(table: pd.DataFrame, settings: dict):
     return float(form)
 
 
-def table_factor(table: pd.DataFrame, settings: dict | None = None):
-    """The soil law's strength factor of each row, as f(ξ, γ̇) on arrays aligned with the rows."""
+def table_factor(table: pd.DataFrame, settings: dict | None = None, column: bool = False):
+    """The soil law's strength factor of each row, as f(ξ, γ̇) on arrays aligned with the rows (with
+    ``column``, on arrays whose rows are the table's: one row per landing, a column per point of it)."""
     settings = settings or default_settings()
     law = registry.load("soil_laws", settings.get("law", "einav_randolph"), "soil.law")
-    rows = SimpleNamespace(sensitivity=table["sensitivity"].to_numpy(float), xi95=table["xi95"].to_numpy(float),
-                           rate=SimpleNamespace(**settings["rate"], eta=table["eta"].to_numpy(float)))
+
+    def values(name: str) -> np.ndarray:
+        return table[name].to_numpy(float).reshape((-1, 1) if column else -1)
+
+    rows = SimpleNamespace(sensitivity=values("sensitivity"), xi95=values("xi95"),
+                           rate=SimpleNamespace(**settings["rate"], eta=values("eta")))
     twin = SimpleNamespace(soil=rows, params=None)  # the twin reads self.soil, and broadcasts
     return lambda xi, gamma_dot: np.broadcast_to(law.strength_factor(twin, xi, gamma_dot), np.shape(xi))
 

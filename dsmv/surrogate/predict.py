@@ -48,6 +48,7 @@ from omegaconf import DictConfig, OmegaConf
 from pydantic import Field
 
 from dsmv.analytic.landing_model import LARGEST_SINKAGE_WIDTHS
+from dsmv.analytic.vehicle import check_vehicle_scene
 from dsmv.config.scene import _resolve, build_scene, build_tracking
 from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError, DsmvError
@@ -59,6 +60,7 @@ from dsmv.surrogate.inverse import GOALS, TASK_PARAMETERS, InverseResult, solve_
 from dsmv.surrogate.model import TrainedSurrogate, scene_table
 from dsmv.surrogate.predictor import CALIBRATION_KEY, PredictError, Predictor, load_predictor
 from dsmv.surrogate.reliability import exceedance, sample_scenes, uncertainty_from
+from dsmv.surrogate.vehicle_exceedance import check_uncertain, vehicle_exceedance
 
 PROG = "dsmv-predict"
 
@@ -416,9 +418,17 @@ def check_config(cfg: DictConfig) -> tuple[PredictSettings, object]:
     it) and, for ``task=exceedance``, the ``uncertainty`` group. ``dsmv-predict``'s command line runs it
     before Hydra creates the run dir (dsmv.app.command_line.APPS). Returns the settings and the scene."""
     settings = settings_from(cfg)
+    scene = build_scene(cfg)
+    if scene.geometry.vehicle:  # the fast vehicle model lands its samples: no registered model
+        if settings.task != "exceedance":
+            raise ConfigError("task", settings.task, "a vehicle scene answers task=exceedance (the fast vehicle "
+                              "model over the uncertainty's samples); land it once with solver=analytic_dynamic_3d "
+                              "or cel3d")
+        check_vehicle_scene(scene)
+        check_uncertain(uncertainty_from({"uncertainty": _resolve(cfg.get("uncertainty"))}).keys)
+        return settings, scene
     if not build_tracking(cfg).enabled:
         raise ConfigError("tracking.enabled", False, "dsmv-predict reads the registered model: use tracking=local or server")
-    scene = build_scene(cfg)
     if settings.task == "exceedance":
         uncertainty_from({"uncertainty": _resolve(cfg.get("uncertainty"))})
     return settings, scene
@@ -428,8 +438,12 @@ def run_predict(cfg: DictConfig, run_dir: Path | None = None, overrides: list[st
     """Validate, load, predict (one scene, a CSV, or the inverse question), print; return the answer.
     ``overrides`` (the command line's) are held against what the model can honour (:func:`check_overrides`)."""
     settings, scene = check_config(cfg)
-    tracking = build_tracking(cfg)
     base = scene_table([scene])
+    if scene.geometry.vehicle:
+        table = sample_scenes(base, uncertainty_from(OmegaConf.to_container(cfg, resolve=True)))
+        answer = vehicle_exceedance(scene, table, settings.sinkage_limit_m, run_dir, settings.plot, PROG)
+        return write_answer({"task": settings.task} | answer, run_dir)
+    tracking = build_tracking(cfg)
     name = str(cfg.surrogate.registered_model)
 
     started = time.perf_counter()

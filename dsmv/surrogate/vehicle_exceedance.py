@@ -1,0 +1,174 @@
+"""``dsmv-predict task=exceedance`` on a vehicle scene: P(sinkage > limit) beside P(tilt > limit).
+
+The registered surrogates learn one track's sinkage; a vehicle also tilts, by its centre of gravity,
+its attitude at touchdown and how its two tracks bear. So a vehicle scene's samples (the
+``uncertainty`` group's, as a track's) are each landed by the fast vehicle model
+(:mod:`dsmv.analytic.vehicle`, docs/decisions/0033), all of a block at once. Per sample the answer
+is what the verdict judges (:mod:`dsmv.safety`): the sinkage of the base's lowest point (the
+grousers' tips), the largest tilt from level, and whether the soil stopped the vehicle. A landing
+the soil does not stop exceeds every limit.
+
+The samples' E is their su0 times the scene's E/su0, as the surrogates' physics features hold it.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from dsmv.analytic.landing_model import default_config
+from dsmv.analytic.vehicle import STATUS, VehicleModel
+from dsmv.errors import ConfigError
+from dsmv.surrogate.evaluate import pyplot
+from dsmv.surrogate.fast_model import scene_settings, table_factor, table_landing
+
+#: what may be uncertain for a vehicle: its load and touchdown, and the soil (its geometry is the scene's)
+VEHICLE_UNCERTAIN = ("landing.mass_kg", "landing.inertial_mass_kg", "landing.velocity_m_s", "landing.gravity_m_s2",
+                     "soil.su0_pa", "soil.ks_pa_per_m", "soil.sensitivity", "soil.xi95", "soil.rate.eta")
+#: vehicles landed at once (a block of 1000 holds about 50 MB of patch arrays)
+BLOCK = 1000
+
+
+def check_uncertain(keys) -> None:
+    """A vehicle's geometry is not drawn: one line naming the key and what may be."""
+    for key in keys:
+        if key not in VEHICLE_UNCERTAIN:
+            raise ConfigError(f"uncertainty.{key}", "a distribution", "a vehicle scene draws its load, touchdown and "
+                              f"soil only: {', '.join(VEHICLE_UNCERTAIN)}")
+
+
+def fast_vehicle_config(scene):
+    """The fast model's coefficients: the scene's own when it names the fast model, else the 3D track's."""
+    if scene.solver.name in ("analytic_dynamic", "analytic_dynamic_3d"):
+        return scene.solver
+    return default_config("analytic_dynamic_3d")
+
+
+@dataclass(frozen=True)
+class VehicleLandings:
+    """The samples' landings by the fast vehicle model."""
+
+    sinkage_m: np.ndarray   # the base's lowest point's deepest (m); inf where the soil did not stop it
+    tilt_deg: np.ndarray    # the largest tilt from level (degrees)
+    status: np.ndarray      # ok | bearing_failure | unstable
+    seconds: float          # wall time of the landings (s)
+
+    def exceeds(self, sinkage_limit_m: float, tilt_limit_deg: float | None) -> dict[str, np.ndarray]:
+        """Per sample, which limits it breaks (a landing that did not end ``ok`` breaks them all)."""
+        failed = self.status != "ok"
+        out = {"sinkage": failed | (self.sinkage_m > sinkage_limit_m)}
+        if tilt_limit_deg is not None:
+            out["tilt"] = failed | (self.tilt_deg > tilt_limit_deg)
+        return out
+
+
+def land_samples(scene, table: pd.DataFrame, progress=None) -> VehicleLandings:
+    """Land each row of ``table`` (a dataset table: the scene with its uncertain columns drawn) with the
+    fast vehicle model, in blocks of :data:`BLOCK`; ``progress(done, total, seconds)`` after each."""
+    model = fast_vehicle_config(scene)
+    if model.shape_factor == "plane_strain":  # the section's coefficients: a vehicle's tracks are 3D tracks
+        model = default_config("analytic_dynamic_3d")
+    settings = scene_settings(scene, model)
+    soil = scene.soil
+    strength = soil.strength if soil.profile is not None and not soil.strength.straight else None
+    sinkage, tilt, status = np.empty(len(table)), np.empty(len(table)), np.empty(len(table), dtype=object)
+    started = time.perf_counter()
+    for first in range(0, len(table), BLOCK):
+        rows = table.iloc[first:first + BLOCK].reset_index(drop=True)
+        tracks = replace(table_landing(rows, settings), strength=strength)
+        landed = VehicleModel(scene, model, table_factor(rows, settings, column=True), tracks).land()
+        block = slice(first, first + len(rows))
+        ended = np.array([STATUS[int(code)] for code in landed["end"]], dtype=object)
+        deepest = np.maximum(landed["middle_m"], landed["edge_m"])
+        sinkage[block] = np.where(ended == "bearing_failure", np.inf, deepest)
+        tilt[block], status[block] = np.degrees(landed["turn_rad"]), ended
+        if progress is not None:
+            progress(block.stop, len(table), time.perf_counter() - started)
+    return VehicleLandings(sinkage, tilt, status, time.perf_counter() - started)
+
+
+def probability(flags: np.ndarray) -> tuple[float, float]:
+    """The fraction of samples flagged and its Monte Carlo standard error √(P(1 − P)/N)."""
+    p = float(np.mean(flags))
+    return p, math.sqrt(p * (1.0 - p) / len(flags))
+
+
+def plot_vehicle_exceedance(landings: VehicleLandings, sinkage_limit_m: float, tilt_limit_deg: float | None,
+                            path: Path, title: str) -> Path:
+    """The samples' tilt against their sinkage, safe ones and those breaking a limit apart, the limits drawn."""
+    plt = pyplot()
+    flags = landings.exceeds(sinkage_limit_m, tilt_limit_deg)
+    unsafe = np.any(np.stack(list(flags.values())), axis=0)
+    stopped = np.isfinite(landings.sinkage_m)
+    fig, ax = plt.subplots(figsize=(6.5, 4.6), constrained_layout=True)
+    for chosen, colour, label in ((~unsafe & stopped, "tab:green", "within the limits"),
+                                  (unsafe & stopped, "tab:red", "beyond a limit")):
+        ax.scatter(landings.sinkage_m[chosen], landings.tilt_deg[chosen], s=4, alpha=0.4, color=colour,
+                   label=f"{label} ({int(chosen.sum())})")
+    ax.axvline(sinkage_limit_m, color="k", linestyle="--", label=f"sinkage limit {sinkage_limit_m:g} m")
+    if tilt_limit_deg is not None:
+        ax.axhline(tilt_limit_deg, color="k", linestyle=":", label=f"tilt limit {tilt_limit_deg:g}°")
+    ax.set(xlabel="deepest sinkage of the base's lowest point (m)", ylabel="largest tilt from level (°)")
+    not_stopped = int((~stopped).sum())
+    ax.set_title(title + (f"\n{not_stopped} samples not stopped by the soil (not drawn)" if not_stopped else ""),
+                 fontsize=9)
+    ax.legend(fontsize=8)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def vehicle_exceedance(scene, table: pd.DataFrame, sinkage_limit_m: float, run_dir: Path | None, plot: bool,
+                       prog: str) -> dict:
+    """The vehicle's answer to ``task=exceedance`` over the sampled ``table``, printed; returns it."""
+    tilt_limit = scene.safety.max_tilt_deg
+    total = len(table)
+
+    def progress(done: int, of: int, seconds: float) -> None:
+        if of > BLOCK:
+            left = seconds / done * (of - done)
+            print(f"{prog}: landed {done} of {of} vehicles, {seconds:.0f} s so far, about {left:.0f} s left",
+                  flush=True)
+
+    print(f"{prog}: the fast vehicle model (docs/decisions/0033) lands each of {total} samples", flush=True)
+    landings = land_samples(scene, table, progress)
+    print(f"  landed   : {total} vehicles in {landings.seconds:.1f} s "
+          f"({1e3 * landings.seconds / total:.1f} ms each)")
+    flags = landings.exceeds(sinkage_limit_m, tilt_limit)
+    out = {"model": "fast vehicle model", "samples": total, "sinkage_limit_m": sinkage_limit_m,
+           "tilt_limit_deg": tilt_limit, "landing_s": landings.seconds,
+           "not_stopped": int((landings.status == "bearing_failure").sum()),
+           "unsettled": int((landings.status == "unstable").sum())}
+    p, error = probability(flags["sinkage"])
+    print(f"  exceed   : P(sinkage > {sinkage_limit_m:g} m) = {p:.4f} ± {error:.4f} (Monte Carlo, {total} samples; "
+          "the base's lowest point)")
+    out |= {"exceedance_probability": p, "monte_carlo_error": error}
+    if tilt_limit is not None:
+        p_tilt, error_tilt = probability(flags["tilt"])
+        p_any, error_any = probability(flags["sinkage"] | flags["tilt"])
+        print(f"  tilt     : P(tilt > {tilt_limit:g}°) = {p_tilt:.4f} ± {error_tilt:.4f}")
+        print(f"  unsafe   : P(either) = {p_any:.4f} ± {error_any:.4f}")
+        out |= {"tilt_exceedance_probability": p_tilt, "tilt_monte_carlo_error": error_tilt,
+                "unsafe_probability": p_any, "unsafe_monte_carlo_error": error_any}
+    stopped = landings.tilt_deg[landings.status == "ok"]
+    if len(stopped):
+        median, high = np.quantile(stopped, [0.5, 0.95])
+        print(f"  tilts    : median {median:.3g}°, 95 % under {high:.3g}°"
+              + ("" if tilt_limit is not None else " (set safety.max_tilt_deg for P(tilt > limit))"))
+        out |= {"tilt_median_deg": float(median), "tilt_q95_deg": float(high)}
+    if out["not_stopped"] or out["unsettled"]:
+        print(f"warning: {out['not_stopped']} samples not stopped by the soil and {out['unsettled']} not settled "
+              f"within the model's time: each counted beyond every limit")
+    if plot and run_dir is not None:
+        run_dir.mkdir(parents=True, exist_ok=True)
+        title = (f"fast vehicle model, {total} samples: P(sinkage > {sinkage_limit_m:g} m) = {p:.3f}"
+                 + (f", P(tilt > {tilt_limit:g}°) = {out['tilt_exceedance_probability']:.3f}" if tilt_limit else ""))
+        out["plot"] = str(plot_vehicle_exceedance(landings, sinkage_limit_m, tilt_limit,
+                                                  run_dir / "exceedance.png", title))
+        print(f"  plot     : {out['plot']}")
+    return out
