@@ -137,8 +137,9 @@ def test_a_vehicles_exceedance_gives_its_tilts_beside_its_sinkage_and_its_mirror
     (["task=predict"], "task = 'predict': a vehicle scene answers task=exceedance"),
     (["task=exceedance", "sinkage_limit_m=0.1", "landing.free=[z,x]", "landing.horizontal_velocity_m_s=0.2"],
      "landing.free"),
+    (["task=exceedance", "sinkage_limit_m=0.1", "soil.slope_deg=5"], "soil.slope_deg = 5.0: the fast vehicle model"),
 ])
 def test_a_vehicle_question_the_fast_model_cannot_answer_is_one_line_with_exit_2(run_cli, args, message):
-    done = run_cli("dsmv-predict", *VEHICLE[:2], *args)
+    done = run_cli("dsmv-predict", "geometry=vehicle_pioneer_i", *args)  # (its solver: cel3d, which takes a slope)
     assert done.returncode == 2, done.stderr
     assert message in done.stderr and len(done.stderr.strip().splitlines()) == 1, done.stderr

@@ -26,6 +26,12 @@ def fast_landing(scene: Scene, shape_factor: str = "plane_strain") -> "AnalyticD
                                  check=False)
 
 
+def fast_vehicle(scene: Scene) -> VehicleModel:
+    """The fast vehicle model of a vehicle scene run by another solver, with the 3D track's coefficients."""
+    solver = AnalyticDynamicSolver(scene, default_config("analytic_dynamic_3d"), check=False)
+    return VehicleModel(scene, solver.config, solver.factor)
+
+
 class AnalyticDynamicSolver:
     """Solver plugin ``analytic_dynamic``: the fast landing model, milliseconds."""
 

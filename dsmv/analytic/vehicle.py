@@ -52,8 +52,11 @@ HISTORY_SAMPLES = 400
 
 
 def check_vehicle_scene(scene: Scene) -> None:
-    """What the fast vehicle model does not move: a drift or slide, a yaw."""
+    """What the fast vehicle model does not move: a drift or slide, a yaw; nor does it land on a slope."""
     landing = scene.landing
+    if scene.soil.slope_deg != 0:
+        raise ConfigError("soil.slope_deg", scene.soil.slope_deg, "the fast vehicle model lands on a level seabed; "
+                          "a sloping one runs in solver=cel3d")
     for name in ("x", "y", "rz"):
         if name in landing.freedoms or landing.given_velocity(name):
             key = "landing.free" if name in landing.freedoms else "landing." + {
