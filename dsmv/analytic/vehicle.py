@@ -86,14 +86,14 @@ class VehicleModel:
 
     ``tracks`` lands a batch of vehicles at once, the scene's geometry and attitude each, the rest per
     vehicle: one per entry of the per-track :class:`~dsmv.analytic.landing_model.Landing`'s arrays, and
-    ``factor`` the soil law's strength factor of each (its arrays a column, one row per vehicle). By
-    default the scene's own vehicle, one."""
+    ``factor`` the soil law's strength factor of each (its arrays a column, one row per vehicle), and
+    ``factor_of_rows(index)`` that of the vehicles ``index`` alone. By default the scene's own vehicle, one."""
 
-    def __init__(self, scene: Scene, config, factor, tracks: Landing | None = None):
+    def __init__(self, scene: Scene, config, factor, tracks: Landing | None = None, factor_of_rows=None):
         check_vehicle_scene(scene)
         if config.shape_factor == "plane_strain":  # the section's coefficients: a vehicle's tracks are 3D tracks
             config = default_config("analytic_dynamic_3d")
-        self.scene, self.config, self.factor = scene, config, factor
+        self.scene, self.config, self.factor, self.factor_of_rows = scene, config, factor, factor_of_rows
         body, landing, soil = scene.geometry, scene.landing, scene.soil
         shape = 1.0 + 0.2 * body.width_m / body.contact_length_m if config.shape_factor == "skempton" \
             else float(config.shape_factor)
@@ -144,19 +144,21 @@ class VehicleModel:
         self.floor_pa = config.bearing_factor * su0  # the weakest full pressure (Pa)
         self.free = np.array([name in landing.freedoms for name in ("rx", "ry")], dtype=float)
 
-    def pressure(self, depth: np.ndarray, speed: np.ndarray) -> np.ndarray:
+    def pressure(self, depth: np.ndarray, speed: np.ndarray, soil: Landing | None = None, factor=None) -> np.ndarray:
         """The fast landing model's pressure (Pa) on patches (vehicles × patches) whose grousers' tips are
-        ``depth`` deep, moving down at ``speed``; 0 until the grousers have cut in."""
+        ``depth`` deep, moving down at ``speed``; 0 until the grousers have cut in. ``soil`` and ``factor``:
+        those of the vehicles the rows hold (by default all)."""
         gh, cfg = self.grouser_height_m, self.config
         bearing = depth > gh
-        p = resistance(self.patch_soil, np.where(bearing, depth, gh), np.maximum(speed, 0.0), self.factor,
-                       self.coefficients, cfg.bearing_factor, cfg.buoyancy)
+        p = resistance(soil or self.patch_soil, np.where(bearing, depth, gh), np.maximum(speed, 0.0),
+                       factor or self.factor, self.coefficients, cfg.bearing_factor, cfg.buoyancy)
         return np.where(bearing, np.maximum(p, 0.0), 0.0)
 
     def land(self, history: bool = False) -> dict:
         """Land the batch: per vehicle its end (:data:`STATUS`), time (s), steps, its base's middle's and
         lowest point's deepest (m), its largest turn from level and its roll and pitch at the end (rad);
-        with ``history``, each step's samples of the first vehicle too."""
+        with ``history``, each step's samples of the first vehicle too. With ``factor_of_rows`` the
+        vehicles that have ended leave the arrays once a quarter of them has (their rows then cost nothing)."""
         landing, body = self.scene.landing, self.scene.geometry
         n, area = self.count, self.patch_area_m2
         angles = np.tile(np.array(landing.attitude_rad[:2], dtype=float), (n, 1))
@@ -166,24 +168,37 @@ class VehicleModel:
         speed, before = self.speed_m_s.copy(), np.full(n, np.nan)
         deepest = np.full((n, self.arms.shape[1]), -np.inf)  # each patch's deepest, and its pressure there
         pressed = np.zeros_like(deepest)
-        mass, weight, inertia = self.mass_kg, self.weight_n, self.inertia[:, :2]
-        rest_speed = REST_SPEED_AFTER_FALL * self.speed_m_s
-        moment_limit = REST_MOMENT_FRACTION * weight * self.reach_m
         time, steps, fell, end = np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool), np.full(n, RUNNING)
         middle_most, edge_most, turn_most = np.full(n, -np.inf), np.full(n, -np.inf), np.hypot(*angles.T)
+        # per vehicle: what it is, then where it is; ``index``: the vehicles the arrays' rows hold
+        given = {"mass": self.mass_kg, "weight": self.weight_n, "inertia": self.inertia[:, :2],
+                 "elastic": self.elastic_depth_m, "dashpot": self.dashpot_pa_s_per_m, "floor": self.floor_pa,
+                 "rest_speed": REST_SPEED_AFTER_FALL * self.speed_m_s,
+                 "moment_limit": REST_MOMENT_FRACTION * self.weight_n * self.reach_m}
+        soil, factor, index = self.patch_soil, self.factor, np.arange(n)
+        state = dict(angles=angles, rates=rates, depth_cg=depth_cg, speed=speed, before=before, deepest=deepest,
+                     pressed=pressed, time=time, steps=steps, fell=fell, end=end, middle_most=middle_most,
+                     edge_most=edge_most, turn_most=turn_most)
+        out = {name: np.empty((n, *value.shape[1:]), dtype=value.dtype) for name, value in state.items()
+               if name in ("angles", "time", "steps", "end", "middle_most", "edge_most", "turn_most")}
         samples = []
-        while (running := end == RUNNING).any():
+        while True:
+            (angles, rates, depth_cg, speed, before, deepest, pressed, time, steps, fell, end, middle_most, edge_most,
+             turn_most) = state.values()
+            if not (running := end == RUNNING).any():
+                break
+            rows = turn_rows(angles[:, 0], angles[:, 1])
             arm = rows @ self.arms  # (vehicles, 3, patches)
             depth = depth_cg[:, None] - arm[:, 2]
             down = speed[:, None] - rates[:, :1] * arm[:, 1] + rates[:, 1:] * arm[:, 0]
-            load = self.pressure(depth, down)
+            load = self.pressure(depth, down, soil, factor)
             deeper = depth >= deepest
             below = np.where(deeper, 0.0, deepest - depth)  # how far each patch has risen from its deepest
+            elastic_depth = given["elastic"][:, None]
             with np.errstate(divide="ignore", invalid="ignore"):  # no elastic depth: a risen patch lets go
-                elastic = np.where(self.elastic_depth_m[:, None] > 0.0,
-                                   pressed - pressed / self.elastic_depth_m[:, None] * below,
+                elastic = np.where(elastic_depth > 0.0, pressed - pressed / elastic_depth * below,
                                    np.where(below > 0.0, 0.0, pressed))
-            elastic = elastic + self.dashpot_pa_s_per_m[:, None] * down  # the soil it rises from radiates
+            elastic = elastic + given["dashpot"][:, None] * down  # the soil it rises from radiates
             p = np.where(deeper, load, np.clip(np.minimum(elastic, load), 0.0, None))
             deepest, pressed = np.where(deeper, depth, deepest), np.where(deeper, load, pressed)
             force = p * area
@@ -195,27 +210,42 @@ class VehicleModel:
             turn_most = np.maximum(turn_most, np.hypot(*angles.T))
             if history:
                 samples.append((time[0], middle[0], speed[0], total[0] / 2.0, *np.degrees(angles[0]), *(moment[0] / 2.0)))
-            stiffness = area * np.maximum(pressed, self.floor_pa[:, None]).sum(axis=1) / np.maximum(
-                self.elastic_depth_m, 1e-6 * body.width_m)
-            dt = STEP_FRACTION * np.sqrt(mass / stiffness)
-            fell |= (before > 0.0) & (speed <= 0.0)  # its fall has stopped
+            stiffness = area * np.maximum(pressed, given["floor"][:, None]).sum(axis=1) / np.maximum(
+                given["elastic"], 1e-6 * body.width_m)
+            dt = STEP_FRACTION * np.sqrt(given["mass"] / stiffness)
+            fell = fell | ((before > 0.0) & (speed <= 0.0))  # its fall has stopped
             turning = np.abs(rates * self.free).max(axis=1) * self.reach_m
-            rest = (fell & (np.abs(speed) <= rest_speed) & (turning <= rest_speed)
-                    & (np.abs(moment * self.free).max(axis=1) <= moment_limit))
+            rest = (fell & (np.abs(speed) <= given["rest_speed"]) & (turning <= given["rest_speed"])
+                    & (np.abs(moment * self.free).max(axis=1) <= given["moment_limit"]))
             end = np.where(running & rest, AT_REST, end)
             end = np.where((end == RUNNING) & (middle > LARGEST_SINKAGE_WIDTHS * body.width_m), PASSED, end)
             end = np.where((end == RUNNING) & (time > LONGEST_S), UNSETTLED, end)
             moving = (end == RUNNING)[:, None]
-            steps += running
+            steps = steps + running
             before = speed
-            speed = np.where(moving[:, 0], speed + dt * (weight - total) / mass, speed)
-            rates = np.where(moving, rates + dt[:, None] * moment / inertia * self.free, rates)
+            speed = np.where(moving[:, 0], speed + dt * (given["weight"] - total) / given["mass"], speed)
+            rates = np.where(moving, rates + dt[:, None] * moment / given["inertia"] * self.free, rates)
             depth_cg = np.where(moving[:, 0], depth_cg + dt * speed, depth_cg)
             angles = np.where(moving, angles + dt[:, None] * rates, angles)
-            rows = turn_rows(angles[:, 0], angles[:, 1])
             time = np.where(moving[:, 0], time + dt, time)
-        return {"end": end, "time_s": time, "steps": steps, "middle_m": middle_most, "edge_m": edge_most,
-                "turn_rad": turn_most, "roll_rad": angles[:, 1], "pitch_rad": angles[:, 0], "samples": samples}
+            state = dict(angles=angles, rates=rates, depth_cg=depth_cg, speed=speed, before=before, deepest=deepest,
+                         pressed=pressed, time=time, steps=steps, fell=fell, end=end, middle_most=middle_most,
+                         edge_most=edge_most, turn_most=turn_most)
+            still = moving[:, 0]
+            if self.factor_of_rows is not None and still.sum() < 0.75 * len(still):  # the ended leave the arrays
+                for name in out:
+                    out[name][index[~still]] = state[name][~still]
+                index = index[still]
+                state = {name: value[still] for name, value in state.items()}
+                given = {name: value[still] for name, value in given.items()}
+                soil = replace(soil, **{f.name: getattr(soil, f.name)[still] for f in fields(Landing)
+                                        if f.name not in ("strength", "grouser_height_m")})
+                factor = self.factor_of_rows(index)
+        for name in out:
+            out[name][index] = state[name]
+        return {"end": out["end"], "time_s": out["time"], "steps": out["steps"], "middle_m": out["middle_most"],
+                "edge_m": out["edge_most"], "turn_rad": out["turn_most"], "roll_rad": out["angles"][:, 1],
+                "pitch_rad": out["angles"][:, 0], "samples": samples}
 
     def solve(self) -> SolveResult:
         body = self.scene.geometry

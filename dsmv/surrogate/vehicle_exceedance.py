@@ -81,7 +81,8 @@ def land_samples(scene, table: pd.DataFrame, progress=None) -> VehicleLandings:
     for first in range(0, len(table), BLOCK):
         rows = table.iloc[first:first + BLOCK].reset_index(drop=True)
         tracks = replace(table_landing(rows, settings), strength=strength)
-        landed = VehicleModel(scene, model, table_factor(rows, settings, column=True), tracks).land()
+        landed = VehicleModel(scene, model, table_factor(rows, settings, column=True), tracks,
+                              lambda index, rows=rows: table_factor(rows.iloc[index], settings, column=True)).land()
         block = slice(first, first + len(rows))
         ended = np.array([STATUS[int(code)] for code in landed["end"]], dtype=object)
         deepest = np.maximum(landed["middle_m"], landed["edge_m"])
