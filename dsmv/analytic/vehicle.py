@@ -75,6 +75,12 @@ def turn_rows(angle_x, angle_y) -> np.ndarray:
                      np.stack([-sy, cy * sx, cy * cx], -1)], -2)
 
 
+def vehicle_config(config):
+    """The fast model's coefficients for a vehicle's tracks: the section's (plane strain) give way to the
+    3D track's, for a vehicle's tracks are 3D tracks."""
+    return default_config("analytic_dynamic_3d") if config.shape_factor == "plane_strain" else config
+
+
 #: a landing's end, per vehicle of a batch (:meth:`VehicleModel.land`)
 RUNNING, AT_REST, PASSED, UNSETTLED = 0, 1, 2, 3
 STATUS = {AT_REST: "ok", PASSED: "bearing_failure", UNSETTLED: "unstable"}
@@ -91,8 +97,7 @@ class VehicleModel:
 
     def __init__(self, scene: Scene, config, factor, tracks: Landing | None = None, factor_of_rows=None):
         check_vehicle_scene(scene)
-        if config.shape_factor == "plane_strain":  # the section's coefficients: a vehicle's tracks are 3D tracks
-            config = default_config("analytic_dynamic_3d")
+        config = vehicle_config(config)
         self.scene, self.config, self.factor, self.factor_of_rows = scene, config, factor, factor_of_rows
         body, landing, soil = scene.geometry, scene.landing, scene.soil
         shape = 1.0 + 0.2 * body.width_m / body.contact_length_m if config.shape_factor == "skempton" \

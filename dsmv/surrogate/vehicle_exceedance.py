@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from dsmv.analytic.landing_model import default_config
-from dsmv.analytic.vehicle import STATUS, VehicleModel
+from dsmv.analytic.vehicle import STATUS, VehicleModel, vehicle_config
 from dsmv.errors import ConfigError
 from dsmv.surrogate.evaluate import pyplot
 from dsmv.surrogate.fast_model import scene_settings, table_factor, table_landing
@@ -43,9 +43,10 @@ def check_uncertain(keys) -> None:
 
 
 def fast_vehicle_config(scene):
-    """The fast model's coefficients: the scene's own when it names the fast model, else the 3D track's."""
+    """The fast model's coefficients: the scene's own when it names the fast model (the 3D track's for the
+    section's), else the 3D track's."""
     if scene.solver.name in ("analytic_dynamic", "analytic_dynamic_3d"):
-        return scene.solver
+        return vehicle_config(scene.solver)
     return default_config("analytic_dynamic_3d")
 
 
@@ -71,8 +72,6 @@ def land_samples(scene, table: pd.DataFrame, progress=None) -> VehicleLandings:
     """Land each row of ``table`` (a dataset table: the scene with its uncertain columns drawn) with the
     fast vehicle model, in blocks of :data:`BLOCK`; ``progress(done, total, seconds)`` after each."""
     model = fast_vehicle_config(scene)
-    if model.shape_factor == "plane_strain":  # the section's coefficients: a vehicle's tracks are 3D tracks
-        model = default_config("analytic_dynamic_3d")
     settings = scene_settings(scene, model)
     soil = scene.soil
     strength = soil.strength if soil.profile is not None and not soil.strength.straight else None
