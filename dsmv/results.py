@@ -100,7 +100,8 @@ def add_plate_sinkage(result: SolveResult, grouser_height_m: float) -> None:
 def add_vehicle_answers(metrics: dict, units: dict, history: dict, body, plates_m: float) -> None:
     """A vehicle's tilt and tracks, from the history of the middle of its base (``sinkage_m``), its roll
     (``rotation_deg``, about y) and, where the model pitches, its pitch (``pitch_deg``, about x): its
-    largest roll and pitch either way (``max_roll_deg``, ``max_pitch_deg``, the history's samples); each
+    largest roll and pitch either way (``max_roll_deg``, ``max_pitch_deg``, the history's samples), its tilt
+    from level at the end (``final_tilt_deg``); each
     track's middle (``max_sinkage_left_track_m``, ``final_…``), its front (+y) and rear ends where it
     pitches (``…_track_front_m``, ``…_track_rear_m``), the grousers' tips; and its plates' deepest
     (``max_plate_sinkage_left_track_m``), ``plates_m`` above the tips. A point of the base x across and y
@@ -112,6 +113,9 @@ def add_vehicle_answers(metrics: dict, units: dict, history: dict, body, plates_
     for name, angle in (("max_roll_deg", roll), ("max_pitch_deg", pitch)):
         if angle is not None:
             metrics[name], units[name] = float(np.degrees(np.abs(angle).max())), "deg"
+    # the base's normal turned by the roll and the pitch stands cos θy·cos θx from vertical
+    upright = np.cos(roll[-1]) * (1.0 if pitch is None else np.cos(pitch[-1]))
+    metrics["final_tilt_deg"], units["final_tilt_deg"] = float(np.degrees(np.arccos(min(upright, 1.0)))), "deg"
     ends = {"": 0.0} if pitch is None else {"": 0.0, "_front": 0.5 * body.contact_length_m,
                                             "_rear": -0.5 * body.contact_length_m}
     for side, sign in (("left", -1.0), ("right", 1.0)):

@@ -249,3 +249,59 @@ def test_the_vehicle_s_safe_region_is_mapped_with_the_limits_each_landing_broke(
     for (speed, mass), row in verdicts.items():
         if not int(row["safe"]):
             assert all(not int(other["safe"]) for (s, m), other in verdicts.items() if s >= speed and m >= mass)
+
+
+def test_the_vehicle_attitude_study_draws_each_parameter_alone(run_cli, tmp_path):
+    """``study_vehicle_attitude`` with the fast vehicle model: 16 landings, the figure and its table; the
+    vehicle's deepest point grows with each offset and attitude (a heavier end or side sinks deeper), and
+    a centre of gravity off the middle tilts it the more the farther it is off."""
+    done = run_cli("dsmv", "experiment=study_vehicle_attitude", "tracking=disabled")
+    assert done.returncode == 0, done.stderr[-2000:]
+    sweep = _sweep_dir(tmp_path)
+    assert (sweep / "vehicle_response.png").stat().st_size > 10_000
+    rows = _read_csv(sweep / "vehicle_response.csv")
+    assert len(rows) == 16 and {r["status"] for r in rows} == {"ok"}
+    for key in ("landing.cg_offset_m.0", "landing.cg_offset_m.1", "landing.roll_deg", "landing.pitch_deg"):
+        points = sorted((float(r["value"]), r) for r in rows if r["parameter"] == key)
+        assert trend_of(points, "max_edge_sinkage_m") == "up", key
+        if key.startswith("landing.cg_offset_m"):
+            assert trend_of(points, "max_rotation_deg") == "up", key
+
+
+def trend_of(points, name: str) -> str:
+    return studies.trend([value for value, _ in points], [float(row[name]) for _, row in points])
+
+
+def test_a_vehicle_study_counts_the_scenes_where_the_fast_model_agrees_with_the_cel(tmp_path):
+    """A sweep of two parameters landed by the fast model and cel3d (results written by hand): the base
+    scene, which both parameters' lists hold, is compared once; an offset's largest tilt and a tilted
+    touchdown's tilt at the end are what is compared; 15 % on sinkage and 1° (or 15 %) on tilt decide."""
+    sweep = tmp_path / "sweep"
+    sweep.mkdir()
+    (sweep / "multirun.yaml").write_text(
+        "study: s\nlanding: {cg_offset_m: [0.0, 0.0, 0.0], roll_deg: 0.0}\n"
+        "hydra: {sweeper: {vary: {landing.cg_offset_m.0: [0, 0.3], landing.roll_deg: [0, 2]}}}\n")
+    # (override, solver, deepest point, largest tilt, tilt at the end)
+    landings = [("landing.cg_offset_m.0=0", "cel3d", 0.080, 0.0, 0.0),
+                ("landing.cg_offset_m.0=0", "analytic_dynamic", 0.084, 0.0, 0.0),
+                ("landing.cg_offset_m.0=0.3", "cel3d", 0.088, 0.51, 0.30),
+                ("landing.cg_offset_m.0=0.3", "analytic_dynamic", 0.095, 1.60, 0.40),  # tilt 1.09° off
+                ("landing.roll_deg=0", "cel3d", 0.080, 0.0, 0.0),
+                ("landing.roll_deg=0", "analytic_dynamic", 0.084, 0.0, 0.0),
+                ("landing.roll_deg=2", "cel3d", 0.063, 2.0, 1.4),
+                ("landing.roll_deg=2", "analytic_dynamic", 0.0720, 2.0, 0.5)]  # +14.3 %, 0.9° off at the end
+    for job, (override, solver, deepest, largest, end) in enumerate(landings):
+        job_dir = sweep / str(job)
+        (job_dir / ".hydra").mkdir(parents=True)
+        (job_dir / ".hydra" / "overrides.yaml").write_text(f"- {override}\n- solver={solver}\n")
+        metrics = {"max_edge_sinkage_m": deepest, "max_rotation_deg": largest, "final_tilt_deg": end}
+        (job_dir / "result.json").write_text(json.dumps({"status": "ok", "solver": solver, "metrics": metrics}))
+    assert studies.vehicle_response(sweep, sweep / "vehicle_response.png") == sweep / "vehicle_response.png"
+    compared = {r["value"]: r for r in _read_csv(sweep / "vehicle_response.csv") if r["parameter"] == "scene"}
+    assert set(compared) == {"base", "landing.cg_offset_m.0=0.3", "landing.roll_deg=2"}
+    assert compared["base"]["status"] == "within"
+    assert compared["landing.cg_offset_m.0=0.3"]["status"] == "outside"
+    assert float(compared["landing.cg_offset_m.0=0.3"]["tilt_gap_deg"]) == pytest.approx(1.09)
+    assert compared["landing.roll_deg=2"]["status"] == "within"
+    assert compared["landing.roll_deg=2"]["tilt_compared"] == "final_tilt_deg"
+    assert float(compared["landing.roll_deg=2"]["sinkage_gap"]) == pytest.approx(0.072 / 0.063 - 1)

@@ -110,6 +110,9 @@ def test_a_vehicle_heavier_on_one_side_rolls_and_its_mirror_image_rolls_back(com
     # the largest roll from the history's samples: within the kernel's step by step, and mirrored
     assert 0.0 < right["max_roll_deg"] <= right["max_rotation_deg"] and "max_pitch_deg" not in right
     assert left["max_roll_deg"] == pytest.approx(right["max_roll_deg"], rel=1e-12)
+    # the tilt at the end is the roll at the end, either way
+    assert right["final_tilt_deg"] == pytest.approx(abs(right["rotation_deg"]), rel=1e-12)
+    assert left["final_tilt_deg"] == pytest.approx(right["final_tilt_deg"], rel=1e-12)
 
 
 @pytest.mark.slow  # 200 s: two 3D landings to rest; the default suite mirrors the 3D turn on a plate (test_turn)

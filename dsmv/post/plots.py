@@ -120,6 +120,7 @@ _MAKERS = {
     "bearing_curves": studies.bearing_curves,
     "green_envelope": studies.green_envelope,
     "safe_region": studies.safe_region,
+    "vehicle_response": studies.vehicle_response,
 }
 #: what draws each sweep-level plot an experiment can ask for (``sweep_plot: <name>``, one of
 #: :data:`dsmv.config.scene.SWEEP_PLOTS`): ``maker(sweep_dir, png_path)``

@@ -610,3 +610,103 @@ def safe_region(sweep_dir: Path, path: Path) -> Path | None:
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return Path(path)
+
+
+#: the agreement the fast vehicle model is held to against the 3D CEL (docs/decisions/0033): sinkage
+#: within this fraction, tilt within TILT_AGREEMENT_DEG or the same fraction
+SINKAGE_AGREEMENT = 0.15
+TILT_AGREEMENT_DEG = 1.0
+#: what a vehicle study reads of each landing: the base's lowest point (as the verdict judges it), the
+#: largest tilt from level and the tilt at the end
+VEHICLE_RESPONSE = (("max_edge_sinkage_m", "deepest point of the base (m)"), ("max_rotation_deg", "largest tilt (°)"),
+                    ("final_tilt_deg", "tilt at the end (°)"))
+#: keys that tilt the vehicle at touchdown: its largest tilt is then that attitude, and the tilt it is
+#: compared by is the one it ends at
+ATTITUDE_KEYS = ("landing.roll_deg", "landing.pitch_deg")
+#: readable names of the keys a vehicle study varies
+VEHICLE_KEYS = {"landing.cg_offset_m.0": "centre of gravity across the tracks (m)",
+                "landing.cg_offset_m.1": "centre of gravity along the tracks (m)",
+                "landing.cg_offset_m.2": "centre of gravity above the base (m)",
+                "landing.roll_deg": "roll at touchdown (°)", "landing.pitch_deg": "pitch at touchdown (°)",
+                "landing.horizontal_velocity_m_s": "drift across at touchdown (m/s)",
+                "landing.velocity_m_s": "touchdown speed (m/s)", "soil.slope_deg": "seabed slope (°)"}
+
+
+def _scene_key(job: Job, config, keys) -> frozenset:
+    """The scene a job landed, told by the varied keys it set away from the sweep's base value (a
+    landing at the base of two parameters' lists is one scene)."""
+    moved = set()
+    for key in keys:
+        if key in job.values and float(job.values[key]) != float(OmegaConf.select(config, key, default=np.nan)):
+            moved.add((key, float(job.values[key])))
+    return frozenset(moved)
+
+
+def vehicle_response(sweep_dir: Path, path: Path) -> Path | None:
+    """A vehicle study, one parameter at a time (``hydra.sweeper.vary``): the base's deepest point, the
+    largest tilt and the tilt at the end against each parameter, one line per solver. Where the sweep ran
+    a CEL solver and a fast model on the same scenes, each scene's gap between them and whether it lies
+    within the agreement asked of the fast vehicle model (15 % on sinkage; 1°, or 15 %, on the largest
+    tilt, or on the tilt at the end for a vehicle that touched down tilted), the count in the title. Writes ``vehicle_response.csv`` (a row per landing, then a row per compared scene) and the PNG."""
+    config = _sweep_config(sweep_dir)
+    vary = _sweeper_vary(config)
+    jobs = [job for job in sweep_jobs(sweep_dir) if any(key in job.values for key in vary)]
+    if not jobs:
+        return None
+    rows, by_scene = [], {}
+    for job in jobs:
+        key = next(k for k in vary if k in job.values)
+        solver = job.result.get("solver", job.values.get("solver", "?"))
+        rows.append({"parameter": key, "value": float(job.values[key]), "solver": solver,
+                     "status": job.result["status"], **{name: job.metric(name) for name, _ in VEHICLE_RESPONSE},
+                     "wall_s": job.metric("wall_s")})
+        by_scene.setdefault(_scene_key(job, config, vary), {})[solver] = rows[-1]
+    solvers = list(dict.fromkeys(row["solver"] for row in rows))
+    reference = next((s for s in ("cel3d", "cel2d") if s in solvers), None)
+    compared = []
+    for scene, by_solver in by_scene.items():
+        truth = by_solver.get(reference)
+        for solver, row in by_solver.items():
+            if truth is None or solver == reference or "ok" not in (row["status"], truth["status"]) or \
+                    row["status"] != truth["status"]:
+                continue
+            tilt = "final_tilt_deg" if any(key in ATTITUDE_KEYS for key, _ in scene) else "max_rotation_deg"
+            sinkage_gap = row["max_edge_sinkage_m"] / truth["max_edge_sinkage_m"] - 1
+            tilt_gap = row[tilt] - truth[tilt]
+            within = abs(sinkage_gap) <= SINKAGE_AGREEMENT and (
+                abs(tilt_gap) <= max(TILT_AGREEMENT_DEG, SINKAGE_AGREEMENT * abs(truth[tilt])))
+            compared.append({"parameter": "scene", "value": " ".join(f"{k}={v:g}" for k, v in sorted(scene)) or "base",
+                             "solver": f"{solver} against {reference}", "status": "within" if within else "outside",
+                             "sinkage_gap": sinkage_gap, "tilt_compared": tilt, "tilt_gap_deg": tilt_gap})
+    _write_csv(Path(path).with_suffix(".csv"), rows + compared)
+
+    plt = _pyplot()
+    fig, axes = plt.subplots(len(VEHICLE_RESPONSE), len(vary), figsize=(3.4 * len(vary), 8.4), constrained_layout=True,
+                             squeeze=False)
+    markers = dict(zip(solvers, "os^Dv"))
+    for column, key in enumerate(vary):
+        for solver in solvers:
+            points = sorted((r["value"], r) for r in rows if r["parameter"] == key and r["solver"] == solver)
+            for ax, (name, label) in zip(axes[:, column], VEHICLE_RESPONSE):
+                good = [(value, r[name]) for value, r in points if r["status"] == "ok"]
+                if good:
+                    ax.plot(*zip(*good), markers[solver] + "-", mfc="none" if solver != reference else None,
+                            label=solver)
+                for value, r in points:
+                    if r["status"] != "ok":
+                        ax.axvline(value, color="tab:red", ls=":", lw=1)
+                        ax.annotate(f"{solver}: {r['status']}", (value, 0.5), xycoords=("data", "axes fraction"),
+                                    rotation=90, fontsize=7, color="tab:red")
+                ax.set_ylabel(label)
+                ax.grid(alpha=0.3)
+        axes[-1, column].set_xlabel(VEHICLE_KEYS.get(key, key))
+    axes[0, 0].legend(fontsize=7)
+    title = f"{config.get('study', '')}: the vehicle's deepest point and tilt, one parameter at a time"
+    if compared:
+        inside = sum(c["status"] == "within" for c in compared)
+        title += (f"\nfast model within {SINKAGE_AGREEMENT:.0%} (sinkage) and {TILT_AGREEMENT_DEG:g}° (tilt) of "
+                  f"{reference} on {inside} of {len(compared)} scenes")
+    fig.suptitle(title, fontsize=9)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return Path(path)
