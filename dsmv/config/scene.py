@@ -525,7 +525,8 @@ class SafetyConfig(Schema):
 #: the sweep-level plots an experiment can ask for with ``sweep_plot: <name>`` (drawn by
 #: :data:`dsmv.post.plots.SWEEP_PLOT_MAKERS`)
 SWEEP_PLOTS = ("fall_cone", "one_at_a_time", "compare_analytic", "mesh_study", "section_factors", "bearing_curves",
-               "green_envelope", "safe_region", "vehicle_response")
+               "green_envelope", "safe_region", "vehicle_response",
+               "per_vehicle")
 
 
 class TrackingConfig(Schema):

@@ -121,6 +121,7 @@ _MAKERS = {
     "green_envelope": studies.green_envelope,
     "safe_region": studies.safe_region,
     "vehicle_response": studies.vehicle_response,
+    "per_vehicle": studies.per_vehicle,
 }
 #: what draws each sweep-level plot an experiment can ask for (``sweep_plot: <name>``, one of
 #: :data:`dsmv.config.scene.SWEEP_PLOTS`): ``maker(sweep_dir, png_path)``

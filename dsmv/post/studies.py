@@ -710,3 +710,52 @@ def vehicle_response(sweep_dir: Path, path: Path) -> Path | None:
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return Path(path)
+
+
+def per_vehicle(sweep_dir: Path, path: Path) -> Path | None:
+    """Each scene landed on one track carrying the whole mass (``geometry=track_pioneer_i``, the reference
+    study's) and on the vehicle's two tracks (``geometry=vehicle_pioneer_i``): the two max sinkages and
+    their ratio. A scene is a job's overrides without ``geometry``. Writes ``per_vehicle.csv`` and the PNG."""
+    jobs = sweep_jobs(sweep_dir)
+    shared = set.intersection(*(set(job.overrides) for job in jobs)) if jobs else set()
+    pairs: dict[str, dict[str, Job]] = {}
+    for job in jobs:
+        case = " ".join(o for o in job.overrides if o not in shared and o.split("=", 1)[0] != "geometry")
+        pairs.setdefault(case, {})[job.values.get("geometry", "")] = job
+    rows = []
+    for case, by_geometry in pairs.items():
+        track, vehicle = by_geometry.get("track_pioneer_i"), by_geometry.get("vehicle_pioneer_i")
+        if track is None or vehicle is None:
+            continue
+        one, two = (job.metric("max_sinkage_m") if job.ok else np.nan for job in (track, vehicle))
+        rows.append({"scene": case, "one_track_m": one, "vehicle_m": two, "ratio": two / one,
+                     "one_track_status": track.result["status"], "vehicle_status": vehicle.result["status"]})
+    if not rows:
+        return None
+    _write_csv(Path(path).with_suffix(".csv"), rows)
+
+    one, two = (np.array([r[k] for r in rows]) for k in ("one_track_m", "vehicle_m"))
+    ratio = two / one
+    plt = _pyplot()
+    fig, (left, right) = plt.subplots(1, 2, figsize=(10, 4.3), constrained_layout=True)
+    top = 1.05 * np.nanmax(np.concatenate([one, two]))
+    left.plot([0, top], [0, top], "k-", lw=1, label="equal")
+    left.plot(one, two, "o", ms=3, color="tab:blue", label="a scene")
+    left.set_xlim(0, top)
+    left.set_ylim(0, top)
+    left.set_xlabel("one track carrying m: max sinkage (m)")
+    left.set_ylabel("the vehicle, m on two tracks: max sinkage (m)")
+    left.legend(fontsize=8)
+    left.grid(alpha=0.3)
+    finite = ratio[np.isfinite(ratio)]
+    right.hist(finite, bins=20, color="tab:blue")
+    right.set_xlabel("vehicle / one track")
+    right.set_ylabel("scenes")
+    right.grid(alpha=0.3)
+    failed = len(rows) - len(finite)
+    fig.suptitle(f"the Table 3 scenes per vehicle: {len(finite)} scenes, the vehicle sinks {np.median(finite):.2f} "
+                 f"(median; {finite.min():.2f}–{finite.max():.2f}) of the one track's depth"
+                 + (f"; {failed} not compared (a landing not ok)" if failed else ""), fontsize=9)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return Path(path)
