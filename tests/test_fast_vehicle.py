@@ -79,9 +79,9 @@ def test_a_tilting_vehicle_s_summary_names_its_assumed_mass_layout_and_each_trac
     assert "(the base's middle)" in done.stdout and "its tracks" in done.stdout and "turned" in done.stdout
 
 
-def test_a_drift_in_the_fast_vehicle_model_is_refused_naming_its_key(run_cli):
-    """It sinks, pitches and rolls: a drift or a slide runs in cel3d (one line, exit 2)."""
-    result = run_cli("dsmv", *VEHICLE, "landing.free=[z,x]", "landing.horizontal_velocity_m_s=0.2")
+def test_a_yaw_in_the_fast_vehicle_model_is_refused_naming_its_key(run_cli):
+    """It sinks, slides, pitches and rolls: a yaw runs in cel3d (one line, exit 2)."""
+    result = run_cli("dsmv", *VEHICLE, "landing.free=[z,rz]")
     assert result.returncode == 2
     assert "landing.free" in result.stderr and len(result.stderr.strip().splitlines()) == 1
 
@@ -89,6 +89,8 @@ def test_a_drift_in_the_fast_vehicle_model_is_refused_naming_its_key(run_cli):
 @pytest.mark.parametrize("overrides", [
     ["landing.free=[z,ry]", "landing.cg_offset_m=[0.3,0,0]"],
     ["landing.free=[z,rx,ry]", "landing.cg_offset_m=[0.2,-0.4,0.1]", "landing.pitch_deg=2", "soil.law=tresca"],
+    ["landing.free=[z,x,y,rx,ry]", "landing.cg_offset_m=[0.2,0,0.5]", "soil.slope_deg=10",
+     "soil.downslope_direction_deg=30", "landing.lateral_velocity_m_s=0.3"],
 ])
 def test_vehicles_landed_together_land_as_each_alone(compose_cfg, overrides):
     """task=exceedance lands a block of vehicles at once (one row each): the scene's own vehicle among
@@ -107,6 +109,7 @@ def test_vehicles_landed_together_land_as_each_alone(compose_cfg, overrides):
         deepest = max(alone.metrics["max_sinkage_m"], alone.metrics["max_edge_sinkage_m"])
         assert landed.sinkage_m[k] == pytest.approx(deepest, rel=1e-12)
         assert landed.tilt_deg[k] == pytest.approx(alone.metrics["max_rotation_deg"], rel=1e-12)
+        assert landed.slide_m[k] == pytest.approx(alone.metrics["max_horizontal_displacement_m"], rel=1e-12, abs=1e-15)
     assert len(set(np.round(landed.tilt_deg, 6))) == 3  # the draws changed the landings
 
 
@@ -135,11 +138,83 @@ def test_a_vehicles_exceedance_gives_its_tilts_beside_its_sinkage_and_its_mirror
 
 @pytest.mark.parametrize("args, message", [
     (["task=predict"], "task = 'predict': a vehicle scene answers task=exceedance"),
-    (["task=exceedance", "sinkage_limit_m=0.1", "landing.free=[z,x]", "landing.horizontal_velocity_m_s=0.2"],
-     "landing.free"),
-    (["task=exceedance", "sinkage_limit_m=0.1", "soil.slope_deg=5"], "soil.slope_deg = 5.0: the fast vehicle model"),
+    (["task=exceedance", "sinkage_limit_m=0.1", "landing.free=[z,rz]"], "landing.free"),
+    (["task=exceedance", "sinkage_limit_m=0.1", "soil.slope_deg=35"], "soil.slope_deg = 35.0: the seabed would slide"),
 ])
 def test_a_vehicle_question_the_fast_model_cannot_answer_is_one_line_with_exit_2(run_cli, args, message):
     done = run_cli("dsmv-predict", "geometry=vehicle_pioneer_i", *args)  # (its solver: cel3d, which takes a slope)
     assert done.returncode == 2, done.stderr
     assert message in done.stderr and len(done.stderr.strip().splitlines()) == 1, done.stderr
+
+
+# ------------------------------------------------------------------ along the seabed: slope, drift, slide
+
+#: a heavy vehicle set down slowly on strong uniform Tresca soil, free to sink, slide and roll: it slides
+#: long before its slope would fail (su ≫ ρ'·g·B), as the strip of decision 0032's check does
+SET_DOWN = ["soil.law=tresca", "soil.su0_pa=20000", "soil.ks_pa_per_m=0", "soil.youngs_modulus_pa=1e7",
+            "landing.velocity_m_s=0.05", "landing.mass_kg=20000", "landing.free=[z,x,ry]"]
+
+
+def green_slope_deg(scene, depth_m: float) -> float:
+    """The slope at which a track of the vehicle, its base ``depth_m`` deep, carries V = W·cos β and
+    H = W·sin β on Green's envelope, its strength s that of its bearing capacity at that depth, A·p/(2 + π)."""
+    import math
+
+    from scipy.optimize import brentq
+
+    from dsmv.analytic.bearing import PRANDTL_NC, green_horizontal
+    from dsmv.analytic.dynamic import fast_vehicle
+
+    model = fast_vehicle(scene)
+    weight, area = 0.5 * model.weight_n[0], scene.geometry.contact_area_m2
+    strength = area * model.pressure(np.array([[depth_m]]), np.array([[0.0]]))[0, 0] / PRANDTL_NC
+    return math.degrees(brentq(lambda b: weight * math.sin(b) - strength * green_horizontal(
+        weight * math.cos(b) / strength), 1e-3, 1.5))
+
+
+def test_a_vehicle_set_down_slowly_slides_where_green_s_envelope_says(compose_cfg):
+    """Set down at 0.05 m/s on slopes across its tracks: each track carries V = W·cos β and H = W·sin β,
+    and the vehicle stays where Green's (1954) envelope, at the embedment it reached, holds that load and
+    slides away beyond it (the acceptance: within 10 % in slope angle; measured: rests at 40°, slides away
+    at 42°, Green at 41.6°)."""
+    level = build_scene(compose_cfg([*VEHICLE, *SET_DOWN]))
+    green = green_slope_deg(level, land(compose_cfg, *SET_DOWN).metrics["max_edge_sinkage_m"])
+    assert 35.0 < green < 50.0  # the scene is one where the slope, not the soil, decides
+    stays = land(compose_cfg, *SET_DOWN, f"soil.slope_deg={0.9 * green}")
+    slides = land(compose_cfg, *SET_DOWN, f"soil.slope_deg={1.1 * green}")
+    assert stays.status == "ok" and stays.metrics["max_horizontal_displacement_m"] < level.geometry.width_m
+    assert slides.status == "bearing_failure" and "slides" in slides.message
+    assert slides.metrics["max_horizontal_displacement_m"] > 10.0 * level.geometry.width_m
+
+
+def test_a_vehicle_slides_down_its_slope_as_its_mirror_image(compose_cfg):
+    """A slope falling towards +x and one towards −x (10°), the centre of gravity high above the base:
+    the vehicle slides downhill and rolls the same, mirrored, to round-off."""
+    down, up = (land(compose_cfg, "landing.free=[z,x,ry]", "landing.cg_offset_m=[0,0,0.8]", "soil.slope_deg=10",
+                     f"soil.downslope_direction_deg={a}") for a in (0, 180))
+    assert down.status == up.status == "ok"
+    assert down.history["horizontal_displacement_m"][-1] > 1e-3
+    np.testing.assert_allclose(up.history["horizontal_displacement_m"], -down.history["horizontal_displacement_m"],
+                               rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(up.history["rotation_deg"], -down.history["rotation_deg"], rtol=1e-12, atol=1e-13)
+    assert up.metrics["max_sinkage_m"] == pytest.approx(down.metrics["max_sinkage_m"], rel=1e-12)
+
+
+def test_a_symmetric_vehicle_free_to_slide_lands_as_one_held(compose_cfg):
+    """Level, upright, no drift: free to slide along x and y as well, it lands exactly as one held to
+    sink, and does not slide."""
+    held, free = land(compose_cfg), land(compose_cfg, "landing.free=[z,x,y,rx,ry]")
+    assert free.metrics["max_horizontal_displacement_m"] == 0.0
+    for name in ("max_sinkage_m", "max_edge_sinkage_m", "time_to_rest_s"):
+        assert free.metrics[name] == held.metrics[name]
+
+
+def test_a_drifting_vehicle_slides_the_farther_the_faster_it_drifts(compose_cfg):
+    """Touching down drifting across its tracks at 0.5 and 1 m/s: it comes to rest having slid, farther
+    the faster; drifting the other way it slides as its mirror image."""
+    slow, fast, back = (land(compose_cfg, "landing.free=[z,x,ry]", f"landing.horizontal_velocity_m_s={v}")
+                        for v in (0.5, 1.0, -0.5))
+    assert slow.status == fast.status == "ok"
+    assert 0.0 < slow.metrics["max_horizontal_displacement_m"] < fast.metrics["max_horizontal_displacement_m"]
+    assert back.history["horizontal_displacement_m"][-1] == pytest.approx(
+        -slow.history["horizontal_displacement_m"][-1], rel=1e-12)

@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 PRANDTL_NC = 2.0 + math.pi  # Prandtl (1920): rigid strip on the surface of weightless Tresca soil
 #: a deeply embedded cylinder (T-bar) in weightless Tresca soil, full flow round it: Randolph &
 #: Houlsby (1984) for the rough one, Martin & Randolph (2006) for the smooth one (exact)
@@ -35,6 +37,20 @@ def green_vertical(h: float) -> float:
     if not 0.0 <= h <= 1.0:
         raise ValueError(f"h = H/(B·su) must lie in [0, 1], not {h}")
     return 1.0 + math.pi - math.asin(h) + math.sqrt(1.0 - h * h)
+
+
+def green_horizontal(v):
+    """The inverse of :func:`green_vertical`: the horizontal capacity h = H/(B·su) a rough surface strip
+    carrying v = V/(B·su) has on Green's (1954) envelope, for arrays too: 1 for v ≤ 1 + π/2 (it slides
+    along its base), 0 for v ≥ 2 + π; between, with h = sin t, the root of 1 + π − t + cos t = v, which
+    falls in t, by bisection to round-off."""
+    v = np.asarray(v, dtype=float)
+    low, high = np.zeros_like(v), np.full_like(v, 0.5 * math.pi)
+    for _ in range(60):
+        mid = 0.5 * (low + high)
+        beyond = 1.0 + math.pi - mid + np.cos(mid) > v  # the envelope's v at t = mid still above v: t is larger
+        low, high = np.where(beyond, mid, low), np.where(beyond, high, mid)
+    return np.sin(0.5 * (low + high))
 
 
 def segment_distance_integral(half_angle: float, radius: float) -> float:

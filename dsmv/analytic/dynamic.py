@@ -39,6 +39,11 @@ class AnalyticDynamicSolver:
     config_model = AnalyticDynamicConfig
 
     @staticmethod
+    def takes_slope(scene: Scene) -> bool:
+        """The fast vehicle model lands on a sloping seabed; the one-track model on a level one."""
+        return scene.geometry.vehicle
+
+    @staticmethod
     def check_scene(scene: Scene) -> None:
         """The model was measured against the CEL's track section and strip landings."""
         if scene.geometry.kind not in ("track", "strip"):
@@ -46,7 +51,7 @@ class AnalyticDynamicSolver:
                               "the dynamic model lands tracks and strips; use solver=cel2d for this body")
         if scene.landing.kind == "push":
             raise ConfigError("landing.kind", "push", "the dynamic model lands bodies; a push is solver=analytic_energy")
-        if scene.geometry.vehicle:  # the fast vehicle model: it sinks, pitches and rolls
+        if scene.geometry.vehicle:  # the fast vehicle model: it sinks, slides, pitches and rolls
             check_vehicle_scene(scene)
             return
         refuse_beyond_the_closed_form(scene, "the dynamic model", bent_profile=True)

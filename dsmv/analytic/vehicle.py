@@ -33,6 +33,7 @@ from dataclasses import fields, replace
 
 import numpy as np
 
+from dsmv.analytic.bearing import PRANDTL_NC, green_horizontal
 from dsmv.analytic.landing_model import (
     LARGEST_SINKAGE_WIDTHS, REST_MOMENT_FRACTION, REST_SPEED_AFTER_FALL, Landing, cut_in, default_config, resistance,
 )
@@ -52,18 +53,25 @@ HISTORY_SAMPLES = 400
 
 
 def check_vehicle_scene(scene: Scene) -> None:
-    """What the fast vehicle model does not move: a drift or slide, a yaw; nor does it land on a slope."""
+    """What the fast vehicle model does not move: a yaw."""
     landing = scene.landing
-    if scene.soil.slope_deg != 0:
-        raise ConfigError("soil.slope_deg", scene.soil.slope_deg, "the fast vehicle model lands on a level seabed; "
-                          "a sloping one runs in solver=cel3d")
-    for name in ("x", "y", "rz"):
-        if name in landing.freedoms or landing.given_velocity(name):
-            key = "landing.free" if name in landing.freedoms else "landing." + {
-                "x": "horizontal_velocity_m_s", "y": "lateral_velocity_m_s", "rz": "yaw_rate_rad_s"}[name]
-            raise ConfigError(key, landing.free if name in landing.freedoms else landing.given_velocity(name),
-                              "the fast vehicle model sinks, pitches and rolls; a drift, a slide or a yaw runs "
-                              "in solver=cel3d")
+    if "rz" in landing.freedoms or landing.given_velocity("rz"):
+        key = "landing.free" if "rz" in landing.freedoms else "landing.yaw_rate_rad_s"
+        raise ConfigError(key, landing.free if "rz" in landing.freedoms else landing.given_velocity("rz"),
+                          "the fast vehicle model sinks, slides, pitches and rolls; a yaw runs in solver=cel3d")
+
+
+def gazetas_horizontal_ratios(poisson_ratio: float, length_m: float, width_m: float) -> tuple[float, float]:
+    """A rigid rectangular footing's horizontal stiffness across (x, its width) and along it (y, its length)
+    over its vertical one, on an elastic half-space (Gazetas 1991, J. Geotech. Eng. 117(9), Table 1; half
+    length l, half width b, χ = A/(4·l²)): K_y = 2Gl/(2 − ν)·(2 + 2.5·χ^0.85), K_x = K_y − 0.2·G·l·(1 − b/l)
+    /(0.75 − ν), K_z = 2Gl/(1 − ν)·(0.73 + 1.54·χ^0.75)."""
+    nu, half_length, half_width = poisson_ratio, 0.5 * length_m, 0.5 * width_m
+    chi = length_m * width_m / (4.0 * half_length**2)
+    along = 2.0 / (2.0 - nu) * (2.0 + 2.5 * chi**0.85)
+    across = along - 0.2 / (0.75 - nu) * (1.0 - half_width / half_length)
+    vertical = 2.0 / (1.0 - nu) * (0.73 + 1.54 * chi**0.75)
+    return across / vertical, along / vertical
 
 
 def turn_rows(angle_x, angle_y) -> np.ndarray:
@@ -82,8 +90,8 @@ def vehicle_config(config):
 
 
 #: a landing's end, per vehicle of a batch (:meth:`VehicleModel.land`)
-RUNNING, AT_REST, PASSED, UNSETTLED = 0, 1, 2, 3
-STATUS = {AT_REST: "ok", PASSED: "bearing_failure", UNSETTLED: "unstable"}
+RUNNING, AT_REST, PASSED, UNSETTLED, SLID = 0, 1, 2, 3, 4
+STATUS = {AT_REST: "ok", PASSED: "bearing_failure", UNSETTLED: "unstable", SLID: "bearing_failure"}
 
 
 class VehicleModel:
@@ -131,6 +139,7 @@ class VehicleModel:
         y = np.tile(along, 2 * PATCHES_ACROSS)
         self.arms = np.stack([x - cg[0], y - cg[1], np.full_like(x, -cg[2])])  # patch from the centre of gravity (m)
         self.patch_area_m2 = body.contact_area_m2 / (PATCHES_ALONG * PATCHES_ACROSS)
+        self.track_of_patch = np.repeat([0, 1], PATCHES_ALONG * PATCHES_ACROSS)
         half = body.half_span_m
         self.corners = np.array([[sx * half - cg[0], sy * 0.5 * body.contact_length_m - cg[1], -cg[2]]
                                  for sx in (-1.0, 1.0) for sy in (-1.0, 1.0)]).T
@@ -148,6 +157,21 @@ class VehicleModel:
         self.dashpot_pa_s_per_m = density * wave_speed
         self.floor_pa = config.bearing_factor * su0  # the weakest full pressure (Pa)
         self.free = np.array([name in landing.freedoms for name in ("rx", "ry")], dtype=float)
+        # along the seabed (the grid's x and y; on a slope gravity turned, as in the CEL): each track's base
+        # resists with Green's envelope at its load, elastic below it (stiffness: Gazetas's horizontal over
+        # vertical, times the vertical one the patches have), and radiates shear waves, ρ'·Vs per unit area
+        self.free_xy = np.array([name in landing.freedoms for name in ("x", "y")], dtype=float)
+        g = landing.gravity_m_s2
+        along_x, along_y, normal = soil.gravity_components(g) if g > 0.0 else (0.0, 0.0, 0.0)
+        scale = 1.0 / g if g > 0.0 else 0.0
+        self.normal_weight_n = self.weight_n * (normal * scale if g > 0.0 else 1.0)
+        self.along_weight_n = np.outer(self.weight_n, [along_x * scale, along_y * scale])
+        self.track_arms = np.stack([np.array([side * body.track_offset_m, 0.0, 0.0]) - cg for side in (-1.0, 1.0)],
+                                   axis=1)  # each track's base middle from the centre of gravity (3, tracks)
+        ratios = np.array(gazetas_horizontal_ratios(soil.poisson_ratio, body.contact_length_m, body.width_m))
+        vertical = body.contact_area_m2 * self.floor_pa / np.maximum(self.elastic_depth_m, 1e-6 * body.width_m)
+        self.slide_stiffness = np.outer(vertical, ratios)  # per track along x and y (N/m)
+        self.slide_dashpot = np.sqrt(shear_pa * density) * body.contact_area_m2  # per track (N·s/m)
 
     def pressure(self, depth: np.ndarray, speed: np.ndarray, soil: Landing | None = None, factor=None) -> np.ndarray:
         """The fast landing model's pressure (Pa) on patches (vehicles × patches) whose grousers' tips are
@@ -171,32 +195,42 @@ class VehicleModel:
         rows = turn_rows(angles[:, 0], angles[:, 1])
         depth_cg = self.grouser_height_m + (rows[:, 2] @ self.corners).min(axis=1)  # its lowest corner gh deep
         speed, before = self.speed_m_s.copy(), np.full(n, np.nan)
+        drift = np.tile(np.array([landing.given_velocity("x"), landing.given_velocity("y")], dtype=float), (n, 1))
+        slide, inclined = np.zeros((n, 2)), np.ones((n, 2))
+        slip = np.broadcast_to((rows @ self.track_arms)[:, :2] - self.track_arms[:2], (n, 2, 2)).copy()
         deepest = np.full((n, self.arms.shape[1]), -np.inf)  # each patch's deepest, and its pressure there
         pressed = np.zeros_like(deepest)
         time, steps, fell, end = np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool), np.full(n, RUNNING)
         middle_most, edge_most, turn_most = np.full(n, -np.inf), np.full(n, -np.inf), np.hypot(*angles.T)
+        slide_most = np.zeros(n)
         # per vehicle: what it is, then where it is; ``index``: the vehicles the arrays' rows hold
-        given = {"mass": self.mass_kg, "weight": self.weight_n, "inertia": self.inertia[:, :2],
-                 "elastic": self.elastic_depth_m, "dashpot": self.dashpot_pa_s_per_m, "floor": self.floor_pa,
-                 "rest_speed": REST_SPEED_AFTER_FALL * self.speed_m_s,
+        touchdown = np.maximum(self.speed_m_s, np.hypot(*drift.T))
+        given = {"mass": self.mass_kg, "weight": self.normal_weight_n, "along": self.along_weight_n,
+                 "inertia": self.inertia[:, :2], "elastic": self.elastic_depth_m, "dashpot": self.dashpot_pa_s_per_m,
+                 "floor": self.floor_pa, "slide_stiffness": self.slide_stiffness, "slide_dashpot": self.slide_dashpot,
+                 "rest_speed": REST_SPEED_AFTER_FALL * touchdown,
                  "moment_limit": REST_MOMENT_FRACTION * self.weight_n * self.reach_m}
         soil, factor, index = self.patch_soil, self.factor, np.arange(n)
         state = dict(angles=angles, rates=rates, depth_cg=depth_cg, speed=speed, before=before, deepest=deepest,
                      pressed=pressed, time=time, steps=steps, fell=fell, end=end, middle_most=middle_most,
-                     edge_most=edge_most, turn_most=turn_most)
+                     edge_most=edge_most, turn_most=turn_most, drift=drift, slide=slide, slip=slip,
+                     slide_most=slide_most, inclined=inclined)
         out = {name: np.empty((n, *value.shape[1:]), dtype=value.dtype) for name, value in state.items()
-               if name in ("angles", "time", "steps", "end", "middle_most", "edge_most", "turn_most")}
+               if name in ("angles", "time", "steps", "end", "middle_most", "edge_most", "turn_most", "slide",
+                           "slide_most")}
         samples = []
         while True:
             (angles, rates, depth_cg, speed, before, deepest, pressed, time, steps, fell, end, middle_most, edge_most,
-             turn_most) = state.values()
+             turn_most, drift, slide, slip, slide_most, inclined) = state.values()
             if not (running := end == RUNNING).any():
                 break
             rows = turn_rows(angles[:, 0], angles[:, 1])
             arm = rows @ self.arms  # (vehicles, 3, patches)
             depth = depth_cg[:, None] - arm[:, 2]
             down = speed[:, None] - rates[:, :1] * arm[:, 1] + rates[:, 1:] * arm[:, 0]
-            load = self.pressure(depth, down, soil, factor)
+            # the track's pressure as its base is pushed along the seabed too: Green's inclination, V at h
+            # over V at 0, so that a track pushed sideways sinks on until its load lies on the envelope
+            load = self.pressure(depth, down, soil, factor) * inclined[:, self.track_of_patch]
             deeper = depth >= deepest
             below = np.where(deeper, 0.0, deepest - depth)  # how far each patch has risen from its deepest
             elastic_depth = given["elastic"][:, None]
@@ -207,35 +241,50 @@ class VehicleModel:
             p = np.where(deeper, load, np.clip(np.minimum(elastic, load), 0.0, None))
             deepest, pressed = np.where(deeper, depth, deepest), np.where(deeper, load, pressed)
             force = p * area
-            moment = np.stack([(arm[:, 1] * force).sum(axis=1), -(arm[:, 0] * force).sum(axis=1)], axis=1)
+            along, slip, pushed_ratio = self.along_seabed(rows, rates, depth_cg, speed, slide, drift, slip, force,
+                                                          given, soil, factor)
+            inclined = (1.0 + math.pi - np.arcsin(pushed_ratio) + np.sqrt(1.0 - pushed_ratio**2)) / PRANDTL_NC
+            tracks = rows @ self.track_arms  # (vehicles, 3, tracks): where the base's resistance along it acts
+            moment = np.stack([(arm[:, 1] * force).sum(axis=1) - (tracks[:, 2] * along[:, 1]).sum(axis=1),
+                               -(arm[:, 0] * force).sum(axis=1) + (tracks[:, 2] * along[:, 0]).sum(axis=1)], axis=1)
             total = force.sum(axis=1)
+            pushed = along.sum(axis=2)  # (vehicles, x y)
             middle = depth_cg - rows[:, 2] @ self.middle
             middle_most = np.maximum(middle_most, middle)
             edge_most = np.maximum(edge_most, depth_cg - (rows[:, 2] @ self.corners).min(axis=1))
             turn_most = np.maximum(turn_most, np.hypot(*angles.T))
+            slide_most = np.maximum(slide_most, np.hypot(*slide.T))
             if history:
-                samples.append((time[0], middle[0], speed[0], total[0] / 2.0, *np.degrees(angles[0]), *(moment[0] / 2.0)))
+                samples.append((time[0], middle[0], speed[0], total[0] / 2.0, *np.degrees(angles[0]), *(moment[0] / 2.0),
+                                *slide[0], *(pushed[0] / 2.0)))
             stiffness = area * np.maximum(pressed, given["floor"][:, None]).sum(axis=1) / np.maximum(
                 given["elastic"], 1e-6 * body.width_m)
             dt = STEP_FRACTION * np.sqrt(given["mass"] / stiffness)
             fell = fell | ((before > 0.0) & (speed <= 0.0))  # its fall has stopped
             turning = np.abs(rates * self.free).max(axis=1) * self.reach_m
+            sliding = np.abs(drift * self.free_xy).max(axis=1)
             rest = (fell & (np.abs(speed) <= given["rest_speed"]) & (turning <= given["rest_speed"])
+                    & (sliding <= given["rest_speed"])
                     & (np.abs(moment * self.free).max(axis=1) <= given["moment_limit"]))
             end = np.where(running & rest, AT_REST, end)
             end = np.where((end == RUNNING) & (middle > LARGEST_SINKAGE_WIDTHS * body.width_m), PASSED, end)
+            end = np.where((end == RUNNING) & (slide_most > LARGEST_SINKAGE_WIDTHS * body.width_m), SLID, end)
             end = np.where((end == RUNNING) & (time > LONGEST_S), UNSETTLED, end)
             moving = (end == RUNNING)[:, None]
             steps = steps + running
             before = speed
             speed = np.where(moving[:, 0], speed + dt * (given["weight"] - total) / given["mass"], speed)
             rates = np.where(moving, rates + dt[:, None] * moment / given["inertia"] * self.free, rates)
+            drift = np.where(moving, drift + dt[:, None] * (given["along"] + pushed) / given["mass"][:, None]
+                             * self.free_xy, drift)
             depth_cg = np.where(moving[:, 0], depth_cg + dt * speed, depth_cg)
+            slide = np.where(moving, slide + dt[:, None] * drift, slide)
             angles = np.where(moving, angles + dt[:, None] * rates, angles)
             time = np.where(moving[:, 0], time + dt, time)
             state = dict(angles=angles, rates=rates, depth_cg=depth_cg, speed=speed, before=before, deepest=deepest,
                          pressed=pressed, time=time, steps=steps, fell=fell, end=end, middle_most=middle_most,
-                         edge_most=edge_most, turn_most=turn_most)
+                         edge_most=edge_most, turn_most=turn_most, drift=drift, slide=slide, slip=slip,
+                         slide_most=slide_most, inclined=inclined)
             still = moving[:, 0]
             if self.factor_of_rows is not None and still.sum() < 0.75 * len(still):  # the ended leave the arrays
                 for name in out:
@@ -250,18 +299,61 @@ class VehicleModel:
             out[name][index] = state[name]
         return {"end": out["end"], "time_s": out["time"], "steps": out["steps"], "middle_m": out["middle_most"],
                 "edge_m": out["edge_most"], "turn_rad": out["turn_most"], "roll_rad": out["angles"][:, 1],
-                "pitch_rad": out["angles"][:, 0], "samples": samples}
+                "pitch_rad": out["angles"][:, 0], "slide_m": out["slide_most"], "final_slide_m": out["slide"],
+                "samples": samples}
+
+    def along_seabed(self, rows, rates, depth_cg, speed, slide, drift, slip, force, given, soil, factor):
+        """The soil's force along the seabed on each track's base (vehicles, x y, tracks) and the tracks' slip:
+        elastic from where the base last slipped, up to Green's (1954) capacity of a rough strip at the
+        track's load, h = H/(A·s) at v = V/(A·s) (:func:`dsmv.analytic.bearing.green_horizontal`), with s the
+        strength for which the track's capacity is Prandtl's, the fast model's pressure at its depth and speed
+        over 2 + π (while it sinks, the envelope's point whose normal is its motion's, if larger); and the
+        base's radiation dashpot while it bears and holds. Also each track's h (the spring's),
+        which the patches' next pressures are inclined by."""
+        tracks = rows @ self.track_arms
+        moved = slide[:, :, None] + tracks[:, :2] - self.track_arms[:2]
+        swing = np.stack([rates[:, 1:] * tracks[:, 2], -rates[:, :1] * tracks[:, 2]], axis=1)  # ω × r along the seabed
+        velocity = drift[:, :, None] + swing
+        half = force.shape[1] // 2
+        load = np.stack([force[:, :half].sum(axis=1), force[:, half:].sum(axis=1)], axis=1)  # (vehicles, tracks)
+        depth = depth_cg[:, None] - tracks[:, 2]
+        down = speed[:, None] - rates[:, :1] * tracks[:, 1] + rates[:, 1:] * tracks[:, 0]
+        area = self.scene.geometry.contact_area_m2
+        strength = area * self.pressure(depth, down, soil, factor) / PRANDTL_NC
+        bearing = (load > 0.0) & (strength > 0.0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            capacity = green_horizontal(np.where(bearing, load / strength, 0.0))
+            # a track sinking as it slides yields on the envelope where its normal is the motion's direction:
+            # at the vertex h = 0 while it slides no faster than it sinks, else h = (r² − 1)/(r² + 1),
+            # r = slide speed / sinking speed (normality on Green's envelope, whose slope is −(1 + h)/√(1 − h²))
+            ratio2 = np.where(down > 0.0, (velocity[:, 0]**2 + velocity[:, 1]**2) / np.where(down > 0.0, down, 1.0)**2,
+                              0.0)
+            flowing = np.where(down > 0.0, np.maximum((ratio2 - 1.0) / (ratio2 + 1.0), 0.0), 0.0)
+            capacity = np.where(bearing, strength * np.maximum(capacity, flowing), 0.0)
+            stiffness = given["slide_stiffness"][:, :, None]
+            trial = -stiffness * (moved - slip)
+            size = np.hypot(trial[:, 0], trial[:, 1])
+            over = size > capacity
+            resisted = trial * np.where(over, capacity / np.where(over, size, 1.0), 1.0)[:, None, :]
+        slip = np.where(over[:, None, :], moved + resisted / stiffness, slip)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(bearing, np.minimum(np.hypot(resisted[:, 0], resisted[:, 1]) / strength, 1.0), 0.0)
+        # the dashpot radiates the base's vibration while it holds: a base slipping along the seabed radiates none
+        holding = (bearing & ~over)[:, None, :]
+        return resisted - given["slide_dashpot"][:, None, None] * velocity * holding, slip, ratio
 
     def solve(self) -> SolveResult:
         body = self.scene.geometry
         landed = self.land(history=True)
-        status, time, middle = STATUS[int(landed["end"][0])], float(landed["time_s"][0]), float(landed["middle_m"][0])
-        message = {"ok": f"came to rest at {middle:.4g} m after {time:.3g} s",
-                   "bearing_failure": f"the vehicle passes {LARGEST_SINKAGE_WIDTHS:g} B without stopping",
-                   "unstable": f"the vehicle did not settle within {LONGEST_S:g} s"}[status]
+        end, time, middle = int(landed["end"][0]), float(landed["time_s"][0]), float(landed["middle_m"][0])
+        status = STATUS[end]
+        message = {AT_REST: f"came to rest at {middle:.4g} m after {time:.3g} s",
+                   PASSED: f"the vehicle passes {LARGEST_SINKAGE_WIDTHS:g} B without stopping",
+                   SLID: f"the vehicle slides {LARGEST_SINKAGE_WIDTHS:g} B along the seabed without stopping",
+                   UNSETTLED: f"the vehicle did not settle within {LONGEST_S:g} s"}[end]
         history = self._history(landed["samples"])
         metrics = {"max_sinkage_m": middle, "max_edge_sinkage_m": float(landed["edge_m"][0]),
-                   "max_rotation_deg": math.degrees(landed["turn_rad"][0]), "max_horizontal_displacement_m": 0.0,
+                   "max_rotation_deg": math.degrees(landed["turn_rad"][0]), "max_horizontal_displacement_m": float(landed["slide_m"][0]),
                    "rotation_deg": float(history["rotation_deg"][-1]), "pitch_deg": float(history["pitch_deg"][-1]),
                    "time_to_rest_s": time, "sinkage_over_width": middle / body.width_m,
                    "weight_per_track_n": 0.5 * float(self.weight_n[0]), "steps": float(landed["steps"][0])}
@@ -276,9 +368,10 @@ class VehicleModel:
     @staticmethod
     def _history(samples: list) -> dict:
         """The steps' samples, thinned to at most :data:`HISTORY_SAMPLES` (the last kept): per track, the
-        force and moments the soil puts on the vehicle."""
+        force and moments the soil puts on the vehicle; its slide along the seabed."""
         keep = np.unique(np.r_[np.linspace(0, len(samples) - 1, min(len(samples), HISTORY_SAMPLES)).astype(int)])
         table = np.array(samples)[keep]
         names = ("time_s", "sinkage_m", "velocity_m_s", "force_n", "pitch_deg", "rotation_deg", "pitch_moment_n_m",
-                 "moment_n_m")
+                 "moment_n_m", "horizontal_displacement_m", "lateral_displacement_m", "horizontal_force_n",
+                 "lateral_force_n")
         return dict(zip(names, table.T))

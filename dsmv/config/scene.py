@@ -651,6 +651,10 @@ def settle_mesh(cfg: DictConfig | dict, mesh: Any, solver_cls) -> Any:
     return settled
 
 
+#: the soil the CEL's domain holds below the body by default, in body widths (conf/solver/cel2d.yaml, cel3d.yaml)
+DEFAULT_DOMAIN_DEPTH_WIDTHS = 5.0
+
+
 def check_slope(scene: Scene, solver_cls) -> None:
     """A sloping seabed: in a solver that takes it (``takes_slope``: the CEL's, the level grid with gravity
     turned), and standing (its infinite slope does not fail under its own weight down to what the model
@@ -658,11 +662,14 @@ def check_slope(scene: Scene, solver_cls) -> None:
     soil = scene.soil
     if soil.slope_deg == 0:
         return
-    if not getattr(solver_cls, "takes_slope", False):
+    takes_slope = getattr(solver_cls, "takes_slope", False)
+    if not (takes_slope(scene) if callable(takes_slope) else takes_slope):
         raise ConfigError("soil.slope_deg", soil.slope_deg, "a sloping seabed runs in cel2d and cel3d (the level "
                           f"grid with gravity turned); {scene.solver.name} lands on a level one")
-    # the soil the model holds below the body, and what enters at its base as the body sinks a width
-    modelled = scene.landing.initial_depth_m + (scene.solver.domain_depth_widths + 1.0) * scene.geometry.width_m
+    # the soil the model holds below the body, and what enters at its base as the body sinks a width (a model
+    # without a grid: the CEL's default domain's)
+    depth_widths = getattr(scene.solver, "domain_depth_widths", DEFAULT_DOMAIN_DEPTH_WIDTHS)
+    modelled = scene.landing.initial_depth_m + (depth_widths + 1.0) * scene.geometry.width_m
     steepest = soil.steepest_slope_deg(scene.landing.gravity_m_s2, modelled)
     if soil.slope_deg > steepest:
         raise ConfigError("soil.slope_deg", soil.slope_deg, f"the seabed would slide: as an infinite slope its weight "

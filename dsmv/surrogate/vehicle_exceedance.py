@@ -1,11 +1,13 @@
-"""``dsmv-predict task=exceedance`` on a vehicle scene: P(sinkage > limit) beside P(tilt > limit).
+"""``dsmv-predict task=exceedance`` on a vehicle scene: P(sinkage > limit) beside P(tilt > limit) and
+P(slide > limit).
 
 The registered surrogates learn one track's sinkage; a vehicle also tilts, by its centre of gravity,
 its attitude at touchdown and how its two tracks bear. So a vehicle scene's samples (the
 ``uncertainty`` group's, as a track's) are each landed by the fast vehicle model
 (:mod:`dsmv.analytic.vehicle`, docs/decisions/0033), all of a block at once. Per sample the answer
 is what the verdict judges (:mod:`dsmv.safety`): the sinkage of the base's lowest point (the
-grousers' tips), the largest tilt from level, and whether the soil stopped the vehicle. A landing
+grousers' tips), the largest tilt from level, the largest slide along the seabed (on a slope, or
+drifting at touchdown), and whether the soil stopped the vehicle. A landing
 the soil does not stop exceeds every limit.
 
 The samples' E is their su0 times the scene's E/su0, as the surrogates' physics features hold it.
@@ -56,15 +58,19 @@ class VehicleLandings:
 
     sinkage_m: np.ndarray   # the base's lowest point's deepest (m); inf where the soil did not stop it
     tilt_deg: np.ndarray    # the largest tilt from level (degrees)
+    slide_m: np.ndarray     # the largest slide along the seabed (m)
     status: np.ndarray      # ok | bearing_failure | unstable
     seconds: float          # wall time of the landings (s)
 
-    def exceeds(self, sinkage_limit_m: float, tilt_limit_deg: float | None) -> dict[str, np.ndarray]:
+    def exceeds(self, sinkage_limit_m: float, tilt_limit_deg: float | None,
+                slide_limit_m: float | None = None) -> dict[str, np.ndarray]:
         """Per sample, which limits it breaks (a landing that did not end ``ok`` breaks them all)."""
         failed = self.status != "ok"
         out = {"sinkage": failed | (self.sinkage_m > sinkage_limit_m)}
         if tilt_limit_deg is not None:
             out["tilt"] = failed | (self.tilt_deg > tilt_limit_deg)
+        if slide_limit_m is not None:
+            out["slide"] = failed | (self.slide_m > slide_limit_m)
         return out
 
 
@@ -75,7 +81,8 @@ def land_samples(scene, table: pd.DataFrame, progress=None) -> VehicleLandings:
     settings = scene_settings(scene, model)
     soil = scene.soil
     strength = soil.strength if soil.profile is not None and not soil.strength.straight else None
-    sinkage, tilt, status = np.empty(len(table)), np.empty(len(table)), np.empty(len(table), dtype=object)
+    sinkage, tilt, slide = np.empty(len(table)), np.empty(len(table)), np.empty(len(table))
+    status = np.empty(len(table), dtype=object)
     started = time.perf_counter()
     for first in range(0, len(table), BLOCK):
         rows = table.iloc[first:first + BLOCK].reset_index(drop=True)
@@ -86,10 +93,10 @@ def land_samples(scene, table: pd.DataFrame, progress=None) -> VehicleLandings:
         ended = np.array([STATUS[int(code)] for code in landed["end"]], dtype=object)
         deepest = np.maximum(landed["middle_m"], landed["edge_m"])
         sinkage[block] = np.where(ended == "bearing_failure", np.inf, deepest)
-        tilt[block], status[block] = np.degrees(landed["turn_rad"]), ended
+        tilt[block], slide[block], status[block] = np.degrees(landed["turn_rad"]), landed["slide_m"], ended
         if progress is not None:
             progress(block.stop, len(table), time.perf_counter() - started)
-    return VehicleLandings(sinkage, tilt, status, time.perf_counter() - started)
+    return VehicleLandings(sinkage, tilt, slide, status, time.perf_counter() - started)
 
 
 def probability(flags: np.ndarray) -> tuple[float, float]:
@@ -126,7 +133,7 @@ def plot_vehicle_exceedance(landings: VehicleLandings, sinkage_limit_m: float, t
 def vehicle_exceedance(scene, table: pd.DataFrame, sinkage_limit_m: float, run_dir: Path | None, plot: bool,
                        prog: str) -> dict:
     """The vehicle's answer to ``task=exceedance`` over the sampled ``table``, printed; returns it."""
-    tilt_limit = scene.safety.max_tilt_deg
+    tilt_limit, slide_limit = scene.safety.max_tilt_deg, scene.safety.max_slide_m
     total = len(table)
 
     def progress(done: int, of: int, seconds: float) -> None:
@@ -139,22 +146,24 @@ def vehicle_exceedance(scene, table: pd.DataFrame, sinkage_limit_m: float, run_d
     landings = land_samples(scene, table, progress)
     print(f"  landed   : {total} vehicles in {landings.seconds:.1f} s "
           f"({1e3 * landings.seconds / total:.1f} ms each)")
-    flags = landings.exceeds(sinkage_limit_m, tilt_limit)
+    flags = landings.exceeds(sinkage_limit_m, tilt_limit, slide_limit)
     out = {"model": "fast vehicle model", "samples": total, "sinkage_limit_m": sinkage_limit_m,
-           "tilt_limit_deg": tilt_limit, "landing_s": landings.seconds,
+           "tilt_limit_deg": tilt_limit, "slide_limit_m": slide_limit, "landing_s": landings.seconds,
            "not_stopped": int((landings.status == "bearing_failure").sum()),
            "unsettled": int((landings.status == "unstable").sum())}
     p, error = probability(flags["sinkage"])
     print(f"  exceed   : P(sinkage > {sinkage_limit_m:g} m) = {p:.4f} ± {error:.4f} (Monte Carlo, {total} samples; "
           "the base's lowest point)")
     out |= {"exceedance_probability": p, "monte_carlo_error": error}
-    if tilt_limit is not None:
-        p_tilt, error_tilt = probability(flags["tilt"])
-        p_any, error_any = probability(flags["sinkage"] | flags["tilt"])
-        print(f"  tilt     : P(tilt > {tilt_limit:g}°) = {p_tilt:.4f} ± {error_tilt:.4f}")
-        print(f"  unsafe   : P(either) = {p_any:.4f} ± {error_any:.4f}")
-        out |= {"tilt_exceedance_probability": p_tilt, "tilt_monte_carlo_error": error_tilt,
-                "unsafe_probability": p_any, "unsafe_monte_carlo_error": error_any}
+    for what, limit, unit in (("tilt", tilt_limit, "°"), ("slide", slide_limit, " m")):
+        if limit is not None:
+            p_what, error_what = probability(flags[what])
+            print(f"  {what:9s}: P({what} > {limit:g}{unit}) = {p_what:.4f} ± {error_what:.4f}")
+            out |= {f"{what}_exceedance_probability": p_what, f"{what}_monte_carlo_error": error_what}
+    if len(flags) > 1:
+        p_any, error_any = probability(np.logical_or.reduce(list(flags.values())))
+        print(f"  unsafe   : P(any limit) = {p_any:.4f} ± {error_any:.4f}")
+        out |= {"unsafe_probability": p_any, "unsafe_monte_carlo_error": error_any}
     stopped = landings.tilt_deg[landings.status == "ok"]
     if len(stopped):
         median, high = np.quantile(stopped, [0.5, 0.95])
