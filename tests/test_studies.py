@@ -330,3 +330,17 @@ def test_the_table3_scenes_per_vehicle_sink_as_one_track_with_half_the_mass(run_
         alone = registry.load("solvers", half.solver.name, "solver.name")(half).solve().metrics["max_sinkage_m"]
         assert float(row["vehicle_m"]) == pytest.approx(alone, rel=1e-2)
         assert float(row["vehicle_m"]) < float(row["one_track_m"])
+
+
+def test_the_vehicle_slope_study_slides_it_the_farther_the_steeper_and_the_faster(run_cli, tmp_path):
+    """``study_vehicle_slope`` with the fast vehicle model: on steeper slopes and drifting faster the vehicle
+    slides farther; level and upright without drift it does not slide; it rests on every slope the
+    nodule-field seabed stands."""
+    done = run_cli("dsmv", "experiment=study_vehicle_slope", "tracking=disabled")
+    assert done.returncode == 0, done.stderr[-2000:]
+    rows = _read_csv(_sweep_dir(tmp_path) / "vehicle_response.csv")
+    assert len(rows) == 15 and {r["status"] for r in rows} == {"ok"}
+    for key in ("soil.slope_deg", "landing.horizontal_velocity_m_s", "landing.lateral_velocity_m_s"):
+        points = sorted((float(r["value"]), r) for r in rows if r["parameter"] == key)
+        assert float(points[0][1]["max_horizontal_displacement_m"]) == 0.0
+        assert trend_of(points[1:], "max_horizontal_displacement_m") == "up", key

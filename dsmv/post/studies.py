@@ -617,9 +617,10 @@ def safe_region(sweep_dir: Path, path: Path) -> Path | None:
 SINKAGE_AGREEMENT = 0.15
 TILT_AGREEMENT_DEG = 1.0
 #: what a vehicle study reads of each landing: the base's lowest point (as the verdict judges it), the
-#: largest tilt from level and the tilt at the end
+#: largest tilt from level, the tilt at the end and the largest slide
 VEHICLE_RESPONSE = (("max_edge_sinkage_m", "deepest point of the base (m)"), ("max_rotation_deg", "largest tilt (°)"),
-                    ("final_tilt_deg", "tilt at the end (°)"))
+                    ("final_tilt_deg", "tilt at the end (°)"),
+                    ("max_horizontal_displacement_m", "largest slide along the seabed (m)"))
 #: keys that tilt the vehicle at touchdown: its largest tilt is then that attitude, and the tilt it is
 #: compared by is the one it ends at
 ATTITUDE_KEYS = ("landing.roll_deg", "landing.pitch_deg")
@@ -644,7 +645,7 @@ def _scene_key(job: Job, config, keys) -> frozenset:
 
 def vehicle_response(sweep_dir: Path, path: Path) -> Path | None:
     """A vehicle study, one parameter at a time (``hydra.sweeper.vary``): the base's deepest point, the
-    largest tilt and the tilt at the end against each parameter, one line per solver. Where the sweep ran
+    largest tilt, the tilt at the end and the largest slide against each parameter, one line per solver. Where the sweep ran
     a CEL solver and a fast model on the same scenes, each scene's gap between them and whether it lies
     within the agreement asked of the fast vehicle model (15 % on sinkage; 1°, or 15 %, on the largest
     tilt, or on the tilt at the end for a vehicle that touched down tilted), the count in the title. Writes ``vehicle_response.csv`` (a row per landing, then a row per compared scene) and the PNG."""
@@ -681,8 +682,8 @@ def vehicle_response(sweep_dir: Path, path: Path) -> Path | None:
     _write_csv(Path(path).with_suffix(".csv"), rows + compared)
 
     plt = _pyplot()
-    fig, axes = plt.subplots(len(VEHICLE_RESPONSE), len(vary), figsize=(3.4 * len(vary), 8.4), constrained_layout=True,
-                             squeeze=False)
+    fig, axes = plt.subplots(len(VEHICLE_RESPONSE), len(vary), figsize=(3.4 * len(vary), 2.8 * len(VEHICLE_RESPONSE)),
+                             constrained_layout=True, squeeze=False)
     markers = dict(zip(solvers, "os^Dv"))
     for column, key in enumerate(vary):
         for solver in solvers:
