@@ -437,15 +437,13 @@ class CelSolver:
         return rest if until_rest or self.scene.solver.economies.stop_at_rest else 2.0 * rest
 
     def turning_vehicle(self) -> Optional[Scene]:
-        """A vehicle dropped free to pitch or roll on a level seabed: the scene as the fast vehicle model
-        lands it (sinking and turning; a drift or slide left out), else None."""
+        """A vehicle dropped free to pitch or roll: the scene as the fast vehicle model lands it (sinking,
+        sliding and turning; a yaw left out), else None."""
         scene = self.scene
-        if not (scene.geometry.vehicle and scene.landing.kind == "drop" and scene.soil.slope_deg == 0
-                and {"rx", "ry"} & set(self.moving_freedoms())):
+        if not (scene.geometry.vehicle and scene.landing.kind == "drop" and {"rx", "ry"} & set(self.moving_freedoms())):
             return None
-        landing = scene.landing.model_copy(update={
-            "free": [n for n in scene.landing.freedoms if n in ("z", "rx", "ry")],
-            "horizontal_velocity_m_s": 0.0, "lateral_velocity_m_s": 0.0, "yaw_rate_rad_s": 0.0})
+        landing = scene.landing.model_copy(update={"free": [n for n in scene.landing.freedoms if n != "rz"],
+                                                   "yaw_rate_rad_s": 0.0})
         return replace(scene, landing=landing)
 
     def steps_per_sample(self, state: State) -> int:
