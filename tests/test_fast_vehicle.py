@@ -136,6 +136,26 @@ def test_a_vehicles_exceedance_gives_its_tilts_beside_its_sinkage_and_its_mirror
     assert right["unsafe_probability"] >= max(right["exceedance_probability"], right["tilt_exceedance_probability"])
 
 
+def test_a_vehicles_exceedance_on_a_slope_gives_its_slides_and_the_mirrored_slope_the_same(run_cli, tmp_path):
+    """On a 20° slope, drawing the soil and the touchdown: P(slide > limit) beside the others, the same
+    exactly whether the slope falls towards +x or −x; P(any limit) at least each one's."""
+    import json
+
+    answers = []
+    for direction in ("0", "180"):
+        done = run_cli("dsmv-predict", "task=exceedance", "sinkage_limit_m=0.12", *VEHICLE[:2],
+                       "landing.free=[z,x,ry]", "soil.slope_deg=20", f"soil.downslope_direction_deg={direction}",
+                       "safety.max_slide_m=0.017", "uncertainty.samples=200", f"hydra.run.dir=answer{direction}")
+        assert done.returncode == 0, done.stderr
+        assert "P(slide > 0.017 m)" in done.stdout and "P(any limit)" in done.stdout
+        answers.append(json.loads((tmp_path / f"answer{direction}" / "prediction.json").read_text()))
+    down, up = answers
+    assert 0.0 < down["slide_exceedance_probability"] < 1.0
+    for key in ("exceedance_probability", "slide_exceedance_probability", "unsafe_probability"):
+        assert up[key] == down[key], key
+    assert down["unsafe_probability"] >= max(down["exceedance_probability"], down["slide_exceedance_probability"])
+
+
 @pytest.mark.parametrize("args, message", [
     (["task=predict"], "task = 'predict': a vehicle scene answers task=exceedance"),
     (["task=exceedance", "sinkage_limit_m=0.1", "landing.free=[z,rz]"], "landing.free"),
