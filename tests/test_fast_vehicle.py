@@ -238,3 +238,53 @@ def test_a_drifting_vehicle_slides_the_farther_the_faster_it_drifts(compose_cfg)
     assert 0.0 < slow.metrics["max_horizontal_displacement_m"] < fast.metrics["max_horizontal_displacement_m"]
     assert back.history["horizontal_displacement_m"][-1] == pytest.approx(
         -slow.history["horizontal_displacement_m"][-1], rel=1e-12)
+
+
+def test_a_strength_table_s_level_drawn_lands_each_vehicle_as_its_own_scene(compose_cfg):
+    """On the CCZ box-core table, ``soil.profile_scale`` drawn (a calibration's uncertainty draws it): each
+    vehicle of the block lands as the scene with that scale does alone, to round-off, and a weaker table
+    sinks it deeper."""
+    from dsmv.surrogate.model import scene_table
+    from dsmv.surrogate.vehicle_exceedance import land_samples
+
+    overrides = ["soil=ccz_box_core", "landing.free=[z,ry]", "landing.cg_offset_m=[0.3,0,0]"]
+    scene = build_scene(compose_cfg([*VEHICLE, *overrides]))
+    table = scene_table([scene] * 3)
+    table["profile_scale"] = scales = [0.7, 1.0, 1.4]
+    landed = land_samples(scene, table)
+    for k, scale in enumerate(scales):
+        alone = land(compose_cfg, *overrides, f"soil.profile_scale={scale}")
+        assert landed.status[k] == alone.status == "ok"
+        deepest = max(alone.metrics["max_sinkage_m"], alone.metrics["max_edge_sinkage_m"])
+        assert landed.sinkage_m[k] == pytest.approx(deepest, rel=1e-12)
+        assert landed.tilt_deg[k] == pytest.approx(alone.metrics["max_rotation_deg"], rel=1e-12)
+    assert landed.sinkage_m[0] > landed.sinkage_m[1] > landed.sinkage_m[2]
+
+
+@pytest.mark.parametrize("args, message", [
+    (["geometry=vehicle_pioneer_i", "soil=ccz_box_core"], "uncertainty.soil.su0_pa = 'a distribution': the soil's "
+                                                          "strength is a table"),
+    (["geometry=vehicle_pioneer_i", "uncertainty=ccz_box_core"], "uncertainty.soil.profile_scale = 'a distribution': "
+                                                                 "scales a strength table"),
+    (["soil=ccz_box_core"], "soil.profile = 'a table': the surrogates (trained on straight-line soils)"),
+    (["uncertainty=ccz_box_core"], "uncertainty.soil.profile_scale = 'a distribution': a strength table's level"),
+])
+def test_a_table_soil_s_exceedance_draws_its_level_and_the_surrogates_refuse_it(run_cli, args, message):
+    """A strength table sets su0 and ks (drawing them is refused: its level is drawn); a straight line has
+    no level to draw; the surrogates learn straight lines, so a bent table is refused before a model is
+    sought: each one line, exit 2."""
+    done = run_cli("dsmv-predict", "task=exceedance", "sinkage_limit_m=0.1", *args)
+    assert done.returncode == 2, done.stderr
+    assert message in done.stderr and len(done.stderr.strip().splitlines()) == 1, done.stderr
+
+
+def test_a_vehicles_exceedance_on_the_box_core_draws_the_table_s_level(run_cli, tmp_path):
+    """``soil=ccz_box_core uncertainty=ccz_box_core``: the table's level is drawn (cov 0.2), so the samples'
+    sinkages spread; the answer is a probability strictly between 0 and 1 for a limit inside the spread."""
+    import json
+
+    done = run_cli("dsmv-predict", "task=exceedance", "sinkage_limit_m=0.08", "geometry=vehicle_pioneer_i",
+                   "soil=ccz_box_core", "uncertainty=ccz_box_core", "uncertainty.samples=300", "hydra.run.dir=answer")
+    assert done.returncode == 0, done.stderr
+    answer = json.loads((tmp_path / "answer" / "prediction.json").read_text())
+    assert 0.0 < answer["exceedance_probability"] < 1.0

@@ -146,6 +146,7 @@ class Landing:
     shape_factor: np.ndarray      # sc (-)
     grouser_height_m: np.ndarray | float = 0.0  # gh: grousers cut in first (the 3D track), 0: a flat base
     strength: StrengthSegments | None = None  # a bent strength table shared by all (None: su0 + ks·z)
+    strength_scale: np.ndarray | float = 1.0  # each landing's factor on that table (soil.profile_scale drawn)
 
 
 def strength_at(landing: Landing, depth_m):
@@ -155,7 +156,8 @@ def strength_at(landing: Landing, depth_m):
     the 2D CEL, the local one 6 %, as the straight line's default landing reads.)"""
     if landing.strength is None:
         return landing.su0_pa + landing.ks_pa_per_m * depth_m, landing.ks_pa_per_m
-    return landing.strength.su(depth_m), landing.strength.gradient(depth_m)
+    scale = landing.strength_scale
+    return scale * landing.strength.su(depth_m), scale * landing.strength.gradient(depth_m)
 
 
 def resistance(landing: Landing, depth_m, speed_m_s, factor: Callable, c: Coefficients,

@@ -283,6 +283,8 @@ def _node(tree, key: str):
 
 #: dsmv-calibrate's known values, nested as the soil's keys are
 SYNTHETIC_TRUTH = "calibrate.synthetic.truth."
+#: an uncertain parameter of dsmv-predict's exceedance, named by its scene key
+UNCERTAIN = "uncertainty."
 
 
 def _check_key(o, tree, known: set[str], program: str) -> None:
@@ -291,7 +293,8 @@ def _check_key(o, tree, known: set[str], program: str) -> None:
     Exceptions, where a new key is legal: ``+``/``++`` under ``hydra.`` (Hydra's own, e.g.
     ``hydra.job.env_set``); a new key in a mapping the config leaves empty for them (``soil.params``,
     ``surrogate.params``); a key of a solver plugin whose config model allows extra keys; a synthetic
-    calibration's known value of a soil key the config has (``+calibrate.synthetic.truth.soil.…``).
+    calibration's known value of a soil key the config has (``+calibrate.synthetic.truth.soil.…``); an
+    uncertain parameter of a scene key the config has (``+uncertainty.soil.profile_scale=…``).
     """
     key = o.key_or_group
     if key in known:
@@ -307,6 +310,8 @@ def _check_key(o, tree, known: set[str], program: str) -> None:
         return
     if added and program == "dsmv-calibrate" and key.startswith(SYNTHETIC_TRUTH + "soil.") and (
             key[len(SYNTHETIC_TRUTH):] in known or key.startswith(SYNTHETIC_TRUTH + "soil.params.")):
+        return
+    if added and program == "dsmv-predict" and key.startswith(UNCERTAIN) and key[len(UNCERTAIN):] in known:
         return
     value = _value_text(o) if o.is_sweep_override() or o.is_delete() else o.value()
     # the closest key: a sibling first (same parent), else any key of the config but the key's own parents

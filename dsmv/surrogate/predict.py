@@ -49,6 +49,7 @@ from pydantic import Field
 
 from dsmv.analytic.landing_model import LARGEST_SINKAGE_WIDTHS
 from dsmv.analytic.vehicle import check_vehicle_scene
+from dsmv.config.profile import refuse_a_bent_profile
 from dsmv.config.scene import _resolve, build_scene, build_tracking
 from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError, DsmvError
@@ -425,12 +426,17 @@ def check_config(cfg: DictConfig) -> tuple[PredictSettings, object]:
                               "model over the uncertainty's samples); land it once with solver=analytic_dynamic_3d "
                               "or cel3d")
         check_vehicle_scene(scene)
-        check_uncertain(uncertainty_from({"uncertainty": _resolve(cfg.get("uncertainty"))}).keys)
+        check_uncertain(uncertainty_from({"uncertainty": _resolve(cfg.get("uncertainty"))}).keys,
+                        table_soil=scene.soil.profile is not None)
         return settings, scene
+    refuse_a_bent_profile(scene.soil, "the surrogates (trained on straight-line soils)")
     if not build_tracking(cfg).enabled:
         raise ConfigError("tracking.enabled", False, "dsmv-predict reads the registered model: use tracking=local or server")
     if settings.task == "exceedance":
-        uncertainty_from({"uncertainty": _resolve(cfg.get("uncertainty"))})
+        keys = uncertainty_from({"uncertainty": _resolve(cfg.get("uncertainty"))}).keys
+        if "soil.profile_scale" in keys:
+            raise ConfigError("uncertainty.soil.profile_scale", "a distribution", "a strength table's level is drawn "
+                              "by a vehicle scene's exceedance (the fast vehicle model); the surrogates take su0 and ks")
     return settings, scene
 
 

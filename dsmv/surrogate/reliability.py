@@ -84,10 +84,13 @@ class UncertaintySettings(Schema):
 
 
 def _flatten(node: dict, prefix: str = "") -> dict[str, dict]:
-    """Nested groups → {config key: distribution mapping}; a mapping with ``dist`` is a leaf."""
+    """Nested groups → {config key: distribution mapping}; a mapping with ``dist`` is a leaf, a null is
+    left out."""
     leaves = {}
     for key, value in node.items():
         path = f"{prefix}.{key}" if prefix else str(key)
+        if value is None:  # an entry set to null is not drawn
+            continue
         if isinstance(value, dict) and "dist" in value:
             leaves[path] = value
         elif isinstance(value, dict):
@@ -96,6 +99,11 @@ def _flatten(node: dict, prefix: str = "") -> dict[str, dict]:
             raise ConfigError(f"uncertainty.{path}", value, "must be a distribution: {dist: normal | lognormal | "
                                                            "uniform, ...}")
     return leaves
+
+
+#: what may be drawn, by config key: the surrogates' inputs, and a strength table's level, which the fast
+#: vehicle model draws (the surrogates learn straight lines su0 + ks·z)
+DRAWN: dict[str, str] = COLUMNS | {"soil.profile_scale": "profile_scale"}
 
 
 def uncertainty_from(container: dict) -> Uncertainty:
@@ -107,8 +115,8 @@ def uncertainty_from(container: dict) -> Uncertainty:
     joint = _joint_draws(joint_path) if joint_path is not None else None
     distributions = {}
     for key, data in _flatten(node).items():
-        if key not in COLUMNS:
-            raise ConfigError(f"uncertainty.{key}", data, f"not an uncertain parameter; one of {', '.join(COLUMNS)}")
+        if key not in DRAWN:
+            raise ConfigError(f"uncertainty.{key}", data, f"not an uncertain parameter; one of {', '.join(DRAWN)}")
         dist = _validate(Distribution, data, f"uncertainty.{key}")
         for needed in dist.needs():
             if getattr(dist, needed) is None:
@@ -135,9 +143,9 @@ def _joint_draws(path) -> pd.DataFrame:
     except (ValueError, pd.errors.ParserError) as error:
         raise ConfigError("uncertainty.joint", str(path), f"not a CSV table ({error})") from None
     for key in table.columns:
-        if key not in COLUMNS:
+        if key not in DRAWN:
             raise ConfigError("uncertainty.joint", f"{file.name}: column {key}",
-                              f"not an uncertain parameter; one of {', '.join(COLUMNS)}")
+                              f"not an uncertain parameter; one of {', '.join(DRAWN)}")
     values = table.to_numpy(dtype=float) if len(table) else np.zeros((0, 0))
     if len(table) == 0 or not np.isfinite(values).all() or (values < 0).any():
         raise ConfigError("uncertainty.joint", str(path), "needs rows of numbers ≥ 0")
@@ -160,7 +168,7 @@ def sample_scenes(base: pd.DataFrame, uncertainty: Uncertainty) -> pd.DataFrame:
     """``uncertainty.samples`` rows: the base scene with each uncertain parameter drawn (seeded)."""
     table = base.loc[base.index.repeat(uncertainty.samples)].reset_index(drop=True)
     for key, values in draw(uncertainty).items():
-        table[COLUMNS[key]] = values
+        table[DRAWN[key]] = values
     return table
 
 

@@ -29,19 +29,31 @@ from dsmv.errors import ConfigError
 from dsmv.surrogate.evaluate import pyplot
 from dsmv.surrogate.fast_model import scene_settings, table_factor, table_landing
 
-#: what may be uncertain for a vehicle: its load and touchdown, and the soil (its geometry is the scene's)
+#: what may be uncertain for a vehicle: its load and touchdown, and the soil (its geometry is the scene's); on a
+#: strength table, its level (soil.profile_scale) rather than su0 and ks, which the table sets
 VEHICLE_UNCERTAIN = ("landing.mass_kg", "landing.inertial_mass_kg", "landing.velocity_m_s", "landing.gravity_m_s2",
-                     "soil.su0_pa", "soil.ks_pa_per_m", "soil.sensitivity", "soil.xi95", "soil.rate.eta")
+                     "soil.su0_pa", "soil.ks_pa_per_m", "soil.sensitivity", "soil.xi95", "soil.rate.eta",
+                     "soil.profile_scale")
+#: a strength table's own: its mudline strength and first gradient
+TABLE_SET = ("soil.su0_pa", "soil.ks_pa_per_m")
 #: vehicles landed at once (a block of 1000 holds about 50 MB of patch arrays)
 BLOCK = 1000
 
 
-def check_uncertain(keys) -> None:
-    """A vehicle's geometry is not drawn: one line naming the key and what may be."""
+def check_uncertain(keys, table_soil: bool = False) -> None:
+    """A vehicle's geometry is not drawn, nor a strength table's su0 and ks (its level is), nor a straight
+    line's level: one line naming the key and what may be."""
     for key in keys:
         if key not in VEHICLE_UNCERTAIN:
             raise ConfigError(f"uncertainty.{key}", "a distribution", "a vehicle scene draws its load, touchdown and "
                               f"soil only: {', '.join(VEHICLE_UNCERTAIN)}")
+        if table_soil and key in TABLE_SET:
+            raise ConfigError(f"uncertainty.{key}", "a distribution", "the soil's strength is a table (soil.profile), "
+                              "which sets su0 and ks: draw its level, soil.profile_scale (uncertainty=ccz_box_core "
+                              f"draws it; or uncertainty.{key}=null)")
+        if not table_soil and key == "soil.profile_scale":
+            raise ConfigError(f"uncertainty.{key}", "a distribution", "scales a strength table (soil.profile); a "
+                              "straight line su0 + ks·z draws soil.su0_pa and soil.ks_pa_per_m")
 
 
 def fast_vehicle_config(scene):
@@ -87,6 +99,10 @@ def land_samples(scene, table: pd.DataFrame, progress=None) -> VehicleLandings:
     for first in range(0, len(table), BLOCK):
         rows = table.iloc[first:first + BLOCK].reset_index(drop=True)
         tracks = replace(table_landing(rows, settings), strength=strength)
+        if "profile_scale" in rows:  # the table's level drawn in place of the scene's: its strengths (E unscaled,
+            scale = rows["profile_scale"].to_numpy(float) / soil.profile_scale  # as soil.profile_scale leaves it)
+            tracks = replace(tracks, su0_pa=scale * tracks.su0_pa, ks_pa_per_m=scale * tracks.ks_pa_per_m,
+                             strength_scale=scale)
         landed = VehicleModel(scene, model, table_factor(rows, settings, column=True), tracks,
                               lambda index, rows=rows: table_factor(rows.iloc[index], settings, column=True)).land()
         block = slice(first, first + len(rows))
