@@ -253,6 +253,31 @@ def test_a_table_is_fitted_by_its_level_and_a_line_by_its_strengths():
         _problem("calibrate.parameters=[soil.profile_scale]", "~calibrate.synthetic")
 
 
+def test_a_fitted_table_s_level_is_not_put_to_the_surrogates():
+    """The surrogates' exceedance learns straight lines: comparing it for a fitted table's level is a
+    one-line ConfigError naming the vehicle's exceedance, which draws it."""
+    with pytest.raises(ConfigError, match="task=exceedance geometry=vehicle_pioneer_i"):
+        _problem(*TABLE_SITE[1:], "calibrate.exceedance.sinkage_limit_m=0.1")
+
+
+def test_a_fitted_table_s_uncertainty_lands_vehicles_at_its_drawn_levels(tmp_path, compose_cfg):
+    """The joint draws a table's calibration writes (soil.profile_scale with the law's parameters) are read
+    by a vehicle's exceedance: each sample lands at its drawn level, so the sinkages spread with it."""
+    from dsmv.config.scene import build_scene
+    from dsmv.surrogate.model import scene_table
+    from dsmv.surrogate.reliability import sample_scenes, uncertainty_from
+    from dsmv.surrogate.vehicle_exceedance import land_samples
+
+    joint = tmp_path / "draws.csv"
+    joint.write_text("soil.profile_scale,soil.sensitivity\n0.8,3\n1.0,3\n1.25,3\n")
+    scene = build_scene(compose_cfg(["geometry=vehicle_pioneer_i", "soil=ccz_box_core", "tracking=disabled"]))
+    table = sample_scenes(scene_table([scene]), uncertainty_from({"uncertainty": {"joint": str(joint), "samples": 100}}))
+    landed = land_samples(scene, table)
+    by_scale = {s: landed.sinkage_m[table["profile_scale"] == s] for s in (0.8, 1.0, 1.25)}
+    assert all(len(set(z)) == 1 for z in by_scale.values())  # one landing per level
+    assert by_scale[0.8][0] > by_scale[1.0][0] > by_scale[1.25][0]
+
+
 def test_the_cel_check_pushes_the_bar_through_the_fitted_table():
     """The CEL check's scene (its command-line overrides) holds the fitted soil's table at its fitted
     level: the same strength at every depth."""

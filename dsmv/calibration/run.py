@@ -96,6 +96,11 @@ def check_config(cfg: DictConfig) -> tuple[CalibrateSettings, Problem]:
 
     soil = _validate(SoilConfig, container["soil"], "soil").model_dump()
     keys = list(dict.fromkeys(settings.parameters))
+    if "soil.profile_scale" in keys and settings.exceedance.sinkage_limit_m is not None:
+        raise ConfigError("calibrate.exceedance.sinkage_limit_m", settings.exceedance.sinkage_limit_m,
+                          "the surrogates' exceedance learns straight lines su0 + ks·z, not a table's level: ask a "
+                          "vehicle's, dsmv-predict task=exceedance geometry=vehicle_pioneer_i soil=<name> "
+                          "uncertainty=<name> (the run prints it)")
     bounds = []
     for key in keys:
         _get(soil, key)   # a key the soil does not have: one line naming it
@@ -530,8 +535,10 @@ def print_summary(settings, problem: Problem, cal: Calibration, checks, compared
     print(f"  outputs  : {run_dir}  ({RESULT_FILE}, {FIGURE_FILE}, conf/soil/{settings.name}.yaml, "
           f"conf/uncertainty/{settings.name}.yaml)")
     print(f"  use      : dsmv hydra.searchpath=[file://{(run_dir / 'conf').resolve()}] soil={settings.name}")
+    table = "soil.profile_scale" in problem.keys  # its level is drawn by a vehicle's exceedance
     print(f"             dsmv-predict hydra.searchpath=[file://{(run_dir / 'conf').resolve()}] task=exceedance "
-          f"uncertainty={settings.name} sinkage_limit_m=0.1")
+          + (f"geometry=vehicle_pioneer_i soil={settings.name} " if table else "")
+          + f"uncertainty={settings.name} sinkage_limit_m=0.1")
     if logged:
         print(f"  MLflow   : {logged['uri']}  (experiment {logged['experiment']}, run {logged['run_id']})")
 
