@@ -14,7 +14,9 @@ factors) of the 3D track (``solver=analytic_dynamic_3d``: its grousers cut in fi
 factor, its coefficients fitted to the 3D CEL; the section's ``analytic_dynamic`` lands a vehicle with
 them too) while the patch goes
 deeper than it has been; a patch that rises unloads, and reloads, along the elastic stiffness over
-which the model mobilises its resistance (p/z_e, z_e = c_e·Nc·B·su0/E), and holds no tension. A level
+which the model mobilises its resistance (p/z_e, z_e = c_e·Nc·B·su0/E), into tension down to the peak
+pressure it bore: the soil trapped between its grousers, carried with the track (as in the CEL), pulls on
+the soil below, undrained, as a skirted mudmat's does. A level
 vehicle with its centre of gravity over its middle is then each track's fast landing with half the
 weight.
 
@@ -238,7 +240,9 @@ class VehicleModel:
                 elastic = np.where(elastic_depth > 0.0, pressed - pressed / elastic_depth * below,
                                    np.where(below > 0.0, 0.0, pressed))
             elastic = elastic + given["dashpot"][:, None] * down  # the soil it rises from radiates
-            p = np.where(deeper, load, np.clip(np.minimum(elastic, load), 0.0, None))
+            # a patch whose grousers have cut in holds the soil between them as a skirt holds a mudmat's: undrained,
+            # it pulls on the soil below as it pushed, down to its peak pressure (Tresca's yield is symmetric)
+            p = np.where(deeper, load, np.maximum(np.minimum(elastic, load), -pressed))
             deepest, pressed = np.where(deeper, depth, deepest), np.where(deeper, load, pressed)
             force = p * area
             along, slip, pushed_ratio = self.along_seabed(rows, rates, depth_cg, speed, slide, drift, slip, force,
