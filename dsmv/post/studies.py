@@ -209,12 +209,7 @@ def compare_analytic(sweep_dir: Path, path: Path) -> Path | None:
     for r in rows:
         left.annotate(str(r["case"]), (r["analytic_m"], r["cel_einav_randolph_m"]), fontsize=7,
                       xytext=(3, 3), textcoords="offset points")
-    left.set_xlim(0, top)
-    left.set_ylim(0, top)
-    left.set_xlabel("model sinkage (m)")
-    left.set_ylabel("CEL max sinkage (m)")
-    left.legend(fontsize=8)
-    left.grid(alpha=0.3)
+    _parity_axes(left, top, "model sinkage (m)", "CEL max sinkage (m)")
     index = np.arange(len(rows))
     right.bar(index - 0.2, [100 * r["mechanics_part"] for r in rows], 0.4, label="mechanics (CEL Tresca / energy)")
     right.bar(index + 0.2, [100 * r["soil_law_part"] for r in rows], 0.4, label="soil law (E–R / Tresca)")
@@ -545,6 +540,16 @@ def _write_csv(path: Path, rows: list[dict]) -> Path:
     return Path(path)
 
 
+def _parity_axes(ax, top: float, xlabel: str, ylabel: str) -> None:
+    """One answer against another on equal axes from 0 to ``top``."""
+    ax.set_xlim(0, top)
+    ax.set_ylim(0, top)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+
+
 def _pyplot():
     import matplotlib
 
@@ -742,12 +747,7 @@ def per_vehicle(sweep_dir: Path, path: Path) -> Path | None:
     top = 1.05 * np.nanmax(np.concatenate([one, two]))
     left.plot([0, top], [0, top], "k-", lw=1, label="equal")
     left.plot(one, two, "o", ms=3, color="tab:blue", label="a scene")
-    left.set_xlim(0, top)
-    left.set_ylim(0, top)
-    left.set_xlabel("one track carrying m: max sinkage (m)")
-    left.set_ylabel("the vehicle, m on two tracks: max sinkage (m)")
-    left.legend(fontsize=8)
-    left.grid(alpha=0.3)
+    _parity_axes(left, top, "one track carrying m: max sinkage (m)", "the vehicle, m on two tracks: max sinkage (m)")
     finite = ratio[np.isfinite(ratio)]
     right.hist(finite, bins=20, color="tab:blue")
     right.set_xlabel("vehicle / one track")
