@@ -29,11 +29,17 @@ PRANDTL_NC = 2.0 + math.pi  # Prandtl (1920): rigid strip on the surface of weig
 TBAR_NC = {"rough": 11.94, "smooth": 9.20}
 
 
-def green_vertical(h: float) -> float:
+def green_vertical(h):
     """Green (1954): the exact vertical capacity V/(B·su) of a rough rigid strip on the surface of
     weightless Tresca soil carrying the horizontal load h = H/(B·su), 0 ≤ h ≤ 1:
     1 + π − arcsin h + √(1 − h²); 2 + π at h = 0 (Prandtl), 1 + π/2 at h = 1, where the strip slides
-    along its base (any smaller V slides at H = B·su too)."""
+    along its base (any smaller V slides at H = B·su too). For an array, elementwise (NumPy's arcsin,
+    whose last bit may differ from the math module's that a number gets, as the report's figures did)."""
+    if np.ndim(h):
+        h = np.asarray(h, dtype=float)
+        if not ((h >= 0.0) & (h <= 1.0)).all():
+            raise ValueError("h = H/(B·su) must lie in [0, 1]")
+        return 1.0 + math.pi - np.arcsin(h) + np.sqrt(1.0 - h * h)
     if not 0.0 <= h <= 1.0:
         raise ValueError(f"h = H/(B·su) must lie in [0, 1], not {h}")
     return 1.0 + math.pi - math.asin(h) + math.sqrt(1.0 - h * h)

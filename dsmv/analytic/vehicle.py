@@ -35,7 +35,7 @@ from dataclasses import fields, replace
 
 import numpy as np
 
-from dsmv.analytic.bearing import PRANDTL_NC, green_horizontal
+from dsmv.analytic.bearing import PRANDTL_NC, green_horizontal, green_vertical
 from dsmv.analytic.landing_model import (
     LARGEST_SINKAGE_WIDTHS, REST_MOMENT_FRACTION, REST_SPEED_AFTER_FALL, Landing, cut_in, default_config, resistance,
 )
@@ -218,8 +218,7 @@ class VehicleModel:
                      edge_most=edge_most, turn_most=turn_most, drift=drift, slide=slide, slip=slip,
                      slide_most=slide_most, inclined=inclined)
         out = {name: np.empty((n, *value.shape[1:]), dtype=value.dtype) for name, value in state.items()
-               if name in ("angles", "time", "steps", "end", "middle_most", "edge_most", "turn_most", "slide",
-                           "slide_most")}
+               if name in ("angles", "time", "steps", "end", "middle_most", "edge_most", "turn_most", "slide_most")}
         samples = []
         while True:
             (angles, rates, depth_cg, speed, before, deepest, pressed, time, steps, fell, end, middle_most, edge_most,
@@ -245,10 +244,10 @@ class VehicleModel:
             p = np.where(deeper, load, np.maximum(np.minimum(elastic, load), -pressed))
             deepest, pressed = np.where(deeper, depth, deepest), np.where(deeper, load, pressed)
             force = p * area
-            along, slip, pushed_ratio = self.along_seabed(rows, rates, depth_cg, speed, slide, drift, slip, force,
-                                                          given, soil, factor)
-            inclined = (1.0 + math.pi - np.arcsin(pushed_ratio) + np.sqrt(1.0 - pushed_ratio**2)) / PRANDTL_NC
             tracks = rows @ self.track_arms  # (vehicles, 3, tracks): where the base's resistance along it acts
+            along, slip, pushed_ratio = self.along_seabed(tracks, rates, depth_cg, speed, slide, drift, slip, force,
+                                                          given, soil, factor)
+            inclined = green_vertical(pushed_ratio) / PRANDTL_NC
             moment = np.stack([(arm[:, 1] * force).sum(axis=1) - (tracks[:, 2] * along[:, 1]).sum(axis=1),
                                -(arm[:, 0] * force).sum(axis=1) + (tracks[:, 2] * along[:, 0]).sum(axis=1)], axis=1)
             total = force.sum(axis=1)
@@ -303,18 +302,18 @@ class VehicleModel:
             out[name][index] = state[name]
         return {"end": out["end"], "time_s": out["time"], "steps": out["steps"], "middle_m": out["middle_most"],
                 "edge_m": out["edge_most"], "turn_rad": out["turn_most"], "roll_rad": out["angles"][:, 1],
-                "pitch_rad": out["angles"][:, 0], "slide_m": out["slide_most"], "final_slide_m": out["slide"],
+                "pitch_rad": out["angles"][:, 0], "slide_m": out["slide_most"],
                 "samples": samples}
 
-    def along_seabed(self, rows, rates, depth_cg, speed, slide, drift, slip, force, given, soil, factor):
+    def along_seabed(self, tracks, rates, depth_cg, speed, slide, drift, slip, force, given, soil, factor):
         """The soil's force along the seabed on each track's base (vehicles, x y, tracks) and the tracks' slip:
         elastic from where the base last slipped, up to Green's (1954) capacity of a rough strip at the
         track's load, h = H/(A·s) at v = V/(A·s) (:func:`dsmv.analytic.bearing.green_horizontal`), with s the
         strength for which the track's capacity is Prandtl's, the fast model's pressure at its depth and speed
         over 2 + π (while it sinks, the envelope's point whose normal is its motion's, if larger); and the
         base's radiation dashpot while it bears and holds. Also each track's h (the spring's),
-        which the patches' next pressures are inclined by."""
-        tracks = rows @ self.track_arms
+        which the patches' next pressures are inclined by. ``tracks``: each track's base middle from the
+        centre of gravity, turned (vehicles, 3, tracks)."""
         moved = slide[:, :, None] + tracks[:, :2] - self.track_arms[:2]
         swing = np.stack([rates[:, 1:] * tracks[:, 2], -rates[:, :1] * tracks[:, 2]], axis=1)  # ω × r along the seabed
         velocity = drift[:, :, None] + swing

@@ -525,8 +525,7 @@ class SafetyConfig(Schema):
 #: the sweep-level plots an experiment can ask for with ``sweep_plot: <name>`` (drawn by
 #: :data:`dsmv.post.plots.SWEEP_PLOT_MAKERS`)
 SWEEP_PLOTS = ("fall_cone", "one_at_a_time", "compare_analytic", "mesh_study", "section_factors", "bearing_curves",
-               "green_envelope", "safe_region", "vehicle_response",
-               "per_vehicle")
+               "green_envelope", "safe_region", "vehicle_response", "per_vehicle")
 
 
 class TrackingConfig(Schema):
@@ -651,10 +650,6 @@ def settle_mesh(cfg: DictConfig | dict, mesh: Any, solver_cls) -> Any:
     return settled
 
 
-#: the soil the CEL's domain holds below the body by default, in body widths (conf/solver/cel2d.yaml, cel3d.yaml)
-DEFAULT_DOMAIN_DEPTH_WIDTHS = 5.0
-
-
 def check_slope(scene: Scene, solver_cls) -> None:
     """A sloping seabed: in a solver that takes it (``takes_slope``: the CEL's, the level grid with gravity
     turned), and standing (its infinite slope does not fail under its own weight down to what the model
@@ -667,8 +662,10 @@ def check_slope(scene: Scene, solver_cls) -> None:
         raise ConfigError("soil.slope_deg", soil.slope_deg, "a sloping seabed runs in cel2d and cel3d (the level "
                           f"grid with gravity turned); {scene.solver.name} lands on a level one")
     # the soil the model holds below the body, and what enters at its base as the body sinks a width (a model
-    # without a grid: the CEL's default domain's)
-    depth_widths = getattr(scene.solver, "domain_depth_widths", DEFAULT_DOMAIN_DEPTH_WIDTHS)
+    # without a grid: the 3D CEL's default domain's)
+    depth_widths = getattr(scene.solver, "domain_depth_widths", None)
+    if depth_widths is None:
+        depth_widths = OmegaConf.load(Path(CONFIG_DIR) / "solver" / "cel3d.yaml").domain_depth_widths
     modelled = scene.landing.initial_depth_m + (depth_widths + 1.0) * scene.geometry.width_m
     steepest = soil.steepest_slope_deg(scene.landing.gravity_m_s2, modelled)
     if soil.slope_deg > steepest:
