@@ -673,8 +673,7 @@ def vehicle_response(sweep_dir: Path, path: Path) -> Path | None:
     for scene, by_solver in by_scene.items():
         truth = by_solver.get(reference)
         for solver, row in by_solver.items():
-            if truth is None or solver == reference or "ok" not in (row["status"], truth["status"]) or \
-                    row["status"] != truth["status"]:
+            if truth is None or solver == reference or not row["status"] == truth["status"] == "ok":
                 continue
             tilt = "final_tilt_deg" if any(key in ATTITUDE_KEYS for key, _ in scene) else "max_rotation_deg"
             sinkage_gap = row["max_edge_sinkage_m"] / truth["max_edge_sinkage_m"] - 1
