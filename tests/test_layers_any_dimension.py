@@ -223,6 +223,25 @@ def test_a_body_still_turning_is_not_at_rest_at_an_instant_s_stop():
     assert ending is not None and ending.status == "ok" and rest.rest_time_s is not None
 
 
+def test_a_body_at_the_top_of_a_bounce_is_not_at_rest():
+    """A body that stops for an instant while the soil bears less than its weight (less the rest's
+    out-of-balance share) is at the top of a bounce and falls again: it runs on. Borne, it rests."""
+    from dsmv.analytic.landing_model import REST_OUT_OF_BALANCE
+    from dsmv.cel.layout import B_FCOUNT, FORCE_SLOTS
+    from dsmv.cel.stepper import AT_REST, RUNNING
+
+    weight = 1000.0
+    rest = C.Rest(weightless=False, stop_at_rest=True, borne_n=(1.0 - REST_OUT_OF_BALANCE) * weight)
+    body = np.zeros(N_BODY)
+    up = int(FORCE_SLOTS[2])
+    body[B_FCOUNT], body[up] = 4.0, 4 * 0.9 * weight  # the soil bore 90 % of the weight over the chunk
+    run = C.Run(state=None, body=body, energy=np.zeros(10), code=AT_REST)
+    assert rest.after_chunk(run) is None and run.code == RUNNING and rest.rest_time_s is None
+    body[up], run.code = 4 * 0.96 * weight, AT_REST
+    ending = rest.after_chunk(run)
+    assert ending is not None and ending.status == "ok" and rest.rest_time_s is not None
+
+
 class Counting(C.Tracker):
     """A scan that records the steps it looked at, and may end the run from a given step on."""
 

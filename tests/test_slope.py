@@ -106,7 +106,10 @@ def test_a_slope_a_solver_cannot_take_is_refused(compose_cfg, overrides, key):
 def test_a_landing_on_a_slope_slides_downhill_as_its_mirror_image(compose_cfg):
     """The default landing (2D, coarse) on a 5° slope falling towards +x and one falling towards −x: each
     slides downhill, the two mirror images to round-off; the whole section is modelled (the slope has no
-    mirror across the body's mid-plane), and the energy audit closes as on level ground (within 0.2 %)."""
+    mirror across the body's mid-plane), and the energy audit closes as on level ground (within 0.2 %).
+    The sums over the grid are not mirror images bit for bit: the slides differ by 1e-17 m at the body's
+    first stop (0.15 s), and the strip's bounces until it rests (0.54 s) grow that to 1.8e-12 of the slide
+    and 1.5e-11 of the largest horizontal force (measured): round-off, held to 5e-11."""
     runs = []
     for direction in (0, 180):
         scene = build_scene(compose_cfg(["soil.slope_deg=5", f"soil.downslope_direction_deg={direction}",
@@ -118,7 +121,7 @@ def test_a_landing_on_a_slope_slides_downhill_as_its_mirror_image(compose_cfg):
     assert down_x.metrics["horizontal_displacement_m"] > 0.001
     for name, sign in (("horizontal_displacement_m", -1), ("sinkage_m", 1), ("force_n", 1), ("horizontal_force_n", -1)):
         a, b = np.asarray(down_x.history[name]), sign * np.asarray(down_minus_x.history[name])
-        assert np.abs(a - b).max() <= 1e-12 * np.abs(a).max(), name
+        assert np.abs(a - b).max() <= 5e-11 * np.abs(a).max(), name
     assert down_x.metrics["energy_error"] <= 2e-3 and abs(down_x.metrics["mass_error"]) <= 1e-12
 
 

@@ -74,11 +74,13 @@ REST_SPEED_FRACTION = 1e-3
 #: a body whose fall has stopped is at rest once it also slides, and turns at its reach, no faster than this
 #: fraction of its speed at touchdown (cel3d's rule and the fast vehicle model's)
 REST_SPEED_AFTER_FALL = 0.01
-#: a body free to turn is at rest once the soil's moment on it about its centre of gravity, where its
-#: weight acts, is under this fraction of its weight times its reach: a vehicle rocked onto one track
-#: stops for an instant with its weight's whole moment about that track still turning it (cel3d's rule,
-#: :class:`dsmv.cel.controller.Rest`, and the fast vehicle model's)
-REST_MOMENT_FRACTION = 0.05
+#: a dropped body is at rest only once the soil bears it: its force on the body at least its weight less
+#: this fraction of it (a body stopped for an instant at the top of a bounce, borne by less, falls again),
+#: and, for a body free to turn, its moment about the centre of gravity, where the weight acts, under this
+#: fraction of the weight times the body's reach (a vehicle rocked onto one track stops for an instant with
+#: its weight's whole moment about that track still turning it): cel3d's rule
+#: (:class:`dsmv.cel.controller.Rest`) and the fast vehicle model's
+REST_OUT_OF_BALANCE = 0.05
 #: the depth (in body widths) beyond which the body is said not to stop
 LARGEST_SINKAGE_WIDTHS = 20.0
 

@@ -24,8 +24,9 @@ weight.
 
 stepped with the symplectic Euler step, Δt a twentieth of the period of the patches' stiffness. As in
 cel3d, the vehicle is at rest once its fall has stopped and it moves and turns (at its reach) no
-faster than 1 % of its touchdown speed while the soil's moment about its centre of gravity is under
-5 % of its weight times its reach (:data:`dsmv.analytic.landing_model.REST_MOMENT_FRACTION`).
+faster than 1 % of its touchdown speed while the soil bears at least 95 % of its weight and its moment
+about the centre of gravity is under 5 % of the weight times the reach
+(:data:`dsmv.analytic.landing_model.REST_OUT_OF_BALANCE`).
 """
 
 from __future__ import annotations
@@ -37,7 +38,8 @@ import numpy as np
 
 from dsmv.analytic.bearing import PRANDTL_NC, green_horizontal, green_vertical
 from dsmv.analytic.landing_model import (
-    LARGEST_SINKAGE_WIDTHS, REST_MOMENT_FRACTION, REST_SPEED_AFTER_FALL, Landing, cut_in, default_config, resistance,
+    LARGEST_SINKAGE_WIDTHS, REST_OUT_OF_BALANCE, REST_SPEED_AFTER_FALL, Landing, cut_in, default_config, resistance,
+    strength_at,
 )
 from dsmv.config.scene import Scene
 from dsmv.errors import ConfigError
@@ -174,6 +176,9 @@ class VehicleModel:
         vertical = body.contact_area_m2 * self.floor_pa / np.maximum(self.elastic_depth_m, 1e-6 * body.width_m)
         self.slide_stiffness = np.outer(vertical, ratios)  # per track along x and y (N/m)
         self.slide_dashpot = np.sqrt(shear_pa * density) * body.contact_area_m2  # per track (N·s/m)
+        # the faces of the soil a track's grousers trap, which a push along x and along y meets: its sides
+        # (the track's length) and its ends (its width) (m)
+        self.face_lengths_m = np.array([body.contact_length_m, body.width_m])
 
     def pressure(self, depth: np.ndarray, speed: np.ndarray, soil: Landing | None = None, factor=None) -> np.ndarray:
         """The fast landing model's pressure (Pa) on patches (vehicles × patches) whose grousers' tips are
@@ -211,7 +216,8 @@ class VehicleModel:
                  "inertia": self.inertia[:, :2], "elastic": self.elastic_depth_m, "dashpot": self.dashpot_pa_s_per_m,
                  "floor": self.floor_pa, "slide_stiffness": self.slide_stiffness, "slide_dashpot": self.slide_dashpot,
                  "rest_speed": REST_SPEED_AFTER_FALL * touchdown,
-                 "moment_limit": REST_MOMENT_FRACTION * self.weight_n * self.reach_m}
+                 "borne": (1.0 - REST_OUT_OF_BALANCE) * self.normal_weight_n,
+                 "moment_limit": REST_OUT_OF_BALANCE * self.weight_n * self.reach_m}
         soil, factor, index = self.patch_soil, self.factor, np.arange(n)
         state = dict(angles=angles, rates=rates, depth_cg=depth_cg, speed=speed, before=before, deepest=deepest,
                      pressed=pressed, time=time, steps=steps, fell=fell, end=end, middle_most=middle_most,
@@ -267,7 +273,7 @@ class VehicleModel:
             turning = np.abs(rates * self.free).max(axis=1) * self.reach_m
             sliding = np.abs(drift * self.free_xy).max(axis=1)
             rest = (fell & (np.abs(speed) <= given["rest_speed"]) & (turning <= given["rest_speed"])
-                    & (sliding <= given["rest_speed"])
+                    & (sliding <= given["rest_speed"]) & (total >= given["borne"])
                     & (np.abs(moment * self.free).max(axis=1) <= given["moment_limit"]))
             end = np.where(running & rest, AT_REST, end)
             end = np.where((end == RUNNING) & (middle > LARGEST_SINKAGE_WIDTHS * body.width_m), PASSED, end)
@@ -332,18 +338,36 @@ class VehicleModel:
             ratio2 = np.where(down > 0.0, (velocity[:, 0]**2 + velocity[:, 1]**2) / np.where(down > 0.0, down, 1.0)**2,
                               0.0)
             flowing = np.where(down > 0.0, np.maximum((ratio2 - 1.0) / (ratio2 + 1.0), 0.0), 0.0)
-            capacity = np.where(bearing, strength * np.maximum(capacity, flowing), 0.0)
+            base = np.where(bearing, strength * np.maximum(capacity, flowing), 0.0)
             stiffness = given["slide_stiffness"][:, :, None]
             trial = -stiffness * (moved - slip)
             size = np.hypot(trial[:, 0], trial[:, 1])
+            # the trapped soil's faces the push meets, their length across its direction (m)
+            faces = (np.abs(trial) * self.face_lengths_m[None, :, None]).sum(axis=1) / np.where(size > 0.0, size, 1.0)
+            passive = self.passive_push(depth, soil) * faces
+            capacity = base + passive
             over = size > capacity
             resisted = trial * np.where(over, capacity / np.where(over, size, 1.0), 1.0)[:, None, :]
         slip = np.where(over[:, None, :], moved + resisted / stiffness, slip)
         with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.where(bearing, np.minimum(np.hypot(resisted[:, 0], resisted[:, 1]) / strength, 1.0), 0.0)
+            # the base's share of the push (base and faces mobilised alike: in proportion to their capacities)
+            share = np.where(capacity > 0.0, base / np.where(capacity > 0.0, capacity, 1.0), 0.0)
+            ratio = np.where(bearing, np.minimum(share * np.hypot(resisted[:, 0], resisted[:, 1]) / strength, 1.0),
+                             0.0)
         # the dashpot radiates the base's vibration while it holds: a base slipping along the seabed radiates none
         holding = (bearing & ~over)[:, None, :]
         return resisted - given["slide_dashpot"][:, None, None] * velocity * holding, slip, ratio
+
+    @staticmethod
+    def passive_push(depth: np.ndarray, soil: Landing) -> np.ndarray:
+        """The push (N per m of face) the soil a track's grousers trap, its tips ``depth`` deep (m), meets on a
+        face pushed into the soil ahead and pulled from the soil behind: Rankine's undrained passive and active
+        pressures, σv ± 2·su, their difference 4·su integrated over the depth (Simpson's rule: exact on a
+        straight line), a lower bound (a statically admissible stress field, the faces smooth), from the intact
+        strength, without rate gain."""
+        d = np.maximum(depth, 0.0)
+        su = [strength_at(soil, fraction * d)[0] for fraction in (0.0, 0.5, 1.0)]
+        return 4.0 * d * (su[0] + 4.0 * su[1] + su[2]) / 6.0
 
     def solve(self) -> SolveResult:
         body = self.scene.geometry

@@ -506,23 +506,26 @@ class Rest(Tracker):
     """A landing ends when the body first comes to rest, or (economy off) at twice that time. A body
     that neither moves nor weighs anything stays at rest.
 
-    A body free to turn (``turns``: the slots of its free turns' reactions) is at rest only once the soil's
-    moment on it about its centre of gravity, where its weight acts, has fallen below ``moment_limit_n_m``:
-    a vehicle rocking onto one track stops for an instant at the end of each rock, its weight's moment
-    about that track still turning it."""
+    A body is at rest only once the soil bears it: the soil's mean force on it over the last chunk at
+    least ``borne_n`` (per track): a body thrown up by its touchdown stops for an instant at the top of the
+    bounce, borne by less than its weight, and falls again. A body free to turn (``turns``: the slots of
+    its free turns' reactions) is at rest only once the soil's moment on it about its centre of gravity,
+    where its weight acts, has fallen below ``moment_limit_n_m``: a vehicle rocking onto one track stops
+    for an instant at the end of each rock, its weight's moment about that track still turning it."""
 
     weightless: bool
     stop_at_rest: bool
     turns: tuple[int, ...] = ()
     moment_limit_n_m: float = 0.0
+    borne_n: float = -math.inf
     rest_time_s: Optional[float] = None
 
     def after_chunk(self, run: Run) -> Optional[Ending]:
         if run.code == RUNNING and abs(run.body[B_VEL]) < 1e-12 and self.weightless:
             return Ending("ok", "the body neither moves nor weighs anything: it stays at rest")
-        if run.code == AT_REST and self.rest_time_s is None and any(
-                abs(run.mean_reaction(slot)) > self.moment_limit_n_m for slot in self.turns):
-            run.code = RUNNING  # an instant's stop of a body still turning
+        if run.code == AT_REST and self.rest_time_s is None and (run.force_n < self.borne_n or any(
+                abs(run.mean_reaction(slot)) > self.moment_limit_n_m for slot in self.turns)):
+            run.code = RUNNING  # an instant's stop of a body not yet borne, or still turning
             return None
         if run.code == AT_REST and self.rest_time_s is None:
             self.rest_time_s = run.time_s

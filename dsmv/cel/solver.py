@@ -28,7 +28,7 @@ import numpy as np
 
 from dsmv import registry
 from dsmv.analytic.dynamic import fast_landing, fast_vehicle
-from dsmv.analytic.landing_model import REST_MOMENT_FRACTION, REST_SPEED_AFTER_FALL
+from dsmv.analytic.landing_model import REST_OUT_OF_BALANCE, REST_SPEED_AFTER_FALL
 from dsmv.analytic.energy import energy_estimate, sinkage_in_profile
 from dsmv.cel import controller as C
 from dsmv.cel import cost as cost_model
@@ -390,7 +390,8 @@ class CelSolver:
                 width = max(width, self.travel)
             turns = tuple(int(FORCE_SLOTS[FREEDOMS.index(n)]) for n in ("rx", "ry", "rz") if n in self.moving_freedoms())
             trackers += [C.Rest(state.par.body_weight == 0.0, cfg.economies.stop_at_rest, turns,
-                                REST_MOMENT_FRACTION * self.start().weight_n * self.reach_m()),
+                                REST_OUT_OF_BALANCE * self.start().weight_n * self.reach_m(),
+                                (1.0 - REST_OUT_OF_BALANCE) * state.par.body_weight * state.scale),
                          C.BearingFailure(width, width == scene.geometry.width_m), C.TravelLimit(self.travel)]
             if {"x", "y"} & set(self.moving_freedoms()):
                 trackers.append(C.SlideFailure(scene.geometry.width_m))
