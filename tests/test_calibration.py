@@ -255,8 +255,8 @@ def test_a_table_is_fitted_by_its_level_and_a_line_by_its_strengths():
 
 def test_a_fitted_table_s_level_is_not_put_to_the_surrogates():
     """The surrogates' exceedance learns straight lines: comparing it for a fitted table's level is a
-    one-line ConfigError naming the vehicle's exceedance, which draws it."""
-    with pytest.raises(ConfigError, match="task=exceedance geometry=vehicle_pioneer_i"):
+    one-line ConfigError naming the fast models' exceedance, which draws it."""
+    with pytest.raises(ConfigError, match="task=exceedance soil=<name> uncertainty=<name>"):
         _problem(*TABLE_SITE[1:], "calibrate.exceedance.sinkage_limit_m=0.1")
 
 

@@ -267,21 +267,60 @@ def test_a_strength_table_s_level_drawn_lands_each_vehicle_as_its_own_scene(comp
     assert landed.sinkage_m[0] > landed.sinkage_m[1] > landed.sinkage_m[2]
 
 
+def test_a_strength_table_s_level_drawn_lands_each_track_as_its_own_scene(compose_cfg):
+    """One track (the 3D track's fast landing model) on the CCZ box-core table, ``soil.profile_scale``
+    drawn: each track of the block lands as the scene with that scale does alone, to round-off, and a
+    weaker table sinks it deeper."""
+    from dsmv.surrogate.model import scene_table
+    from dsmv.surrogate.vehicle_exceedance import land_samples
+
+    track = ["solver=analytic_dynamic_3d", "tracking=disabled", "soil=ccz_box_core"]
+    scene = build_scene(compose_cfg(track))
+    assert not scene.geometry.vehicle and scene.soil.bent_strength is not None
+    table = scene_table([scene] * 3)
+    table["profile_scale"] = scales = [0.7, 1.0, 1.4]
+    landed = land_samples(scene, table)
+    for k, scale in enumerate(scales):
+        alone = AnalyticDynamicSolver(build_scene(compose_cfg([*track, f"soil.profile_scale={scale}"]))).solve()
+        assert landed.status[k] == alone.status == "ok"
+        assert landed.sinkage_m[k] == pytest.approx(alone.metrics["max_sinkage_m"], rel=1e-12)
+    assert landed.sinkage_m[0] > landed.sinkage_m[1] > landed.sinkage_m[2]
+    assert not landed.tilt_deg.any() and not landed.slide_m.any()
+
+
 @pytest.mark.parametrize("args, message", [
-    (["geometry=vehicle_pioneer_i", "soil=ccz_box_core"], "uncertainty.soil.su0_pa = 'a distribution': the soil's "
-                                                          "strength is a table"),
-    (["geometry=vehicle_pioneer_i", "uncertainty=ccz_box_core"], "uncertainty.soil.profile_scale = 'a distribution': "
-                                                                 "scales a strength table"),
-    (["soil=ccz_box_core"], "soil.profile = 'a table': the surrogates (trained on straight-line soils)"),
-    (["uncertainty=ccz_box_core"], "uncertainty.soil.profile_scale = 'a distribution': a strength table's level"),
+    (["task=exceedance", "geometry=vehicle_pioneer_i", "soil=ccz_box_core"],
+     "uncertainty.soil.su0_pa = 'a distribution': the soil's strength is a table"),
+    (["task=exceedance", "soil=ccz_box_core"], "uncertainty.soil.su0_pa = 'a distribution': the soil's strength "
+                                               "is a table"),
+    (["task=exceedance", "geometry=vehicle_pioneer_i", "uncertainty=ccz_box_core"],
+     "uncertainty.soil.profile_scale = 'a distribution': scales a strength table"),
+    (["task=exceedance", "uncertainty=ccz_box_core"], "uncertainty.soil.profile_scale = 'a distribution': scales "
+                                                      "a strength table"),
+    (["task=predict", "soil=ccz_box_core"], "soil.profile = 'a table': the surrogates (trained on straight-line soils"),
 ])
 def test_a_table_soil_s_exceedance_draws_its_level_and_the_surrogates_refuse_it(run_cli, args, message):
     """A strength table sets su0 and ks (drawing them is refused: its level is drawn); a straight line has
-    no level to draw; the surrogates learn straight lines, so a bent table is refused before a model is
-    sought: each one line, exit 2."""
-    done = run_cli("dsmv-predict", "task=exceedance", "sinkage_limit_m=0.1", *args)
+    no level to draw; the surrogates learn straight lines, so a bent table's prediction is refused before a
+    model is sought: each one line, exit 2."""
+    done = run_cli("dsmv-predict", "sinkage_limit_m=0.1", *args)
     assert done.returncode == 2, done.stderr
     assert message in done.stderr and len(done.stderr.strip().splitlines()) == 1, done.stderr
+
+
+def test_a_track_s_exceedance_on_the_box_core_draws_the_table_s_level(run_cli, tmp_path):
+    """One track on ``soil=ccz_box_core uncertainty=ccz_box_core``: the fast landing model lands every
+    sample, no registered model needed (tracking off); the answer lies strictly between 0 and 1 for a
+    limit inside the samples' spread, and the histogram is drawn."""
+    import json
+
+    done = run_cli("dsmv-predict", "task=exceedance", "sinkage_limit_m=0.12", "soil=ccz_box_core",
+                   "uncertainty=ccz_box_core", "uncertainty.samples=500", "tracking=disabled", "hydra.run.dir=answer")
+    assert done.returncode == 0, done.stderr
+    assert "fast landing model" in done.stdout and "P(sinkage > 0.12 m)" in done.stdout
+    answer = json.loads((tmp_path / "answer" / "prediction.json").read_text())
+    assert 0.0 < answer["exceedance_probability"] < 1.0 and answer["model"] == "fast landing model"
+    assert (tmp_path / "answer" / "exceedance.png").stat().st_size > 0
 
 
 def test_a_vehicles_exceedance_on_the_box_core_draws_the_table_s_level(run_cli, tmp_path):

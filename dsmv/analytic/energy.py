@@ -173,8 +173,8 @@ class AnalyticEnergySolver:
     def resistance_n(self, depth_m):
         """Soil resistance R(z) (N) on one track at depth z (m): Ra·su(z), su from the soil's profile."""
         soil = self.scene.soil
-        if soil.profile is not None and not soil.strength.straight:
-            return self.resistance_area_m2 * soil.strength.su(depth_m)
+        if soil.bent_strength is not None:
+            return self.resistance_area_m2 * soil.bent_strength.su(depth_m)
         return self.resistance_area_m2 * (soil.su0_pa + soil.ks_pa_per_m * np.asarray(depth_m))
 
     def solve(self, run_dir=None) -> SolveResult:
@@ -243,7 +243,7 @@ class AnalyticEnergySolver:
         """Closed-form motion z(t), v(t) of M·z̈ = W − R(z) from z = 0, v = v0 to rest at z_max; in a bent
         strength profile, segment by segment (:meth:`_trajectory_in_segments`)."""
         landing, soil = self.scene.landing, self.scene.soil
-        if soil.profile is not None and not soil.strength.straight:
+        if soil.bent_strength is not None:
             return self._trajectory_in_segments(z_max)
         return self._linear_motion(self.resistance_area_m2 * soil.su0_pa - landing.weight_per_track_n,
                                    self.resistance_area_m2 * soil.ks_pa_per_m, landing.velocity_m_s, z_max,

@@ -121,7 +121,7 @@ class VehicleModel:
                 su0_pa=soil.su0_pa, ks_pa_per_m=soil.ks_pa_per_m, density_kg_m3=soil.density_kg_m3,
                 youngs_modulus_pa=soil.youngs_modulus_pa, gravity_m_s2=landing.gravity_m_s2, shape_factor=shape,
                 grouser_height_m=body.grouser_height_m,
-                strength=soil.strength if soil.profile is not None and not soil.strength.straight else None)
+                strength=soil.bent_strength)
         column = {f.name: np.asarray(getattr(tracks, f.name), dtype=float).reshape(-1, 1) for f in fields(Landing)
                   if f.name not in ("strength", "grouser_height_m")}
         count = max(len(a) for a in column.values())

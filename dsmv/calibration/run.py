@@ -98,9 +98,8 @@ def check_config(cfg: DictConfig) -> tuple[CalibrateSettings, Problem]:
     keys = list(dict.fromkeys(settings.parameters))
     if "soil.profile_scale" in keys and settings.exceedance.sinkage_limit_m is not None:
         raise ConfigError("calibrate.exceedance.sinkage_limit_m", settings.exceedance.sinkage_limit_m,
-                          "the surrogates' exceedance learns straight lines su0 + ks·z, not a table's level: ask a "
-                          "vehicle's, dsmv-predict task=exceedance geometry=vehicle_pioneer_i soil=<name> "
-                          "uncertainty=<name> (the run prints it)")
+                          "the surrogates' exceedance learns straight lines su0 + ks·z, not a table's level: ask the "
+                          "fast models', dsmv-predict task=exceedance soil=<name> uncertainty=<name> (the run prints it)")
     bounds = []
     for key in keys:
         _get(soil, key)   # a key the soil does not have: one line naming it
@@ -535,10 +534,10 @@ def print_summary(settings, problem: Problem, cal: Calibration, checks, compared
     print(f"  outputs  : {run_dir}  ({RESULT_FILE}, {FIGURE_FILE}, conf/soil/{settings.name}.yaml, "
           f"conf/uncertainty/{settings.name}.yaml)")
     print(f"  use      : dsmv hydra.searchpath=[file://{(run_dir / 'conf').resolve()}] soil={settings.name}")
-    table = "soil.profile_scale" in problem.keys  # its level is drawn by a vehicle's exceedance
+    table = "soil.profile_scale" in problem.keys  # its level is drawn by the fast models' exceedance
     print(f"             dsmv-predict hydra.searchpath=[file://{(run_dir / 'conf').resolve()}] task=exceedance "
-          + (f"geometry=vehicle_pioneer_i soil={settings.name} " if table else "")
-          + f"uncertainty={settings.name} sinkage_limit_m=0.1")
+          + (f"soil={settings.name} " if table else "") + f"uncertainty={settings.name} sinkage_limit_m=0.1"
+          + ("  (add geometry=vehicle_pioneer_i for the vehicle)" if table else ""))
     if logged:
         print(f"  MLflow   : {logged['uri']}  (experiment {logged['experiment']}, run {logged['run_id']})")
 

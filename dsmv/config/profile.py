@@ -58,7 +58,7 @@ class StrengthSegments(NamedTuple):
 
 def refuse_a_bent_profile(soil, model: str) -> None:
     """The analytic models read su0 + ks·z: a table that is not one straight line is refused, in one line."""
-    if soil.profile is not None and not soil.strength.straight:
+    if soil.bent_strength is not None:
         raise ConfigError(KEY, "a table", f"{model} takes a straight-line strength su0 + ks·z; a bent or layered "
                           "profile runs in solver=cel2d or cel3d")
 

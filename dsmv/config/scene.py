@@ -130,6 +130,15 @@ class SoilConfig(Schema):
             points = points * np.array([1.0, self.profile_scale])
         return segments(points)
 
+    @property
+    def bent_strength(self) -> "StrengthSegments | None":
+        """The strength table when it is not one straight line; None when su_intact is su0 + ks·z (what the
+        analytic models read from su0_pa and ks_pa_per_m)."""
+        if self.profile is None:
+            return None
+        strength = self.strength
+        return None if strength.straight else strength
+
     def gravity_components(self, gravity_m_s2: float) -> tuple[float, float, float]:
         """Gravity in the grid's frame, which lies along the seabed (m/s²): along +x and +y (downslope
         positive) and its magnitude down the normal, g·sinβ·cos α, g·sinβ·sin α, g·cos β."""

@@ -61,7 +61,7 @@ from dsmv.surrogate.inverse import GOALS, TASK_PARAMETERS, InverseResult, solve_
 from dsmv.surrogate.model import TrainedSurrogate, scene_table
 from dsmv.surrogate.predictor import CALIBRATION_KEY, PredictError, Predictor, load_predictor
 from dsmv.surrogate.reliability import exceedance, sample_scenes, uncertainty_from
-from dsmv.surrogate.vehicle_exceedance import check_uncertain, vehicle_exceedance
+from dsmv.surrogate.vehicle_exceedance import check_uncertain, fast_model_exceedance
 
 PROG = "dsmv-predict"
 
@@ -413,6 +413,12 @@ def plot_exceedance(mid, lower, upper, limit: float, answer, confidence: float, 
     return path
 
 
+def landed_by_the_fast_model(scene) -> bool:
+    """Whether an exceedance of this scene lands its samples by a fast model rather than a registered
+    surrogate: a vehicle's, or one track's on a strength table that is not one straight line."""
+    return scene.geometry.vehicle or scene.soil.bent_strength is not None
+
+
 def check_config(cfg: DictConfig) -> tuple[PredictSettings, object]:
     """Everything a prediction can know is wrong before it loads the model, each mistake a one-line
     ConfigError: the prediction's keys (:func:`settings_from`), tracking on, the scene (as ``dsmv`` builds
@@ -426,17 +432,22 @@ def check_config(cfg: DictConfig) -> tuple[PredictSettings, object]:
                               "model over the uncertainty's samples); land it once with solver=analytic_dynamic_3d "
                               "or cel3d")
         check_vehicle_scene(scene)
+    elif settings.task == "exceedance" and scene.soil.bent_strength is not None:
+        pass  # one track on a strength table: the fast landing model lands its samples
+    else:
+        refuse_a_bent_profile(scene.soil, "the surrogates (trained on straight-line soils; task=exceedance lands a "
+                                          "table by the fast model)")
+    if landed_by_the_fast_model(scene):
         check_uncertain(uncertainty_from({"uncertainty": _resolve(cfg.get("uncertainty"))}).keys,
                         table_soil=scene.soil.profile is not None)
         return settings, scene
-    refuse_a_bent_profile(scene.soil, "the surrogates (trained on straight-line soils)")
     if not build_tracking(cfg).enabled:
         raise ConfigError("tracking.enabled", False, "dsmv-predict reads the registered model: use tracking=local or server")
     if settings.task == "exceedance":
         keys = uncertainty_from({"uncertainty": _resolve(cfg.get("uncertainty"))}).keys
         if "soil.profile_scale" in keys:
-            raise ConfigError("uncertainty.soil.profile_scale", "a distribution", "a strength table's level is drawn "
-                              "by a vehicle scene's exceedance (the fast vehicle model); the surrogates take su0 and ks")
+            raise ConfigError("uncertainty.soil.profile_scale", "a distribution", "scales a strength table "
+                              "(soil.profile); a straight line su0 + ks·z draws soil.su0_pa and soil.ks_pa_per_m")
     return settings, scene
 
 
@@ -445,9 +456,9 @@ def run_predict(cfg: DictConfig, run_dir: Path | None = None, overrides: list[st
     ``overrides`` (the command line's) are held against what the model can honour (:func:`check_overrides`)."""
     settings, scene = check_config(cfg)
     base = scene_table([scene])
-    if scene.geometry.vehicle:
+    if landed_by_the_fast_model(scene):
         table = sample_scenes(base, uncertainty_from(OmegaConf.to_container(cfg, resolve=True)))
-        answer = vehicle_exceedance(scene, table, settings.sinkage_limit_m, run_dir, settings.plot, PROG)
+        answer = fast_model_exceedance(scene, table, settings.sinkage_limit_m, run_dir, settings.plot, PROG)
         return write_answer({"task": settings.task} | answer, run_dir)
     tracking = build_tracking(cfg)
     name = str(cfg.surrogate.registered_model)
