@@ -253,11 +253,34 @@ def test_a_table_is_fitted_by_its_level_and_a_line_by_its_strengths():
         _problem("calibrate.parameters=[soil.profile_scale]", "~calibrate.synthetic")
 
 
-def test_a_fitted_table_s_level_is_not_put_to_the_surrogates():
-    """The surrogates' exceedance learns straight lines: comparing it for a fitted table's level is a
-    one-line ConfigError naming the fast models' exceedance, which draws it."""
-    with pytest.raises(ConfigError, match="task=exceedance soil=<name> uncertainty=<name>"):
+def test_a_fitted_table_s_exceedance_is_compared_against_a_file_that_draws_a_table_s_level():
+    """A fitted table's level is compared by the fast landing model against calibrate.landing_uncertainty,
+    which must draw a table's level, not su0 and ks (the default file's): a one-line ConfigError naming
+    one that does."""
+    with pytest.raises(ConfigError, match="calibrate.landing_uncertainty=ccz_box_core"):
         _problem(*TABLE_SITE[1:], "calibrate.exceedance.sinkage_limit_m=0.1")
+    _problem(*TABLE_SITE[1:], "calibrate.exceedance.sinkage_limit_m=0.1", "calibrate.landing_uncertainty=ccz_box_core")
+
+
+def test_a_fitted_table_s_level_flows_into_the_exceedance(tmp_path):
+    """End to end on the box-core table whose site is 1.3 times stronger than measured: the written draws
+    carry the fitted level (soil.profile_scale), and the default scene's P(sinkage > limit) by the fast
+    landing model is printed with the calibrated uncertainty beside the box-core file's (level 1, cov
+    0.2): the stronger fitted soil exceeds the limit less often."""
+    env = dict(os.environ, NUMBA_NUM_THREADS="1")
+    run_dir = tmp_path / "run"
+    proc = subprocess.run([str(BIN / "dsmv-calibrate"), *TABLE_SITE, "calibrate.bootstrap=20", "calibrate.cel_check=false",
+                           "calibrate.exceedance.sinkage_limit_m=0.12", "calibrate.landing_uncertainty=ccz_box_core",
+                           f"hydra.run.dir={run_dir}"], cwd=Path(__file__).parents[1], env=env,
+                          capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    uncertainty = OmegaConf.load(run_dir / "conf" / "uncertainty" / "synthetic_ccz.yaml")
+    with open(uncertainty.joint) as draws:
+        assert "soil.profile_scale" in draws.readline().strip().split(",")
+    compared = json.loads((run_dir / "calibration.json").read_text())["exceedance"]
+    assert compared["calibrated"]["model"] == compared["default"]["model"] == "fast landing model"
+    assert 0.0 <= compared["calibrated"]["probability"] < compared["default"]["probability"] < 1.0
+    assert proc.stdout.count("P(z > 0.12 m)") == 2
 
 
 def test_a_fitted_table_s_uncertainty_lands_vehicles_at_its_drawn_levels(tmp_path, compose_cfg):

@@ -31,7 +31,7 @@ from dsmv.config.location import CONFIG_DIR, data_path
 from dsmv.config.profile import read_points
 from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError
-from dsmv.surrogate.dataset import COLUMNS
+from dsmv.surrogate.reliability import DRAWN
 
 RESULT_FILE = "calibration.json"
 DRAWS_FILE = "draws.csv"
@@ -97,9 +97,7 @@ def check_config(cfg: DictConfig) -> tuple[CalibrateSettings, Problem]:
     soil = _validate(SoilConfig, container["soil"], "soil").model_dump()
     keys = list(dict.fromkeys(settings.parameters))
     if "soil.profile_scale" in keys and settings.exceedance.sinkage_limit_m is not None:
-        raise ConfigError("calibrate.exceedance.sinkage_limit_m", settings.exceedance.sinkage_limit_m,
-                          "the surrogates' exceedance learns straight lines su0 + ks·z, not a table's level: ask the "
-                          "fast models', dsmv-predict task=exceedance soil=<name> uncertainty=<name> (the run prints it)")
+        check_table_comparison(settings)
     bounds = []
     for key in keys:
         _get(soil, key)   # a key the soil does not have: one line naming it
@@ -298,17 +296,17 @@ def write_outputs(settings: CalibrateSettings, problem: Problem, cal: Calibratio
             raise ConfigError("calibrate.landing_uncertainty", settings.landing_uncertainty, f"no {path}")
         base = OmegaConf.to_container(OmegaConf.load(path), resolve=True)
         uncertainty = {k: v for k, v in base.items() if k != "soil"}
-    surrogate_keys = [k for k in cal.keys if k in COLUMNS]
+    surrogate_keys = [k for k in cal.keys if k in DRAWN]  # what an exceedance draws (a table's level too)
     joint = run_dir / "uncertainty_draws.csv"
     columns = [cal.keys.index(k) for k in surrogate_keys]
     np.savetxt(joint, cal.draws[:, columns], delimiter=",", header=",".join(surrogate_keys), comments="", fmt="%.10g")
     uncertainty["joint"] = str(joint.resolve())
     unc_dir = run_dir / "conf" / "uncertainty"
     unc_dir.mkdir(parents=True, exist_ok=True)
-    left_out = [k for k in cal.keys if k not in COLUMNS]
+    left_out = [k for k in cal.keys if k not in DRAWN]
     (unc_dir / f"{settings.name}.yaml").write_text(
         f"# The calibration's joint draws ({len(cal.draws)} bootstrap refits) of {', '.join(surrogate_keys)}"
-        + (f"; not drawn, since the surrogates do not take them: {', '.join(left_out)}" if left_out else "")
+        + (f"; not drawn, since the models do not take them: {', '.join(left_out)}" if left_out else "")
         + (f".\n# The landing's entries are uncertainty={settings.landing_uncertainty}'s.\n"
            if settings.landing_uncertainty else ".\n") + OmegaConf.to_yaml(OmegaConf.create(uncertainty)))
     files["uncertainty"] = unc_dir / f"{settings.name}.yaml"
@@ -404,21 +402,62 @@ def plot_fit(problem: Problem, cal: Calibration, path: Path) -> Path:
 # ----------------------------------------------------------------------------- what it changes
 
 
-def compare_exceedance(cfg: DictConfig, settings: CalibrateSettings, uncertainty_file: Path) -> dict[str, dict]:
+def _uncertainty_file(name: str | None) -> Path:
+    return Path(CONFIG_DIR) / "uncertainty" / f"{name}.yaml"
+
+
+def check_table_comparison(settings: CalibrateSettings) -> None:
+    """A fitted table's level is compared by the fast landing model against ``calibrate.landing_uncertainty``,
+    which must then draw a table's (its level, not su0 and ks): one line if it does not."""
+    from dsmv.surrogate.reliability import uncertainty_from
+    from dsmv.surrogate.vehicle_exceedance import check_uncertain
+
+    path = _uncertainty_file(settings.landing_uncertainty)
+    if not path.is_file():
+        raise ConfigError("calibrate.landing_uncertainty", settings.landing_uncertainty, f"no {path}")
+    keys = uncertainty_from({"uncertainty": OmegaConf.to_container(OmegaConf.load(path), resolve=True)}).keys
+    try:
+        check_uncertain(keys, table_soil=True)
+    except ConfigError:
+        raise ConfigError("calibrate.landing_uncertainty", settings.landing_uncertainty,
+                          "the fitted table's exceedance is compared against a file that draws a table's level "
+                          "(soil.profile_scale), not su0 and ks: e.g. calibrate.landing_uncertainty=ccz_box_core") from None
+
+
+def compare_exceedance(cfg: DictConfig, settings: CalibrateSettings, uncertainty_file: Path,
+                       table_soil: dict | None = None) -> dict[str, dict]:
     """P(max sinkage > limit) for the default scene (``dsmv-predict task=exceedance``'s answer) with the
-    calibrated uncertainty and with the file it replaces (``calibrate.landing_uncertainty``), by the
-    registered surrogate: {"calibrated": …, "default": …}, each the estimate and its errors."""
-    from dsmv.config.scene import build_tracking
+    calibrated uncertainty and with the file it replaces (``calibrate.landing_uncertainty``):
+    {"calibrated": …, "default": …}, each the estimate and its errors. By the registered surrogate; on a
+    fitted strength table (``table_soil``, the starting soil), by the fast landing model, each sample on the
+    table at its drawn level (docs/decisions/0038), the surrogates learning straight lines."""
     from dsmv.config.tree import compose_scene
     from dsmv.surrogate.model import scene_table
-    from dsmv.surrogate.predictor import load_predictor
     from dsmv.surrogate.reliability import exceedance, sample_scenes, uncertainty_from
 
     ask = settings.exceedance
+    files = {"calibrated": uncertainty_file, "default": _uncertainty_file(settings.landing_uncertainty)}
+    if table_soil is not None:
+        from dataclasses import replace
+
+        from dsmv.config.scene import SoilConfig
+        from dsmv.surrogate.vehicle_exceedance import land_samples, probability
+
+        scene = replace(compose_scene(["tracking=disabled"]), soil=_validate(SoilConfig, table_soil, "soil"))
+        out = {}
+        for which, path in files.items():
+            uncertainty = uncertainty_from({"uncertainty": OmegaConf.to_container(OmegaConf.load(path), resolve=True)})
+            landed = land_samples(scene, sample_scenes(scene_table([scene]), uncertainty))
+            p, error = probability(~(landed.sinkage_m <= ask.sinkage_limit_m))
+            out[which] = {"probability": p, "monte_carlo_error": error, "samples": len(landed.sinkage_m),
+                          "uncertainty": str(path), "model": "fast landing model"}
+        return out
+
+    from dsmv.config.scene import build_tracking
+    from dsmv.surrogate.predictor import load_predictor
+
     predictor = load_predictor(ask.registered_model, build_tracking(cfg).uri)
     base = scene_table([compose_scene(["tracking=disabled"])])
-    files = {"calibrated": uncertainty_file,
-             "default": Path(CONFIG_DIR) / "uncertainty" / f"{settings.landing_uncertainty}.yaml"}
     out = {}
     for which, path in files.items():
         uncertainty = uncertainty_from({"uncertainty": OmegaConf.to_container(OmegaConf.load(path), resolve=True)})
@@ -484,7 +523,8 @@ def run_calibration(cfg: DictConfig, run_dir: Path) -> dict:
     files = write_outputs(settings, problem, cal, checks, run_dir)
     compared = {}
     if settings.exceedance.sinkage_limit_m is not None:
-        compared = compare_exceedance(cfg, settings, files["uncertainty"])
+        compared = compare_exceedance(cfg, settings, files["uncertainty"],
+                                      problem.soil if "soil.profile_scale" in problem.keys else None)
         summary = json.loads(files["result"].read_text())
         files["result"].write_text(json.dumps(summary | {"exceedance": compared}, indent=2) + "\n")
     metrics = {f"best_{_metric_name(k)}": float(b) for k, b in zip(cal.keys, cal.best)}
