@@ -35,6 +35,10 @@ from dsmv.tracking import runs
 from dsmv.tracking.run_writer import WriterError
 
 RESOLVED_CONFIG_FILE = "config_resolved.yaml"
+#: a touchdown tilt whose drop across the base is under this many core cells is not what the soil meets: the
+#: default vehicle rolled 2° (1.5 cells of 0.075 m) bears on its high track from 4 ms, the cells the mudline
+#: cuts pressing on all their corners; rolled 4° (3 cells), not before 40 ms (docs/decisions/0030)
+RESOLVED_DROP_CELLS = 2.0
 
 
 def pin_numba_threads(n: int) -> None:
@@ -418,7 +422,8 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
             drop, cells = m["attitude_drop_m"], m["attitude_drop_m"] / m["core_cell_size_m"]
             print(f"  attitude: its base drops {drop:.3g} m across at touchdown, {cells:.2g} core cells" + (
                 ": under one cell, the staircase draws it level (finer mesh.cell_size_m shows the tilt)"
-                if cells < 1.0 else ""))
+                if cells < 1.0 else ": under two, its high side meets the soil from touchdown, through the cells the "
+                "mudline cuts (finer mesh.cell_size_m shows the tilt)" if cells < RESOLVED_DROP_CELLS else ""))
         if "redraws" in m:  # a body redrawn as it turned: whether its soil may part from it
             parts = ContactRules.of(scene, False, draws_turns=True).separation
             def step_deg(span_m):  # one core cell across a span, as an angle
