@@ -316,9 +316,10 @@ class VehicleModel:
         elastic from where the base last slipped, up to Green's (1954) capacity of a rough strip at the
         track's load, h = H/(A·s) at v = V/(A·s) (:func:`dsmv.analytic.bearing.green_horizontal`), with s the
         strength for which the track's capacity is Prandtl's, the fast model's pressure at its depth and speed
-        over 2 + π (while it sinks, the envelope's point whose normal is its motion's, if larger); and the
-        base's radiation dashpot while it bears and holds. Also each track's h (the spring's),
-        which the patches' next pressures are inclined by. ``tracks``: each track's base middle from the
+        over 2 + π (while it sinks, the envelope's point whose normal is its motion's, if larger), plus the
+        passive push on the trapped soil's faces (:meth:`passive_push`, docs/decisions/0036); and the
+        base's radiation dashpot while it bears and holds. Also each track's h (the base's share of the
+        push), which the patches' next pressures are inclined by. ``tracks``: each track's base middle from the
         centre of gravity, turned (vehicles, 3, tracks)."""
         moved = slide[:, :, None] + tracks[:, :2] - self.track_arms[:2]
         swing = np.stack([rates[:, 1:] * tracks[:, 2], -rates[:, :1] * tracks[:, 2]], axis=1)  # ω × r along the seabed
