@@ -173,8 +173,8 @@ class AnalyticEnergySolver:
     def resistance_n(self, depth_m):
         """Soil resistance R(z) (N) on one track at depth z (m): Ra·su(z), su from the soil's profile."""
         soil = self.scene.soil
-        if soil.bent_strength is not None:
-            return self.resistance_area_m2 * soil.bent_strength.su(depth_m)
+        if (strength := soil.bent_strength) is not None:
+            return self.resistance_area_m2 * strength.su(depth_m)
         return self.resistance_area_m2 * (soil.su0_pa + soil.ks_pa_per_m * np.asarray(depth_m))
 
     def solve(self, run_dir=None) -> SolveResult:

@@ -291,10 +291,7 @@ def write_outputs(settings: CalibrateSettings, problem: Problem, cal: Calibratio
 
     uncertainty: dict = {}
     if settings.landing_uncertainty:
-        path = Path(CONFIG_DIR) / "uncertainty" / f"{settings.landing_uncertainty}.yaml"
-        if not path.is_file():
-            raise ConfigError("calibrate.landing_uncertainty", settings.landing_uncertainty, f"no {path}")
-        base = OmegaConf.to_container(OmegaConf.load(path), resolve=True)
+        base = OmegaConf.to_container(OmegaConf.load(landing_uncertainty_file(settings)), resolve=True)
         uncertainty = {k: v for k, v in base.items() if k != "soil"}
     surrogate_keys = [k for k in cal.keys if k in DRAWN]  # what an exceedance draws (a table's level too)
     joint = run_dir / "uncertainty_draws.csv"
@@ -402,20 +399,27 @@ def plot_fit(problem: Problem, cal: Calibration, path: Path) -> Path:
 # ----------------------------------------------------------------------------- what it changes
 
 
-def _uncertainty_file(name: str | None) -> Path:
-    return Path(CONFIG_DIR) / "uncertainty" / f"{name}.yaml"
+def landing_uncertainty_file(settings: CalibrateSettings) -> Path:
+    """The ``uncertainty=`` file ``calibrate.landing_uncertainty`` names (one line if there is none)."""
+    path = Path(CONFIG_DIR) / "uncertainty" / f"{settings.landing_uncertainty}.yaml"
+    if not path.is_file():
+        raise ConfigError("calibrate.landing_uncertainty", settings.landing_uncertainty, f"no {path}")
+    return path
+
+
+def read_uncertainty(path: Path):
+    """An ``uncertainty=`` file, validated (:func:`dsmv.surrogate.reliability.uncertainty_from`)."""
+    from dsmv.surrogate.reliability import uncertainty_from
+
+    return uncertainty_from({"uncertainty": OmegaConf.to_container(OmegaConf.load(path), resolve=True)})
 
 
 def check_table_comparison(settings: CalibrateSettings) -> None:
     """A fitted table's level is compared by the fast landing model against ``calibrate.landing_uncertainty``,
     which must then draw a table's (its level, not su0 and ks): one line if it does not."""
-    from dsmv.surrogate.reliability import uncertainty_from
     from dsmv.surrogate.vehicle_exceedance import check_uncertain
 
-    path = _uncertainty_file(settings.landing_uncertainty)
-    if not path.is_file():
-        raise ConfigError("calibrate.landing_uncertainty", settings.landing_uncertainty, f"no {path}")
-    keys = uncertainty_from({"uncertainty": OmegaConf.to_container(OmegaConf.load(path), resolve=True)}).keys
+    keys = read_uncertainty(landing_uncertainty_file(settings)).keys
     try:
         check_uncertain(keys, table_soil=True)
     except ConfigError:
@@ -433,10 +437,10 @@ def compare_exceedance(cfg: DictConfig, settings: CalibrateSettings, uncertainty
     table at its drawn level (docs/decisions/0038), the surrogates learning straight lines."""
     from dsmv.config.tree import compose_scene
     from dsmv.surrogate.model import scene_table
-    from dsmv.surrogate.reliability import exceedance, sample_scenes, uncertainty_from
+    from dsmv.surrogate.reliability import exceedance, sample_scenes
 
     ask = settings.exceedance
-    files = {"calibrated": uncertainty_file, "default": _uncertainty_file(settings.landing_uncertainty)}
+    files = {"calibrated": uncertainty_file, "default": landing_uncertainty_file(settings)}
     if table_soil is not None:
         from dataclasses import replace
 
@@ -446,9 +450,8 @@ def compare_exceedance(cfg: DictConfig, settings: CalibrateSettings, uncertainty
         scene = replace(compose_scene(["tracking=disabled"]), soil=_validate(SoilConfig, table_soil, "soil"))
         out = {}
         for which, path in files.items():
-            uncertainty = uncertainty_from({"uncertainty": OmegaConf.to_container(OmegaConf.load(path), resolve=True)})
-            landed = land_samples(scene, sample_scenes(scene_table([scene]), uncertainty))
-            p, error = probability(~(landed.sinkage_m <= ask.sinkage_limit_m))
+            landed = land_samples(scene, sample_scenes(scene_table([scene]), read_uncertainty(path)))
+            p, error = probability(landed.exceeds(ask.sinkage_limit_m, None)["sinkage"])
             out[which] = {"probability": p, "monte_carlo_error": error, "samples": len(landed.sinkage_m),
                           "uncertainty": str(path), "model": "fast landing model"}
         return out
@@ -460,8 +463,7 @@ def compare_exceedance(cfg: DictConfig, settings: CalibrateSettings, uncertainty
     base = scene_table([compose_scene(["tracking=disabled"])])
     out = {}
     for which, path in files.items():
-        uncertainty = uncertainty_from({"uncertainty": OmegaConf.to_container(OmegaConf.load(path), resolve=True)})
-        mid, lower, upper = predictor.interval(sample_scenes(base, uncertainty), ask.confidence)
+        mid, lower, upper = predictor.interval(sample_scenes(base, read_uncertainty(path)), ask.confidence)
         answer = exceedance(mid, lower, upper, ask.sinkage_limit_m)
         out[which] = {"probability": answer.probability, "monte_carlo_error": answer.monte_carlo_error,
                       "model_low": answer.model_low, "model_high": answer.model_high, "samples": answer.samples,

@@ -432,9 +432,7 @@ def check_config(cfg: DictConfig) -> tuple[PredictSettings, object]:
                               "model over the uncertainty's samples); land it once with solver=analytic_dynamic_3d "
                               "or cel3d")
         check_vehicle_scene(scene)
-    elif settings.task == "exceedance" and scene.soil.bent_strength is not None:
-        pass  # one track on a strength table: the fast landing model lands its samples
-    else:
+    elif settings.task != "exceedance":  # one track on a table: its exceedance is the fast landing model's
         refuse_a_bent_profile(scene.soil, "the surrogates (trained on straight-line soils; task=exceedance lands a "
                                           "table by the fast model)")
     if landed_by_the_fast_model(scene):

@@ -161,8 +161,7 @@ def plot_vehicle_exceedance(landings: VehicleLandings, sinkage_limit_m: float, t
     return path
 
 
-def plot_track_exceedance(landings: VehicleLandings, sinkage_limit_m: float, _tilt_limit_deg, path: Path,
-                          title: str) -> Path:
+def plot_track_exceedance(landings: VehicleLandings, sinkage_limit_m: float, path: Path, title: str) -> Path:
     """The samples' sinkages as a histogram, the limit across it."""
     plt = pyplot()
     stopped = landings.sinkage_m[np.isfinite(landings.sinkage_m)]
@@ -234,7 +233,8 @@ def fast_model_exceedance(scene, table: pd.DataFrame, sinkage_limit_m: float, ru
         run_dir.mkdir(parents=True, exist_ok=True)
         title = (f"{model}, {total} samples: P(sinkage > {sinkage_limit_m:g} m) = {p:.3f}"
                  + (f", P(tilt > {tilt_limit:g}°) = {out['tilt_exceedance_probability']:.3f}" if tilt_limit else ""))
-        draw = plot_vehicle_exceedance if vehicle else plot_track_exceedance
-        out["plot"] = str(draw(landings, sinkage_limit_m, tilt_limit, run_dir / "exceedance.png", title))
+        path = run_dir / "exceedance.png"
+        out["plot"] = str(plot_vehicle_exceedance(landings, sinkage_limit_m, tilt_limit, path, title) if vehicle
+                          else plot_track_exceedance(landings, sinkage_limit_m, path, title))
         print(f"  plot     : {out['plot']}")
     return out
