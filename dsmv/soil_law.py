@@ -164,6 +164,29 @@ class SoilLaw:
             raise ValueError(f"soil law {self.name} starts its state at non-finite values {values}")
         return values
 
+    def layers(self) -> list["SoilLaw"]:
+        """The law in each layer of the soil (``soil.profile``'s law columns, top down); ``[self]`` when the
+        table layers none. Every layer's law starts its state variables at the same values."""
+        soils = self.soil.layer_soils()
+        if len(soils) == 1:
+            return [self]
+        laws = [type(self)(soil) for soil in soils]
+        first = laws[0].initial_state()
+        if any(not np.array_equal(law.initial_state(), first) for law in laws[1:]):
+            raise ValueError(f"soil law {self.name} starts its state at values that differ between the table's layers")
+        return laws
+
+    @property
+    def layer_tops(self) -> np.ndarray:
+        """The top depth of each of :meth:`layers` (m; the first −∞)."""
+        layers = self.soil.law_layers
+        return np.array([-np.inf]) if layers is None else layers.top
+
+    @property
+    def any_layer_active(self) -> bool:
+        """Whether solvers must evaluate the law in some layer (:attr:`active` in any of :meth:`layers`)."""
+        return any(law.active for law in self.layers())
+
     def packed(self) -> np.ndarray:
         """``parameters()`` checked and padded to ``N_PARAMS`` floats."""
         params = np.zeros(N_PARAMS)

@@ -159,7 +159,7 @@ def simple_shear(law: SoilLaw, gamma_dot: float, gamma_total: float, n_steps: in
                           ks=0.0, hourglass=0.0, bulk_linear=0.0, bulk_quadratic=0.0, stress_cutoff=0.01,
                           axisymmetric=False, advection_order=2, drop=False, inflow=False, remap=True, tresca=True,
                           law_active=law.active)
-    kernel = SoilLawKernel(law.compiled(), law.packed(), law.compiled_evolve())
+    kernel = SoilLawKernel.of(law)
     out = np.zeros(2)
     gammas, taus = np.empty(n_steps), np.empty(n_steps)
     for step in range(n_steps):

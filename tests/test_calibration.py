@@ -304,14 +304,12 @@ def test_a_fitted_table_s_uncertainty_lands_vehicles_at_its_drawn_levels(tmp_pat
 def test_the_cel_check_pushes_the_bar_through_the_fitted_table():
     """The CEL check's scene (its command-line overrides) holds the fitted soil's table at its fitted
     level: the same strength at every depth."""
-    from dsmv.calibration.data import SiteTest
-    from dsmv.calibration.run import _scene_overrides
+    from dsmv.calibration.cel_tests import tbar_overrides
     from dsmv.config.tree import compose_scene
 
     _, problem = _problem(*TABLE_SITE[1:])
     soil = problem.soil_at([1.3, 4.0, 40.0, 0.08])
-    bar = SiteTest("tbar", "bar", {}, diameter_m=0.04)
-    scene = compose_scene(_scene_overrides(soil, bar, 0.02, 0.5, 0.2, 10))
+    scene = compose_scene(tbar_overrides(soil, 0.04, 0.02, 0.5, 0.2, 10))
     depths = np.linspace(0.0, 1.0, 41)
     assert np.array_equal(scene.soil.strength.su(depths), soil.strength.su(depths))
     as_measured = compose_scene(["soil=ccz_box_core"]).soil.strength
@@ -332,3 +330,18 @@ def test_a_known_value_may_be_added_for_a_soil_key_the_config_has_and_no_other(t
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 2 and "no such config key" in proc.stderr
     assert proc.stderr.strip().splitlines() == [proc.stderr.strip()]
+
+
+def test_a_site_whose_files_hold_the_truth_s_values_gets_only_its_scatter():
+    """``synthetic.values: files`` (a site measured on the CEL): the files' values are the clean ones.
+    Without scatter they come through to the bit; with 5 % each value moves by its own log-normal factor,
+    the same draws as the models' values would get."""
+    _, clean = _problem("+calibrate.synthetic.values=files", "calibrate.synthetic.noise=0")
+    files = [read_test(t.kind, Path(__file__).parents[1] / "conf" / "site" / f"{t.name}.csv", "t") for t in clean.tests]
+    for test, file in zip(clean.tests, files):
+        assert np.array_equal(test.measured, file.measured)
+    _, noisy = _problem("+calibrate.synthetic.values=files")
+    ratios = np.log(np.concatenate([t.measured for t in noisy.tests]) / np.concatenate([t.measured for t in clean.tests]))
+    rng = np.random.default_rng(1)
+    expected = np.concatenate([0.05 * rng.standard_normal(len(t)) for t in clean.tests])
+    np.testing.assert_allclose(ratios, expected, atol=1e-12)

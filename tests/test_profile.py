@@ -165,3 +165,64 @@ def test_a_table_scaled_carries_a_body_as_heavy_to_the_same_depth(compose_cfg):
     np.testing.assert_allclose(strength.slope, 1.3 * one.soil.strength.slope, rtol=1e-15)
     with pytest.raises(ConfigError, match="soil.profile_scale = 1.3: scales a table"):
         compose_scene(["soil.profile_scale=1.3"])
+
+
+#: Davis & Booker's push in an Einav–Randolph soil that softens and depends on rate
+SOFTENING = [*DAVIS_BOOKER, "soil.law=einav_randolph", "soil.sensitivity=3", "soil.xi95=20", "soil.rate.eta=0.1",
+             "soil.ks_pa_per_m=0"]
+
+
+@pytest.mark.parametrize("solver", ["cel2d", "cel3d"])
+def test_a_table_that_layers_the_law_alike_is_the_unlayered_soil_to_the_bit(compose_cfg, solver):
+    """The table's law columns give two layers (a row's values hold from its depth down) with the soil's own
+    values: the kernels look a layer up by the depth the soil started at, and read the same numbers."""
+    plain = solve(compose_cfg, [*SOFTENING, f"solver={solver}", TABLE])
+    layered = solve(compose_cfg, [*SOFTENING, f"solver={solver}", "soil.profile={depth_m:[0,100],"
+                                  "su_pa:[10000,4010000],sensitivity:[3,3],xi95:[20,20],rate.eta:[0.1,0.1]}"])
+    assert np.array_equal(layered.history["force_n"], plain.history["force_n"])
+
+
+def test_a_layer_whose_rate_factor_is_constant_is_a_stronger_layer(compose_cfg):
+    """An exact similarity of the power law: with n = 1e-300, (γ̇/γ̇ref)^n is 1 to the last bit at any
+    γ̇ > 0, so R = 1 + η. A soil rate-free down to 0.1 m and rate-dependent below is then the rate-free soil
+    whose table is 1 + η times stronger below 0.1 m: the push through both layers meets the same force
+    to round-off (the strength's arithmetic differs in order only). Its capacity lies between the
+    rate-free soil's and the soil rate-dependent throughout (measured: N 8.69 < 10.26 < 10.86)."""
+    eta, line = 0.25, lambda z: 10000.0 + 40000.0 * z
+    rate_free = [*SOFTENING, "soil.sensitivity=1", "soil.rate.eta=0", "soil.rate.n=1e-300"]
+    points = f"depth_m:[0,0.1,0.1,100],su_pa:[{line(0)},{line(0.1)},{line(0.1)},{line(100)}]"
+    layered = solve(compose_cfg, [*rate_free, f"soil.profile={{{points},rate.eta:[0,0,{eta},{eta}]}}"])
+    stronger = solve(compose_cfg, [*rate_free, f"soil.profile=[[0,{line(0)}],[0.1,{line(0.1)}],"
+                                   f"[0.1,{(1 + eta) * line(0.1)}],[100,{(1 + eta) * line(100)}]]"])
+    force, expected = layered.history["force_n"], stronger.history["force_n"]
+    np.testing.assert_allclose(force, expected, rtol=1e-12, atol=1e-12 * np.abs(expected).max())
+    below = solve(compose_cfg, [*rate_free, f"soil.profile={{{points}}}"]).metrics["nc_at_0p02B"]
+    above = solve(compose_cfg, [*rate_free, f"soil.profile={{{points},rate.eta:[{eta},{eta},{eta},{eta}]}}"])
+    assert below < layered.metrics["nc_at_0p02B"] < above.metrics["nc_at_0p02B"]
+
+
+def test_a_table_that_layers_the_law_badly_is_refused_in_one_line(compose_cfg):
+    with pytest.raises(ConfigError, match="the layer from 0.5 m's sensitivity 0.5.*greater than or equal to 1"):
+        build_scene(compose_cfg(["soil.profile={depth_m:[0,0.5,0.5],su_pa:[3000,5000,5000],sensitivity:[3,3,0.5]}"]))
+    with pytest.raises(ConfigError, match="'column sensitivty': not a soil key"):
+        build_scene(compose_cfg(["soil.profile={depth_m:[0,0.5],su_pa:[3000,5000],sensitivty:[3,3]}"]))
+    with pytest.raises(ConfigError, match="the dynamic model takes one set of the soil law's values"):
+        scene = build_scene(compose_cfg(["solver=analytic_dynamic", "soil.profile={depth_m:[0,0.5],su_pa:[3000,5000],"
+                                         "sensitivity:[3,4]}"]))
+        registry.load("solvers", scene.solver.name, "solver.name")(scene)
+
+
+def test_a_csv_layers_the_law_by_its_columns(tmp_path):
+    """A layered CSV: units for depth and strength, soil keys for the law's columns; the row's values hold
+    from its depth down, a depth given twice is the boundary."""
+    from dsmv.config.profile import law_layers
+
+    path = tmp_path / "site.csv"
+    path.write_text("depth_m,su_kpa,sensitivity,rate.eta\n0,3.4,3,0.1\n0.5,6.9,3,0.1\n0.5,6.9,5,0.2\n2,12,5,0.2\n")
+    layers = law_layers(str(path))
+    assert layers.top.tolist() == [-math.inf, 0.5, 2.0]
+    assert layers.values["sensitivity"].tolist() == [3.0, 5.0, 5.0]
+    assert [layers.at(z) for z in (0.0, 0.4999, 0.5, 1.0, 3.0)] == [0, 0, 1, 1, 2]
+    path.write_text("depth_m,su_kpa,note\n0,3.4,x\n")
+    with pytest.raises(ConfigError, match="site.csv: column note': not a soil key"):
+        read_points(str(path))

@@ -31,7 +31,7 @@ from pydantic import BeforeValidator, Field
 
 from dsmv import registry
 from dsmv.analytic.bearing import PRANDTL_NC
-from dsmv.config.profile import refuse_a_bent_profile
+from dsmv.config.profile import refuse_a_bent_profile, refuse_a_layered_law
 from dsmv.errors import ConfigError
 from dsmv.results import SolveResult, add_plate_sinkage
 from dsmv.config.scene import Scene
@@ -71,9 +71,11 @@ def skempton_shape_factor(body) -> float:
 
 def refuse_beyond_the_closed_form(scene: Scene, model: str, bent_profile: bool = False) -> None:
     """What the analytic models' closed forms cannot take, refused in one line naming the key: a bent
-    strength profile (unless the model reads one: ``bent_profile``), a body that may slide or turn."""
+    strength profile (unless the model reads one: ``bent_profile``), a table that layers the law's values, a
+    body that may slide or turn."""
     if not bent_profile:
         refuse_a_bent_profile(scene.soil, model)
+    refuse_a_layered_law(scene.soil, model)
     if scene.landing.moves_beyond_vertical:
         key = scene.landing.beyond_vertical_key
         raise ConfigError(key, scene.landing.model_dump()[key.split(".")[1]], f"{model} lands a body vertically; "

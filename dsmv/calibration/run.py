@@ -16,6 +16,7 @@ What it writes into its run dir (``runs/calibrate/<date>/<time>``):
 from __future__ import annotations
 
 import json
+import math
 import time
 from pathlib import Path
 from typing import Literal, Optional
@@ -25,10 +26,11 @@ from omegaconf import DictConfig, OmegaConf
 from pydantic import Field
 
 from dsmv.analytic.penetrometer import PenetrometerModel, tbar_resistance
+from dsmv.calibration.cel_tests import cyclic_push, profile_push
 from dsmv.calibration.data import KINDS, MEASURED, SiteTest, read_test, write_test
 from dsmv.calibration.fit import DEFAULT_BOUNDS, Calibration, Problem, _get, calibrate
 from dsmv.config.location import CONFIG_DIR, data_path
-from dsmv.config.profile import read_points
+from dsmv.config.profile import refuse_a_layered_law
 from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError
 from dsmv.surrogate.reliability import DRAWN
@@ -59,6 +61,9 @@ class Synthetic(Schema):
     truth: dict = Field(description="the soil values the data are generated from, nested as the soil is")
     noise: Number = Field(0.05, ge=0, description="relative scatter of the generated data (-), log-normal")
     seed: int = Field(0, description="the noise's random seed (-)")
+    values: Literal["models", "files"] = Field("models", description=(
+        "models: the fast models generate the tests' values at the truth; files: the files hold values "
+        "measured at the truth without scatter (python -m dsmv.calibration.cel_site, on the CEL)"))
 
 
 class ExceedanceSettings(Schema):
@@ -94,7 +99,9 @@ def check_config(cfg: DictConfig) -> tuple[CalibrateSettings, Problem]:
                           "or a site (site=synthetic_ccz)")
     from dsmv.config.scene import SoilConfig
 
-    soil = _validate(SoilConfig, container["soil"], "soil").model_dump()
+    validated = _validate(SoilConfig, container["soil"], "soil")
+    refuse_a_layered_law(validated, "dsmv-calibrate")
+    soil = validated.model_dump()
     keys = list(dict.fromkeys(settings.parameters))
     if "soil.profile_scale" in keys and settings.exceedance.sinkage_limit_m is not None:
         check_table_comparison(settings)
@@ -120,7 +127,7 @@ def check_config(cfg: DictConfig) -> tuple[CalibrateSettings, Problem]:
         generator = Problem(tests, truth_soil, keys, bounds, settings.models)
         values = [float(truth.get(k, generator.start[i])) for i, k in enumerate(keys)]
         rng = np.random.default_rng(settings.synthetic.seed)
-        clean = generator.predict(values)
+        clean = generator.predict(values) if settings.synthetic.values == "models" else [t.measured for t in tests]
         tests = [SiteTest(t.kind, t.name, {**t.columns, MEASURED[t.kind]: c * np.exp(
             settings.synthetic.noise * rng.standard_normal(len(c)))}, t.diameter_m, t.apex_angle_deg)
                  for t, c in zip(tests, clean)]
@@ -130,30 +137,14 @@ def check_config(cfg: DictConfig) -> tuple[CalibrateSettings, Problem]:
 # ----------------------------------------------------------------------------- the CEL check
 
 
-#: the CEL check pushes the bar this many diameters a second: an explicit run's steps grow with the time
-#: pushed (a 40 mm bar at 20 mm/s through 2 D: 530,000 steps on D/10). The law sees the same γ̇/γ̇ref
-#: when γ̇ref is scaled with the speed (an exact similarity of the Einav–Randolph law's rate forms), and
-#: the soil's inertia stays small: ρ'·v²/su = 0.002 for a 40 mm bar in 5 kPa clay
-CHECK_SPEED_DIAMETERS_PER_S = 2.5
-#: the CEL check's push (diameters): a bar wished in place into softening soil reaches its steady
-#: resistance as the soil it has remoulded flows round it; dsmv's CEL T-bar held steady to 0.3 % over
-#: the last diameter of 4 to 8 (St 2–5, ξ95 10–30)
-CHECK_TRAVEL_DIAMETERS = 6.0
-
-
-#: the cyclic check's stroke (diameters): the soil at mid-stroke is passed in full by each stroke
-CHECK_STROKE_DIAMETERS = 4.0
-
-
 def cel_check(problem: Problem, best, cells_per_diameter: int, run_dir: Path, cycles: int = 2) -> list[dict]:
-    """The CEL T-bar at the best fit against the model and the data at the same depth.
+    """The CEL T-bar at the best fit against the model and the data at the same depth
+    (:mod:`dsmv.calibration.cel_tests`).
 
-    Once per rate of the tests' first cycles: pushed :data:`CHECK_TRAVEL_DIAMETERS` to the middle of
-    that rate's depths, the mean resistance over the last D (the data's rows within ±D/2 of that
-    depth). And once per cyclic test: down to its depth + half a stroke of :data:`CHECK_STROKE_DIAMETERS`,
-    then ``cycles`` strokes up and down, the mean resistance over the middle D of each penetration
-    stroke against its cycle's. The bar runs at :data:`CHECK_SPEED_DIAMETERS_PER_S` with γ̇ref scaled
-    alike (Einav–Randolph only; another law runs at the test's own speed)."""
+    Once per rate of the tests' first cycles: pushed to the middle of that rate's depths, the mean
+    resistance over the last D (the data's rows within ±D/2 of that depth). And once per cyclic test:
+    ``cycles`` strokes about its depth, the mean resistance over the middle D of each penetration stroke
+    against its cycle's."""
     soil = problem.soil_at(best)
     law = problem._law_cls(soil)
     checks, seen = [], set()
@@ -168,15 +159,12 @@ def cel_check(problem: Problem, best, cells_per_diameter: int, run_dir: Path, cy
             seen.add((float(velocity), D))
             rows = first & (c["velocity"] == velocity)
             depth = float(np.median(c["depth"][rows]))
-            travel = CHECK_TRAVEL_DIAMETERS * D
-            start = max(depth + 0.5 * D - travel, 1.5 * D)   # the bar's axis at the start, at least 1.5 D deep
-            entry, history, scene = _run_tbar(soil, test, velocity, start, travel, 0, cells_per_diameter,
-                                              run_dir / "cel_check" / f"{test.name}_v{velocity:g}")
-            if history is not None:
-                moved = history["sinkage_m"] - history["sinkage_m"][0]
-                last = moved >= moved.max() - D
-                axis = float(np.mean(scene.landing.initial_depth_m + moved[last])) - D / 2.0
-                q_cel = float(np.mean(history["force_n"][last])) / (D * scene.geometry.contact_length_m)
+            push = profile_push(soil, D, velocity, depth, cells_per_diameter,
+                                run_dir / "cel_check" / f"{test.name}_v{velocity:g}", shallowest_m=depth)
+            entry = push.entry
+            if push.ok:
+                axis = depth
+                q_cel = push.mean_at(axis)
                 q_model = float(tbar_resistance(problem.model, law, soil.strength, axis, velocity, D))
                 near = rows & (np.abs(c["depth"] - axis) <= D / 2.0)
                 q_data = float(np.mean(c["resistance"][near])) if near.any() else float("nan")
@@ -192,69 +180,20 @@ def _cyclic_check(problem: Problem, law, soil, test: SiteTest, cycles: int, cell
     """The cyclic push about the test's depth: one entry per penetration stroke (cycle 1, 2, …)."""
     c, D = test.columns, test.diameter_m
     depth, velocity = float(np.median(c["depth"])), float(np.median(c["velocity"]))
-    stroke = CHECK_STROKE_DIAMETERS * D
-    bottom = depth + 0.5 * stroke                       # the bar's axis at the strokes' bottom
-    start = max(bottom - CHECK_TRAVEL_DIAMETERS * D, 1.5 * D)
-    entry, history, scene = _run_tbar(soil, test, velocity, start, bottom - start, cycles, cells,
-                                      run_dir / "cel_check" / f"{test.name}_cycles", stroke)
-    if history is None:
-        return [entry | {"test": test.name}]
-    axis = scene.landing.initial_depth_m + history["sinkage_m"] - history["sinkage_m"][0] - D / 2.0
-    downward = history["velocity_m_s"] > 0
-    strokes = np.cumsum(np.r_[0, np.diff(downward.astype(int)) != 0])   # 0: first down, 1: up, 2: down, …
+    push = cyclic_push(soil, D, velocity, depth, cycles, cells, run_dir / "cel_check" / f"{test.name}_cycles")
+    if not push.ok:
+        return [push.entry | {"test": test.name}]
     out = []
     for cycle in range(1, cycles + 2):
-        here = (strokes == 2 * (cycle - 1)) & (np.abs(axis - depth) <= D / 2.0)
-        if not here.any():
+        q_cel = push.mean_at(depth, 2 * (cycle - 1))
+        if math.isnan(q_cel):
             continue
-        q_cel = float(np.mean(history["force_n"][here])) / (D * scene.geometry.contact_length_m)
         q_model = float(tbar_resistance(problem.model, law, soil.strength, depth, velocity, D, 2 * (cycle - 1)))
         data = c["resistance"][c["cycle"] == cycle]
-        out.append(entry | {"test": test.name, "cycle": cycle, "depth_m": depth, "q_cel_pa": q_cel,
-                            "q_model_pa": q_model, "q_data_pa": float(np.mean(data)) if len(data) else float("nan"),
-                            "model_over_cel": q_model / q_cel})
+        out.append(push.entry | {"test": test.name, "cycle": cycle, "depth_m": depth, "q_cel_pa": q_cel,
+                                 "q_model_pa": q_model, "q_data_pa": float(np.mean(data)) if len(data) else float("nan"),
+                                 "model_over_cel": q_model / q_cel})
     return out
-
-
-def _run_tbar(soil, test: SiteTest, velocity: float, start: float, travel: float, cycles: int, cells: int,
-              folder: Path, stroke: float | None = None):
-    """The CEL T-bar push (see :func:`cel_check`): its check entry, its history (None unless ok), its scene."""
-    from dsmv import registry
-    from dsmv.config.tree import compose_scene
-
-    D = test.diameter_m
-    speed = CHECK_SPEED_DIAMETERS_PER_S * D if soil.law == "einav_randolph" else float(velocity)
-    checked = soil.model_copy(update={"rate": soil.rate.model_copy(
-        update={"gamma_dot_ref": soil.rate.gamma_dot_ref * speed / velocity})})
-    overrides = _scene_overrides(checked, test, speed, start, travel, cells)
-    if cycles:
-        overrides += [f"landing.cycles={cycles}", f"landing.stroke_m={float(stroke)!r}"]
-    scene = compose_scene(overrides)
-    folder.mkdir(parents=True, exist_ok=True)
-    started = time.perf_counter()
-    result = registry.load("solvers", scene.solver.name, "solver.name")(scene).solve(folder)
-    entry = {"velocity_m_s": float(velocity), "run_velocity_m_s": float(speed), "status": result.status,
-             "wall_s": time.perf_counter() - started}
-    history = ({k: np.asarray(v, dtype=float) for k, v in result.history.items()} if result.status == "ok" else None)
-    return entry, history, scene
-
-
-def _scene_overrides(soil, test: SiteTest, velocity: float, axis_depth: float, travel: float, cells: int) -> list[str]:
-    """The T-bar push at the best fit: the fitted soil, the bar's size and speed, D/cells cells."""
-    D = test.diameter_m
-    flat = {"soil.law": soil.law, "soil.su0_pa": soil.su0_pa, "soil.ks_pa_per_m": soil.ks_pa_per_m,
-            "soil.sensitivity": soil.sensitivity, "soil.xi95": soil.xi95, "soil.rate.law": soil.rate.law,
-            "soil.rate.eta": soil.rate.eta, "soil.rate.n": soil.rate.n, "soil.rate.gamma_dot_ref": soil.rate.gamma_dot_ref,
-            "soil.rate.mu": soil.rate.mu, "soil.density_kg_m3": soil.density_kg_m3,
-            "soil.youngs_modulus_pa": soil.youngs_modulus_pa, "soil.poisson_ratio": soil.poisson_ratio}
-    # a table (its own strengths, at the fitted level) in Hydra's list syntax
-    table = ([f"soil.profile=[{','.join(f'[{float(d)!r},{float(su)!r}]' for d, su in read_points(soil.profile))}]",
-              f"soil.profile_scale={float(soil.profile_scale)!r}"] if soil.profile is not None else [])
-    return ["geometry=tbar", "landing=push", "solver=cel2d", f"geometry.width_m={float(D)!r}",
-            f"landing.velocity_m_s={float(velocity)!r}", f"landing.displacement_m={float(travel)!r}",
-            f"landing.initial_depth_m={float(axis_depth + D / 2.0)!r}", f"mesh.cell_size_m={float(D / cells)!r}",
-            "solver.contact_separation=false", "output.plots=false",
-            *(f"{k}={v}" if isinstance(v, str) else f"{k}={float(v)!r}" for k, v in flat.items()), *table]
 
 
 # ----------------------------------------------------------------------------- outputs

@@ -176,8 +176,7 @@ class Cel2DCheckSolver:
         v = state[3].v
         body = np.zeros(N_BODY)
         energy = np.zeros(N_ENERGY)
-        tresca = registry.load("soil_laws", "tresca", "soil.law")
-        law = SoilLawKernel(tresca.compiled(), np.zeros(8), tresca.compiled_evolve())
+        law = SoilLawKernel.of(registry.load("soil_laws", "tresca", "soil.law")(soil))
         n_steps = int(math.ceil(cfg.duration_s / dt))
         samples = 100
         times, speeds = [0.0], [0.0]

@@ -216,12 +216,20 @@ class Inflow(NamedTuple):
 
 class SoilLawKernel(NamedTuple):
     """A soil law as the kernels call it (dsmv.soil_law): its compiled strength factor, its packed
-    parameters and its compiled state update. The kernels take None instead for a law that neither
-    changes the strength nor carries state."""
+    parameters per layer of the soil (one row per layer, ``soil.profile``'s law columns; one row
+    unlayered), each layer's top depth (m; the first −∞) and its compiled state update. The kernels take
+    None instead for a law that neither changes the strength nor carries state."""
 
     factor: object
     params: np.ndarray
     evolve: object
+    top: np.ndarray
+
+    @classmethod
+    def of(cls, law) -> "SoilLawKernel":
+        """The kernel of a :class:`dsmv.soil_law.SoilLaw` on its soil."""
+        return cls(law.compiled(), np.array([layer.packed() for layer in law.layers()]), law.compiled_evolve(),
+                   np.asarray(law.layer_tops, dtype=float))
 
 
 class Params(NamedTuple):

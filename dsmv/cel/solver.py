@@ -726,7 +726,7 @@ class CelSolver:
         evaluated) nor carries state: the loop then compiles without the calls."""
         if not (par.law_active or n_state):
             return None
-        return SoilLawKernel(self.law.compiled(), self.law.packed(), self.law.compiled_evolve())
+        return SoilLawKernel.of(self.law)
 
     def touchdown(self, state: State) -> None:
         """The body starts at the velocities it was given (a drop's fall, drift and turn, a push's speeds);
@@ -885,7 +885,7 @@ class CelSolver:
             sloped=gravity_x != 0.0 or gravity_y != 0.0, gravity_x=gravity_x, gravity_y=gravity_y,
             push_velocity=landing.velocity_m_s, remap_courant=cfg.remap_courant,
             axisymmetric=self.axisym, advection_order=cfg.advection_order, drop=drop, inflow=True, remap=cfg.remap,
-            law_active=self.law.active or not cfg.economies.skip_inactive_law, skip_void=cfg.economies.skip_void,
+            law_active=self.law.any_layer_active or not cfg.economies.skip_inactive_law, skip_void=cfg.economies.skip_void,
             separation=self.contact_separation(), free=freedom_mask(self.moving_freedoms()),
             **{f"inertia_{axis}": inertia / scale for axis, inertia in zip("xyz", self.rotational_inertia_kg_m2())},
             **dict(zip(("base_x", "base_y", "base_z"), self.base_from_centre_of_gravity())),

@@ -6,6 +6,12 @@ points su is linear in depth; below the last point it stays at the last value; a
 follows the first segment (soil heaved above the mudline). Two points at the same depth make a jump
 (a layer boundary). Without a table the profile is the straight line su0 + ks·z, one segment.
 
+A table may also layer the soil law's values: further columns named by their soil keys
+(``sensitivity``, ``xi95``, ``rate.eta``, ``rate.n``, ``rate.gamma_dot_ref``, ``rate.mu``,
+``params.<name>``), in a CSV or inline as columns (``{depth_m: [...], su_pa: [...], sensitivity: [...]}``).
+A row's values hold from its depth down to the next row's (the first reaching up, the last down): a
+depth given twice with different values is a boundary between layers (:class:`LawLayers`).
+
 The solvers read the profile as segments (:class:`StrengthSegments`): each from its top depth down,
 su = intercept + slope·z. A straight line is one segment whose intercept and slope are su0 and ks
 exactly, so a tabulated straight line with exact slopes gives the same answers to the bit.
@@ -27,6 +33,8 @@ from dsmv.errors import ConfigError
 DEPTH_UNITS = {"depth_m": 1.0, "depth_cm": 0.01, "depth_mm": 0.001}
 STRENGTH_UNITS = {"su_pa": 1.0, "su_kpa": 1000.0}
 KEY = "soil.profile"
+#: the soil keys a table's further columns may layer (and any ``params.<name>`` of the law's own)
+LAW_KEYS = ("sensitivity", "xi95", "rate.eta", "rate.n", "rate.gamma_dot_ref", "rate.mu")
 
 
 class StrengthSegments(NamedTuple):
@@ -63,22 +71,62 @@ def refuse_a_bent_profile(soil, model: str) -> None:
                           "profile runs in solver=cel2d or cel3d")
 
 
+def refuse_a_layered_law(soil, model: str) -> None:
+    """A model that takes one set of the law's values refuses a table that layers them, in one line."""
+    if soil.profile is not None and (layers := law_layers(soil.profile)) is not None:
+        raise ConfigError(KEY, f"a table layering {', '.join(layers.values)}", f"{model} takes one set of the soil "
+                          "law's values; a soil whose law changes with depth runs in solver=cel2d or cel3d")
+
+
 def straight_line(su0_pa: float, ks_pa_per_m: float) -> StrengthSegments:
     """su0 + ks·z as one segment."""
     return StrengthSegments(np.array([-math.inf]), np.array([float(su0_pa)]), np.array([float(ks_pa_per_m)]))
+
+
+class LawLayers(NamedTuple):
+    """The soil law's values by layer: each layer's top depth (m; the first −∞) and, per soil key the table
+    layers, its value in each layer."""
+
+    top: np.ndarray
+    values: dict[str, np.ndarray]
+
+    def at(self, depth_m: float) -> int:
+        """The layer holding ``depth_m``."""
+        return int(np.searchsorted(self.top, depth_m, side="right") - 1)
 
 
 def read_points(value) -> np.ndarray:
     """The profile's points, (n, 2): depth (m) and su (Pa), from an inline table or a CSV path
     (:func:`dsmv.config.location.data_path`), checked: depths in order (a repeated depth is a jump), none
     negative, strengths > 0."""
+    return read_table(value)[0]
+
+
+def law_layers(value) -> LawLayers | None:
+    """The soil law's layers that the table's further columns give; None without such columns."""
+    points, columns = read_table(value)
+    if not columns:
+        return None
+    depth = points[:, 0]
+    last = np.r_[depth[1:] != depth[:-1], True]     # of rows at one depth, the last holds from there down
+    top = depth[last].copy()
+    top[0] = -math.inf
+    return LawLayers(top, {k: v[last] for k, v in columns.items()})
+
+
+def read_table(value) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """The profile's points (:func:`read_points`) and its law columns by soil key, each a value per row."""
+    columns: dict[str, np.ndarray] = {}
     if isinstance(value, (str, Path)):
-        points = _read_csv(data_path(value))
+        points, columns = _read_csv(data_path(value))
+    elif isinstance(value, dict):
+        points, columns = _read_columns(value)
     else:
         try:
             points = np.array(value, dtype=float).reshape(-1, 2)
         except (TypeError, ValueError):
-            raise ConfigError(KEY, value, "a table of [depth_m, su_pa] rows or the path of a CSV file") from None
+            raise ConfigError(KEY, value, "a table of [depth_m, su_pa] rows, its columns {depth_m: [...], su_pa: "
+                              "[...], ...} or the path of a CSV file") from None
     if len(points) == 0:
         raise ConfigError(KEY, [], "needs at least one [depth_m, su_pa] row")
     depth, su = points.T
@@ -92,10 +140,40 @@ def read_points(value) -> np.ndarray:
                           "a depth given twice is a jump)")
     if (su <= 0).any():
         raise ConfigError(KEY, float(su[su <= 0][0]), "strengths must be > 0 (Pa)")
-    return points
+    for key, values in columns.items():
+        if not np.isfinite(values).all():
+            raise ConfigError(KEY, f"{key} {values.tolist()}", "holds a value that is not a number")
+    return points, columns
 
 
-def _read_csv(path: Path) -> np.ndarray:
+def _law_key(name: str) -> bool:
+    return name in LAW_KEYS or (name.startswith("params.") and len(name) > len("params."))
+
+
+def _read_columns(table: dict) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """An inline table given by columns: depth and strength (with their units) and law columns."""
+    names = [str(k).strip().lower() for k in table]
+    depth_col = next((c for c in names if c in DEPTH_UNITS), None)
+    su_col = next((c for c in names if c in STRENGTH_UNITS), None)
+    if depth_col is None or su_col is None:
+        raise ConfigError(KEY, f"columns {', '.join(names)}", "needs a depth column "
+                          f"({' | '.join(DEPTH_UNITS)}) and a strength column ({' | '.join(STRENGTH_UNITS)})")
+    columns = {}
+    for name, raw in zip(names, table.values()):
+        if name not in (depth_col, su_col) and not _law_key(name):
+            raise ConfigError(KEY, f"column {name}", f"not a soil key the table layers: {', '.join(LAW_KEYS)} or params.<name>")
+        try:
+            columns[name] = np.array(raw, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            raise ConfigError(KEY, f"column {name}", "must be a list of numbers") from None
+    lengths = {len(v) for v in columns.values()}
+    if len(lengths) != 1:
+        raise ConfigError(KEY, f"columns of {sorted(lengths)} values", "every column needs one value per row")
+    points = np.column_stack([columns.pop(depth_col) * DEPTH_UNITS[depth_col], columns.pop(su_col) * STRENGTH_UNITS[su_col]])
+    return points, columns
+
+
+def _read_csv(path: Path) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     if not path.is_file():
         raise ConfigError(KEY, str(path), "no such file")
     with path.open(newline="") as handle:
@@ -113,7 +191,18 @@ def _read_csv(path: Path) -> np.ndarray:
         points = [(float(r[i]) * DEPTH_UNITS[depth_col], float(r[j]) * STRENGTH_UNITS[su_col]) for r in rows[1:]]
     except (ValueError, IndexError):
         raise ConfigError(KEY, str(path), f"a row of {depth_col}, {su_col} is not a pair of numbers") from None
-    return np.array(points, dtype=float).reshape(-1, 2)
+    columns = {}
+    for k, name in enumerate(header):
+        if k in (i, j):
+            continue
+        if not _law_key(name):
+            raise ConfigError(KEY, f"{path.name}: column {name}", f"not a soil key the table layers: {', '.join(LAW_KEYS)} "
+                              "or params.<name>")
+        try:
+            columns[name] = np.array([float(r[k]) for r in rows[1:]])
+        except (ValueError, IndexError):
+            raise ConfigError(KEY, f"{path.name}: column {name}", "a row's value is not a number") from None
+    return np.array(points, dtype=float).reshape(-1, 2), columns
 
 
 def segments(points: np.ndarray) -> StrengthSegments:

@@ -25,7 +25,7 @@ from pydantic import BaseModel, BeforeValidator, Field, ValidationInfo, field_va
 from dsmv import registry
 from dsmv.config.location import CONFIG_DIR
 from dsmv.config.objective import objective_config
-from dsmv.config.profile import StrengthSegments, read_points, segments, straight_line
+from dsmv.config.profile import LawLayers, StrengthSegments, law_layers, read_points, segments, straight_line
 from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError
 
@@ -80,6 +80,9 @@ class RateConfig(Schema):
     mu: Number = Field(0.0, ge=0, description="log-law rate parameter μ per decade (-)")
 
 
+KEY_PROFILE = "soil.profile"
+
+
 class SoilConfig(Schema):
     """A soil profile: su_intact(z) = su0 + ks·z, or a table of su against depth (``profile``,
     :mod:`dsmv.config.profile`), softening, rate, elasticity, buoyant density."""
@@ -95,9 +98,10 @@ class SoilConfig(Schema):
     youngs_modulus_pa: Number = Field(gt=0, description="Young's modulus E (Pa)")
     poisson_ratio: Number = Field(ge=0, lt=0.5, description="Poisson's ratio ν (-), < 0.5")
     params: dict[str, Number] = Field(default_factory=dict, description="law-specific parameters (see the law)")
-    profile: Optional[Union[list[list[Number]], str]] = Field(None, description=(
-        "su_intact against depth: [[depth_m, su_pa], ...] or a CSV path (columns depth_m|depth_cm, su_pa|su_kpa); "
-        "null: su0 + ks·z"))
+    profile: Optional[Union[list[list[Number]], dict[str, list[Number]], str]] = Field(None, description=(
+        "su_intact against depth: [[depth_m, su_pa], ...], columns {depth_m: [...], su_pa: [...], ...} or a CSV "
+        "path (columns depth_m|depth_cm, su_pa|su_kpa); further columns layer the law's values by soil key "
+        "(sensitivity, xi95, rate.eta, ..., params.<name>); null: su0 + ks·z"))
     profile_scale: Number = Field(1.0, gt=0, description=(
         "factor on the table's strengths (-): the profile's shape from the site, its level fitted "
         "(dsmv-calibrate); a straight line's level is su0_pa and ks_pa_per_m; youngs_modulus_pa is not scaled"))
@@ -118,7 +122,37 @@ class SoilConfig(Schema):
             table = self.strength
             object.__setattr__(self, "su0_pa", float(table.su(0.0)))
             object.__setattr__(self, "ks_pa_per_m", float(table.slope[0]))
+            self.layer_soils()  # each layer's values checked as the soil's are, one line naming the column
         return self
+
+    @property
+    def law_layers(self) -> "LawLayers | None":
+        """The law's values by layer when the table layers them (:func:`dsmv.config.profile.law_layers`)."""
+        return None if self.profile is None else law_layers(self.profile)
+
+    def layer_soils(self) -> "list[SoilConfig]":
+        """The soil of each of the law's layers: this soil with that layer's values (one layer: itself)."""
+        layers = self.law_layers
+        if layers is None:
+            return [self]
+        out = []
+        for k in range(len(layers.top)):
+            tree = self.model_dump()
+            tree["profile"] = None
+            tree["profile_scale"] = 1.0
+            for key, values in layers.values.items():
+                node = tree
+                *parents, leaf = key.split(".")
+                for part in parents:
+                    node = node[part]
+                node[leaf] = float(values[k])
+            try:
+                out.append(_validate(SoilConfig, tree, "soil"))
+            except ConfigError as error:
+                where = "the first layer" if k == 0 else f"the layer from {layers.top[k]:g} m"
+                column = error.path.removeprefix("soil.")
+                raise ConfigError(KEY_PROFILE, f"{where}'s {column} {error.value!r}", error.allowed) from None
+        return out
 
     @property
     def strength(self) -> "StrengthSegments":

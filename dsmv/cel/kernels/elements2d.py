@@ -341,7 +341,7 @@ def evolve_law_state(q, i, j, law, xi_before, gamma_dot, dt):
     s1 = q[NQ_BASE + 1, i, j] if n_state > 1 else 0.0
     xi = q[XI, i, j]
     for k in range(n_state):
-        q[NQ_BASE + k, i, j] = law_state(law, k, s0, s1, xi, xi - xi_before, gamma_dot, dt)
+        q[NQ_BASE + k, i, j] = law_state(law, k, s0, s1, xi, xi - xi_before, gamma_dot, dt, q[Z0, i, j])
 
 
 @njit(**JIT)
@@ -463,7 +463,7 @@ def update_stress(mesh, cells, faces, nodes, par, v_body, law, out):
                 gamma_dot = shear_rate(dxx, dyy, dxy, dzz, dt)
                 s0 = q[NQ_BASE, i, j] if n_state > 0 else 0.0
                 s1 = q[NQ_BASE + 1, i, j] if n_state > 1 else 0.0
-                su *= law_factor(law, xi_before, gamma_dot, s0, s1)
+                su *= law_factor(law, xi_before, gamma_dot, s0, s1, q[Z0, i, j])
             su_cell[i, j] = su
             plastic = plastic_return(q, i, j, sxx, syy, sxy, szz, su, shear_mod, dx * dy * r * f, par.tresca, plastic)
             if law is not None and n_state > 0:

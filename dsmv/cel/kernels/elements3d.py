@@ -388,7 +388,7 @@ def cell_stress(q, su_cell, cell, d, spin, strength, volume, par, law, s, a, vec
         gamma_dot = shear_rate_3d(d, a, vec) / dt
         s0 = q[NQ_BASE, i, j, k] if n_state > 0 else 0.0
         s1 = q[NQ_BASE + 1, i, j, k] if n_state > 1 else 0.0
-        su *= law_factor(law, xi_before, gamma_dot, s0, s1)
+        su *= law_factor(law, xi_before, gamma_dot, s0, s1, q[Z0, i, j, k])
     su_cell[i, j, k] = su
     p = (s[0] + s[1] + s[2]) / 3.0
     dev_sq = ((s[0] - p) ** 2 + (s[1] - p) ** 2 + (s[2] - p) ** 2
@@ -415,7 +415,7 @@ def cell_stress(q, su_cell, cell, d, spin, strength, volume, par, law, s, a, vec
         s1 = q[NQ_BASE + 1, i, j, k] if n_state > 1 else 0.0
         xi = q[XI, i, j, k]
         for m in range(n_state):
-            q[NQ_BASE + m, i, j, k] = law_state(law, m, s0, s1, xi, xi - xi_before, gamma_dot, dt)
+            q[NQ_BASE + m, i, j, k] = law_state(law, m, s0, s1, xi, xi - xi_before, gamma_dot, dt, q[Z0, i, j, k])
     return plastic
 
 

@@ -1,0 +1,102 @@
+"""A synthetic site measured on dsmv's CEL at known soil values.
+
+    python -m dsmv.calibration.cel_site --out conf/site/cel site=synthetic_ccz
+    python -m dsmv.calibration.cel_site --out /tmp/site --cells 6 --cycles 3 site=synthetic_ccz   # coarse
+
+The site's test designs (its T-bar rates and depths, its cycles, its cones' masses and sample depths)
+are run on the CEL in soil at ``calibrate.synthetic.truth``: each T-bar rate one push through its
+profile (the rows from where the push is steady on), each cyclic test one cyclic push, each cone one
+drop (:mod:`dsmv.calibration.cel_tests`). Each test's CSV is written without scatter; a site that
+names them with ``synthetic.values: files`` adds its scatter to them. Calibrated back by the fast
+models, they say how well those models recover a truth that is not their own.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from dsmv.calibration.cel_tests import cone_drop, cyclic_push, profile_push, steady_from
+from dsmv.calibration.data import SiteTest, write_test
+
+
+def measure(test: SiteTest, soil, cells: int, folder: Path, cycles: int | None = None) -> SiteTest:
+    """``test``'s design run on the CEL in ``soil``: the rows it measured, their values clean."""
+    c, D = test.columns, test.diameter_m
+    if test.kind == "fall_cone":
+        depths = []
+        for i, (mass, sample) in enumerate(zip(c["mass"], c["sample_depth"])):
+            depth, status, wall = cone_drop(soil, mass, test.apex_angle_deg, sample, folder / f"{test.name}_{i}")
+            print(f"  {test.name}: {mass * 1e3:g} g cone, sample from {sample:g} m: {depth * 1e3:.3f} mm "
+                  f"({status}, {wall:.0f} s)", flush=True)
+            depths.append(depth if status == "ok" else math.nan)
+        rows = {**c, "penetration": np.array(depths)}
+    elif len(np.unique(c["cycle"])) > 1:
+        depth, velocity = float(np.median(c["depth"])), float(np.median(c["velocity"]))
+        n = int(c["cycle"].max()) if cycles is None else cycles
+        push = cyclic_push(soil, D, velocity, depth, n - 1, cells, folder / f"{test.name}_cycles")
+        values = [push.mean_at(depth, 2 * (k - 1)) if push.ok else math.nan for k in range(1, n + 1)]
+        print(f"  {test.name}: {n} cycles at {depth:g} m: " + ", ".join(f"{q / 1e3:.2f}" for q in values)
+              + f" kPa ({push.status}, {push.entry['wall_s']:.0f} s)", flush=True)
+        rows = {"depth": np.full(n, depth), "velocity": np.full(n, velocity), "cycle": np.arange(1.0, n + 1),
+                "resistance": np.array(values)}
+    else:
+        parts = []
+        for velocity in np.unique(c["velocity"]):
+            at = c["velocity"] == velocity
+            depths = c["depth"][at]
+            push = profile_push(soil, D, velocity, float(depths.max()), cells, folder / f"{test.name}_v{velocity:g}")
+            if push.ok:
+                read = depths[depths >= steady_from(push)]
+                values = np.array([push.mean_at(z) for z in read])
+                parts.append((read, np.full(len(read), velocity), values))
+            print(f"  {test.name}: {velocity * 1e3:g} mm/s, {len(parts[-1][0]) if push.ok else 0} depths "
+                  f"({push.status}, {push.entry['wall_s']:.0f} s)", flush=True)
+        read, velocity, values = (np.concatenate(x) for x in zip(*parts)) if parts else (np.empty(0),) * 3
+        rows = {"depth": read, "velocity": velocity, "cycle": np.ones(len(read)), "resistance": values}
+    kept = np.isfinite(rows[("penetration" if test.kind == "fall_cone" else "resistance")])
+    return SiteTest(test.kind, test.name, {k: np.asarray(v)[kept] for k, v in rows.items()}, D, test.apex_angle_deg)
+
+
+def main(argv: list[str] | None = None) -> None:
+    from dsmv.calibration.run import _flat, check_config
+    from dsmv.config.tree import compose
+
+    parser = argparse.ArgumentParser(prog="python -m dsmv.calibration.cel_site", description=__doc__.splitlines()[0])
+    parser.add_argument("--out", required=True, help="folder for the tests' CSV files")
+    parser.add_argument("--cells", type=int, default=10, help="core cells across the T-bar (default 10)")
+    parser.add_argument("--cycles", type=int, default=None, help="cycles of a cyclic test (default: its own)")
+    parser.add_argument("--tests", nargs="+", default=None, help="only these tests (their files' stems)")
+    parser.add_argument("--runs", default="runs/cel_site", help="folder for the CEL runs (default runs/cel_site)")
+    parser.add_argument("overrides", nargs="*", default=["site=synthetic_ccz"], help="dsmv-calibrate overrides")
+    args = parser.parse_args(argv)
+    settings, problem = check_config(compose("calibrate", ["tracking=disabled", *args.overrides]))
+    if settings.synthetic is None:
+        raise SystemExit("cel_site: the site must name its truth (site=synthetic_ccz, or calibrate.synthetic.truth)")
+    truth = _flat(settings.synthetic.truth)
+    soil = problem.soil_at([float(truth.get(k, s)) for k, s in zip(problem.keys, problem.start)])
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    started = time.perf_counter()
+    said = ", ".join(f"{k} = {v:g}" for k, v in truth.items())
+    tests = [t for t in problem.tests if args.tests is None or t.name in args.tests]
+    unknown = set(args.tests or ()) - {t.name for t in problem.tests}
+    if unknown:
+        raise SystemExit(f"cel_site: no test {', '.join(sorted(unknown))}; the site's: "
+                         + ", ".join(t.name for t in problem.tests))
+    for test in tests:
+        measured = measure(test, soil, args.cells, Path(args.runs), args.cycles)
+        path = write_test(out / f"{test.name}.csv", measured)
+        path.write_text(f"# {test.name}: measured on dsmv's CEL ({args.cells} cells across the T-bar; the cone on its "
+                        f"own mesh) at {said}, without scatter:\n# python -m dsmv.calibration.cel_site --out {args.out} "
+                        f"--cells {args.cells}{f' --cycles {args.cycles}' if args.cycles else ''} "
+                        f"{' '.join(args.overrides)}\n" + path.read_text())
+    print(f"cel_site: {len(tests)} tests written to {out} in {time.perf_counter() - started:.0f} s")
+
+
+if __name__ == "__main__":
+    main()
