@@ -206,10 +206,31 @@ def test_a_table_that_layers_the_law_badly_is_refused_in_one_line(compose_cfg):
         build_scene(compose_cfg(["soil.profile={depth_m:[0,0.5,0.5],su_pa:[3000,5000,5000],sensitivity:[3,3,0.5]}"]))
     with pytest.raises(ConfigError, match="'column sensitivty': not a soil key"):
         build_scene(compose_cfg(["soil.profile={depth_m:[0,0.5],su_pa:[3000,5000],sensitivty:[3,3]}"]))
-    with pytest.raises(ConfigError, match="the dynamic model takes one set of the soil law's values"):
-        scene = build_scene(compose_cfg(["solver=analytic_dynamic", "soil.profile={depth_m:[0,0.5],su_pa:[3000,5000],"
+    with pytest.raises(ConfigError, match="the energy method takes one set of the soil law's values"):
+        scene = build_scene(compose_cfg(["solver=analytic_energy", "soil.profile={depth_m:[0,0.5],su_pa:[3000,5000],"
                                          "sensitivity:[3,4]}"]))
         registry.load("solvers", scene.solver.name, "solver.name")(scene)
+
+
+@pytest.mark.parametrize("solver", ["analytic_dynamic", "analytic_dynamic_3d"])
+def test_the_fast_model_reads_the_law_s_layer_at_the_base(compose_cfg, solver):
+    """The fast model takes the law's values of the layer at the base's depth. Two layers alike land as the
+    unlayered soil, to the bit; the power law's similarity (n = 1e-300: R = 1 + η for γ̇ > 0) makes a
+    rate layer from 0.03 m down the rate-free table 1 + η times stronger there, to round-off (its su and
+    gradient both scale, so the gradient factor is the same)."""
+    base = [f"solver={solver}", "tracking=disabled", "soil.law=einav_randolph", "soil.sensitivity=3", "soil.xi95=20"]
+    line = lambda z: 3000.0 + 8000.0 * z
+    points = f"depth_m:[0,0.03,0.03,10],su_pa:[{line(0)},{line(0.03)},{line(0.03)},{line(10)}]"
+    plain = solve(compose_cfg, [*base, f"soil.profile={{{points}}}"]).metrics["max_sinkage_m"]
+    alike = solve(compose_cfg, [*base, f"soil.profile={{{points},sensitivity:[3,3,3,3]}}"]).metrics["max_sinkage_m"]
+    assert alike == plain
+    eta, rate_free = 0.3, [*base, "soil.rate.eta=0", "soil.rate.n=1e-300"]
+    layered = solve(compose_cfg, [*rate_free, f"soil.profile={{{points},rate.eta:[0,0,{eta},{eta}]}}"])
+    stronger = solve(compose_cfg, [*rate_free, f"soil.profile=[[0,{line(0)}],[0.03,{line(0.03)}],"
+                                   f"[0.03,{(1 + eta) * line(0.03)}],[10,{(1 + eta) * line(10)}]]"])
+    assert layered.metrics["max_sinkage_m"] == pytest.approx(stronger.metrics["max_sinkage_m"], rel=1e-12)
+    assert layered.metrics["max_sinkage_m"] < 0.99 * solve(compose_cfg, [*rate_free, f"soil.profile={{{points}}}"]
+                                                          ).metrics["max_sinkage_m"]
 
 
 def test_a_csv_layers_the_law_by_its_columns(tmp_path):

@@ -32,6 +32,23 @@ def fast_vehicle(scene: Scene) -> VehicleModel:
     return VehicleModel(scene, solver.config, solver.factor)
 
 
+def layered_factor(law):
+    """The law's strength factor f(ξ, γ̇, z) of the soil at the base's depth z (m): the values of the layer
+    there when ``soil.profile`` layers them (decision 0039), the mechanism's soil lying below the base."""
+    laws, tops = law.layers(), law.layer_tops
+    state = law.initial_state()
+
+    def factor(xi, rate, depth):
+        shape = np.broadcast(np.asarray(xi), np.asarray(depth)).shape
+        values = [each.strength_factor(xi, rate, *(np.full(np.shape(xi), s) for s in state)) for each in laws]
+        if len(laws) == 1:
+            return values[0]
+        layer = np.searchsorted(tops, np.broadcast_to(depth, shape), side="right") - 1
+        return np.choose(layer, [np.broadcast_to(v, shape) for v in values])
+
+    return factor
+
+
 class AnalyticDynamicSolver:
     """Solver plugin ``analytic_dynamic``: the fast landing model, milliseconds."""
 
@@ -54,7 +71,7 @@ class AnalyticDynamicSolver:
         if scene.geometry.vehicle:  # the fast vehicle model: it sinks, slides, pitches and rolls
             check_vehicle_scene(scene)
             return
-        refuse_beyond_the_closed_form(scene, "the dynamic model", bent_profile=True)
+        refuse_beyond_the_closed_form(scene, "the dynamic model", bent_profile=True, layered_law=True)
 
     def __init__(self, scene: Scene, config: AnalyticDynamicConfig | None = None, check: bool = True):
         if check:  # off only for fast_landing, an estimate for another solver
@@ -77,9 +94,7 @@ class AnalyticDynamicSolver:
             youngs_modulus_pa=soil.youngs_modulus_pa, gravity_m_s2=landing.gravity_m_s2, shape_factor=shape,
             grouser_height_m=body.grouser_height_m if cfg.grousers and body.kind == "track" else 0.0,
             strength=soil.bent_strength)
-        law = registry.load("soil_laws", soil.law, "soil.law")(soil)
-        state = law.initial_state()
-        self.factor = lambda xi, rate: law.strength_factor(xi, rate, *(np.full(np.shape(xi), s) for s in state))
+        self.factor = layered_factor(registry.load("soil_laws", soil.law, "soil.law")(soil))
 
     def solve(self, run_dir=None) -> SolveResult:
         if self.vehicle:

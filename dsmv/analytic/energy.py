@@ -69,13 +69,15 @@ def skempton_shape_factor(body) -> float:
     return 1.0 + 0.2 * body.width_m / body.contact_length_m
 
 
-def refuse_beyond_the_closed_form(scene: Scene, model: str, bent_profile: bool = False) -> None:
+def refuse_beyond_the_closed_form(scene: Scene, model: str, bent_profile: bool = False,
+                                  layered_law: bool = False) -> None:
     """What the analytic models' closed forms cannot take, refused in one line naming the key: a bent
-    strength profile (unless the model reads one: ``bent_profile``), a table that layers the law's values, a
-    body that may slide or turn."""
+    strength profile (unless the model reads one: ``bent_profile``), a table that layers the law's values
+    (unless the model reads it: ``layered_law``), a body that may slide or turn."""
     if not bent_profile:
         refuse_a_bent_profile(scene.soil, model)
-    refuse_a_layered_law(scene.soil, model)
+    if not layered_law:
+        refuse_a_layered_law(scene.soil, model)
     if scene.landing.moves_beyond_vertical:
         key = scene.landing.beyond_vertical_key
         raise ConfigError(key, scene.landing.model_dump()[key.split(".")[1]], f"{model} lands a body vertically; "

@@ -172,7 +172,7 @@ def resistance(landing: Landing, depth_m, speed_m_s, factor: Callable, c: Coeffi
     bearing = bearing * (1.0 + c.depth_coefficient * np.sqrt(z / b))
     elastic_depth = c.elastic_coefficient * bearing_factor * b * landing.su0_pa / landing.youngs_modulus_pa
     mobilised = -np.expm1(-bearing_on / elastic_depth) if c.elastic_coefficient > 0.0 else 1.0
-    strength = factor(c.strain_coefficient * bearing_on / b, c.rate_coefficient * v / b)
+    strength = factor(c.strain_coefficient * bearing_on / b, c.rate_coefficient * v / b, z)
     pressure = mobilised * bearing * strength * su + 0.5 * c.drag_coefficient * landing.density_kg_m3 * v * v
     if buoyancy:
         pressure = pressure + landing.density_kg_m3 * landing.gravity_m_s2 * z

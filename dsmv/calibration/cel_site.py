@@ -24,13 +24,15 @@ from dsmv.calibration.cel_tests import cone_drop, cyclic_push, profile_push, ste
 from dsmv.calibration.data import SiteTest, write_test
 
 
-def measure(test: SiteTest, soil, cells: int, folder: Path, cycles: int | None = None) -> SiteTest:
-    """``test``'s design run on the CEL in ``soil``: the rows it measured, their values clean."""
+def measure(test: SiteTest, soil, cells: int, folder: Path, cycles: int | None = None,
+            extra: tuple[str, ...] = ()) -> SiteTest:
+    """``test``'s design run on the CEL in ``soil``: the rows it measured, their values clean. ``extra``:
+    overrides for every run (a solver setting)."""
     c, D = test.columns, test.diameter_m
     if test.kind == "fall_cone":
         depths = []
         for i, (mass, sample) in enumerate(zip(c["mass"], c["sample_depth"])):
-            depth, status, wall = cone_drop(soil, mass, test.apex_angle_deg, sample, folder / f"{test.name}_{i}")
+            depth, status, wall = cone_drop(soil, mass, test.apex_angle_deg, sample, folder / f"{test.name}_{i}", extra)
             print(f"  {test.name}: {mass * 1e3:g} g cone, sample from {sample:g} m: {depth * 1e3:.3f} mm "
                   f"({status}, {wall:.0f} s)", flush=True)
             depths.append(depth if status == "ok" else math.nan)
@@ -38,7 +40,7 @@ def measure(test: SiteTest, soil, cells: int, folder: Path, cycles: int | None =
     elif len(np.unique(c["cycle"])) > 1:
         depth, velocity = float(np.median(c["depth"])), float(np.median(c["velocity"]))
         n = int(c["cycle"].max()) if cycles is None else cycles
-        push = cyclic_push(soil, D, velocity, depth, n - 1, cells, folder / f"{test.name}_cycles")
+        push = cyclic_push(soil, D, velocity, depth, n - 1, cells, folder / f"{test.name}_cycles", extra)
         values = [push.mean_at(depth, 2 * (k - 1)) if push.ok else math.nan for k in range(1, n + 1)]
         print(f"  {test.name}: {n} cycles at {depth:g} m: " + ", ".join(f"{q / 1e3:.2f}" for q in values)
               + f" kPa ({push.status}, {push.entry['wall_s']:.0f} s)", flush=True)
@@ -49,7 +51,8 @@ def measure(test: SiteTest, soil, cells: int, folder: Path, cycles: int | None =
         for velocity in np.unique(c["velocity"]):
             at = c["velocity"] == velocity
             depths = c["depth"][at]
-            push = profile_push(soil, D, velocity, float(depths.max()), cells, folder / f"{test.name}_v{velocity:g}")
+            push = profile_push(soil, D, velocity, float(depths.max()), cells, folder / f"{test.name}_v{velocity:g}",
+                                extra=extra)
             if push.ok:
                 read = depths[depths >= steady_from(push)]
                 values = np.array([push.mean_at(z) for z in read])
@@ -72,6 +75,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--cycles", type=int, default=None, help="cycles of a cyclic test (default: its own)")
     parser.add_argument("--tests", nargs="+", default=None, help="only these tests (their files' stems)")
     parser.add_argument("--runs", default="runs/cel_site", help="folder for the CEL runs (default runs/cel_site)")
+    parser.add_argument("--set", nargs="+", default=[], help="overrides for every CEL run (solver.initial_travel_m=0.8)")
     parser.add_argument("overrides", nargs="*", default=["site=synthetic_ccz"], help="dsmv-calibrate overrides")
     args = parser.parse_args(argv)
     settings, problem = check_config(compose("calibrate", ["tracking=disabled", *args.overrides]))
@@ -89,11 +93,12 @@ def main(argv: list[str] | None = None) -> None:
         raise SystemExit(f"cel_site: no test {', '.join(sorted(unknown))}; the site's: "
                          + ", ".join(t.name for t in problem.tests))
     for test in tests:
-        measured = measure(test, soil, args.cells, Path(args.runs), args.cycles)
+        measured = measure(test, soil, args.cells, Path(args.runs), args.cycles, tuple(args.set))
         path = write_test(out / f"{test.name}.csv", measured)
         path.write_text(f"# {test.name}: measured on dsmv's CEL ({args.cells} cells across the T-bar; the cone on its "
                         f"own mesh) at {said}, without scatter:\n# python -m dsmv.calibration.cel_site --out {args.out} "
-                        f"--cells {args.cells}{f' --cycles {args.cycles}' if args.cycles else ''} "
+                        f"--cells {args.cells}{f' --cycles {args.cycles}' if args.cycles else ''}"
+                        f"{' --set ' + ' '.join(args.set) if args.set else ''} "
                         f"{' '.join(args.overrides)}\n" + path.read_text())
     print(f"cel_site: {len(tests)} tests written to {out} in {time.perf_counter() - started:.0f} s")
 

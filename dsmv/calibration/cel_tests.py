@@ -73,7 +73,7 @@ class TbarPush:
     resistance (Pa) along its history, and each sample's stroke (0: first down, 1: up, 2: down, …)."""
 
     def __init__(self, soil, diameter_m: float, velocity: float, start_axis_m: float, travel_m: float, cells: int,
-                 folder: Path, cycles: int = 0, stroke_m: float | None = None):
+                 folder: Path, cycles: int = 0, stroke_m: float | None = None, extra: tuple[str, ...] = ()):
         D = self.diameter_m = float(diameter_m)
         self.velocity_m_s = float(velocity)
         speed = SPEED_DIAMETERS_PER_S * D if soil.law == "einav_randolph" else float(velocity)
@@ -82,7 +82,7 @@ class TbarPush:
         overrides = tbar_overrides(run_soil, D, speed, start_axis_m, travel_m, cells)
         if cycles:
             overrides += [f"landing.cycles={cycles}", f"landing.stroke_m={float(stroke_m)!r}"]
-        scene, result, wall = _solve(overrides, folder)
+        scene, result, wall = _solve([*overrides, *extra], folder)
         self.status = result.status
         self.entry = {"velocity_m_s": float(velocity), "run_velocity_m_s": float(speed), "status": result.status,
                       "wall_s": wall}
@@ -102,7 +102,7 @@ class TbarPush:
 
 
 def profile_push(soil, diameter_m: float, velocity: float, deepest_m: float, cells: int, folder: Path,
-                 shallowest_m: float | None = None) -> TbarPush:
+                 shallowest_m: float | None = None, extra: tuple[str, ...] = ()) -> TbarPush:
     """A monotonic push whose resistance is steady from ``shallowest_m`` (default: as soon as it can be)
     down to ``deepest_m``: it starts :data:`STEADY_TRAVEL_DIAMETERS` − ½ above the shallowest depth read,
     no shallower than :data:`SHALLOWEST_AXIS_DIAMETERS`."""
@@ -110,7 +110,7 @@ def profile_push(soil, diameter_m: float, velocity: float, deepest_m: float, cel
     settle = (STEADY_TRAVEL_DIAMETERS - 0.5) * D
     top = SHALLOWEST_AXIS_DIAMETERS * D
     start = top if shallowest_m is None else max(shallowest_m - settle, top)
-    return TbarPush(soil, D, velocity, start, deepest_m + 0.5 * D - start, cells, folder)
+    return TbarPush(soil, D, velocity, start, deepest_m + 0.5 * D - start, cells, folder, extra=extra)
 
 
 def steady_from(push: TbarPush) -> float:
@@ -119,17 +119,18 @@ def steady_from(push: TbarPush) -> float:
 
 
 def cyclic_push(soil, diameter_m: float, velocity: float, depth_m: float, cycles: int, cells: int,
-                folder: Path) -> TbarPush:
+                folder: Path, extra: tuple[str, ...] = ()) -> TbarPush:
     """Down to ``depth_m`` + half a stroke of :data:`STROKE_DIAMETERS`, then ``cycles`` strokes up and
     down: penetration stroke c (1, 2, …) passes ``depth_m`` in the history's stroke 2·(c − 1)."""
     D = diameter_m
     stroke = STROKE_DIAMETERS * D
     bottom = depth_m + 0.5 * stroke                       # the bar's axis at the strokes' bottom
     start = max(bottom - STEADY_TRAVEL_DIAMETERS * D, SHALLOWEST_AXIS_DIAMETERS * D)
-    return TbarPush(soil, D, velocity, start, bottom - start, cells, folder, cycles, stroke)
+    return TbarPush(soil, D, velocity, start, bottom - start, cells, folder, cycles, stroke, extra)
 
 
-def cone_drop(soil, mass_kg: float, apex_angle_deg: float, sample_depth_m: float, folder: Path) -> tuple[float, str, float]:
+def cone_drop(soil, mass_kg: float, apex_angle_deg: float, sample_depth_m: float, folder: Path,
+              extra: tuple[str, ...] = ()) -> tuple[float, str, float]:
     """A fall cone released from rest on a sample taken at ``sample_depth_m``: uniform at the soil's
     intact strength there, its law's values, on the axisymmetric CEL's cone mesh. Returns the depth (m)
     at which it stopped, the run's status and its wall time (s)."""
@@ -138,7 +139,7 @@ def cone_drop(soil, mass_kg: float, apex_angle_deg: float, sample_depth_m: float
     width = 2.0 * CONE_LENGTH_M * math.tan(math.radians(apex_angle_deg) / 2.0)
     scene, result, wall = _solve(["geometry=fall_cone_30deg", f"geometry.apex_angle_deg={float(apex_angle_deg)!r}",
                                   f"geometry.width_m={width!r}", f"landing.mass_kg={float(mass_kg)!r}",
-                                  "output.plots=false", *soil_overrides(sample)], folder)
+                                  "output.plots=false", *soil_overrides(sample), *extra], folder)
     return float(result.metrics.get("max_sinkage_m", float("nan"))), result.status, wall
 
 

@@ -88,8 +88,9 @@ def table_shape_factor(table: pd.DataFrame, settings: dict):
 
 
 def table_factor(table: pd.DataFrame, settings: dict | None = None, column: bool = False):
-    """The soil law's strength factor of each row, as f(ξ, γ̇) on arrays aligned with the rows (with
-    ``column``, on arrays whose rows are the table's: one row per landing, a column per point of it)."""
+    """The soil law's strength factor of each row, as f(ξ, γ̇, z) on arrays aligned with the rows (with
+    ``column``, on arrays whose rows are the table's: one row per landing, a column per point of it); the
+    rows' soils are not layered, so the base's depth z changes nothing."""
     settings = settings or default_settings()
     law = registry.load("soil_laws", settings.get("law", "einav_randolph"), "soil.law")
 
@@ -99,7 +100,7 @@ def table_factor(table: pd.DataFrame, settings: dict | None = None, column: bool
     rows = SimpleNamespace(sensitivity=values("sensitivity"), xi95=values("xi95"),
                            rate=SimpleNamespace(**settings["rate"], eta=values("eta")))
     twin = SimpleNamespace(soil=rows, params=None)  # the twin reads self.soil, and broadcasts
-    return lambda xi, gamma_dot: np.broadcast_to(law.strength_factor(twin, xi, gamma_dot), np.shape(xi))
+    return lambda xi, gamma_dot, depth=None: np.broadcast_to(law.strength_factor(twin, xi, gamma_dot), np.shape(xi))
 
 
 def fast_sinkage(table: pd.DataFrame, coefficients: Coefficients | None = None,
