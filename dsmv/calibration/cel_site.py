@@ -98,7 +98,8 @@ def main(argv: list[str] | None = None) -> None:
         path.write_text(f"# {test.name}: measured on dsmv's CEL ({args.cells} cells across the T-bar; the cone on its "
                         f"own mesh) at {said}, without scatter:\n# python -m dsmv.calibration.cel_site --out {args.out} "
                         f"--cells {args.cells}{f' --cycles {args.cycles}' if args.cycles else ''}"
-                        f"{' --set ' + ' '.join(args.set) if args.set else ''} "
+                        f"{' --set ' + ' '.join(args.set) if args.set else ''}"
+                        f"{' --tests ' + test.name if args.tests else ''} -- "
                         f"{' '.join(args.overrides)}\n" + path.read_text())
     print(f"cel_site: {len(tests)} tests written to {out} in {time.perf_counter() - started:.0f} s")
 
