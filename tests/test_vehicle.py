@@ -3,6 +3,8 @@ rigid body, the weight shared by them (``landing.n_tracks = 2``)."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -39,16 +41,17 @@ def test_a_symmetric_vehicle_s_tracks_each_land_as_one_track_with_half_the_weigh
         assert np.abs(grid.x - edge).min() < 1e-12
 
 
-def test_the_tracks_closer_together_sink_less_and_the_gauge_is_in_the_summary(compose_cfg, run_cli):
+def test_the_tracks_closer_together_sink_less_and_the_gauge_is_in_the_summary(compose_cfg, run_cli, tmp_path):
     """At the assumed 2.6 m gauge (2 m of soil between the tracks) the soil between them bears on both
     (measured 1.2 % shallower than 6 m apart); the summary names the gauge as assumed."""
-    _, near = land(compose_cfg, "geometry=vehicle_pioneer_i")
-    _, apart = land(compose_cfg, "geometry=vehicle_pioneer_i", "geometry.gauge_m=6")
-    assert near.metrics["max_sinkage_m"] < apart.metrics["max_sinkage_m"]
     done = run_cli("dsmv", "geometry=vehicle_pioneer_i", "tracking=disabled", "output.plots=false")
     assert done.returncode == 0, done.stderr
     assert "vehicle_pioneer_i (two tracks 2.6 m apart, each carrying half)" in done.stdout
     assert "geometry.gauge_m = 2.6 m" in done.stdout
+    (result,) = (tmp_path / "runs").rglob("result.json")
+    near = json.loads(result.read_text())["metrics"]["max_sinkage_m"]
+    _, apart = land(compose_cfg, "geometry=vehicle_pioneer_i", "geometry.gauge_m=6")
+    assert near < apart.metrics["max_sinkage_m"]
 
 
 @pytest.mark.parametrize("overrides, key", [

@@ -20,14 +20,16 @@ from pathlib import Path
 
 import numpy as np
 
-from dsmv.calibration.cel_tests import cone_drop, cyclic_push, profile_push, steady_from
+from dsmv.calibration.cel_tests import (SHALLOWEST_AXIS_DIAMETERS, STEADY_TRAVEL_DIAMETERS, cone_drop, cyclic_push,
+                                        profile_push, steady_from)
 from dsmv.calibration.data import SiteTest, write_test
 
 
 def measure(test: SiteTest, soil, cells: int, folder: Path, cycles: int | None = None,
-            extra: tuple[str, ...] = ()) -> SiteTest:
+            extra: tuple[str, ...] = (), pushes: int = 0) -> SiteTest:
     """``test``'s design run on the CEL in ``soil``: the rows it measured, their values clean. ``extra``:
-    overrides for every run (a solver setting)."""
+    overrides for every run (a solver setting); ``pushes``: a profile read by that many short pushes, each
+    to one of its depths, in place of one push through it."""
     c, D = test.columns, test.diameter_m
     if test.kind == "fall_cone":
         depths = []
@@ -43,7 +45,7 @@ def measure(test: SiteTest, soil, cells: int, folder: Path, cycles: int | None =
         push = cyclic_push(soil, D, velocity, depth, n - 1, cells, folder / f"{test.name}_cycles", extra)
         values = [push.mean_at(depth, 2 * (k - 1)) if push.ok else math.nan for k in range(1, n + 1)]
         print(f"  {test.name}: {n} cycles at {depth:g} m: " + ", ".join(f"{q / 1e3:.2f}" for q in values)
-              + f" kPa ({push.status}, {push.entry['wall_s']:.0f} s)", flush=True)
+              + f" kPa ({push.status}, {push.entry['wall_s']:.0f} s{'' if push.ok else ': ' + push.message})", flush=True)
         rows = {"depth": np.full(n, depth), "velocity": np.full(n, velocity), "cycle": np.arange(1.0, n + 1),
                 "resistance": np.array(values)}
     else:
@@ -51,14 +53,21 @@ def measure(test: SiteTest, soil, cells: int, folder: Path, cycles: int | None =
         for velocity in np.unique(c["velocity"]):
             at = c["velocity"] == velocity
             depths = c["depth"][at]
-            push = profile_push(soil, D, velocity, float(depths.max()), cells, folder / f"{test.name}_v{velocity:g}",
-                                extra=extra)
-            if push.ok:
-                read = depths[depths >= steady_from(push)]
-                values = np.array([push.mean_at(z) for z in read])
-                parts.append((read, np.full(len(read), velocity), values))
-            print(f"  {test.name}: {velocity * 1e3:g} mm/s, {len(parts[-1][0]) if push.ok else 0} depths "
-                  f"({push.status}, {push.entry['wall_s']:.0f} s)", flush=True)
+            if pushes:  # one push of STEADY_TRAVEL_DIAMETERS to each of `pushes` depths spread over the rows'
+                steady = depths[depths >= (SHALLOWEST_AXIS_DIAMETERS + STEADY_TRAVEL_DIAMETERS - 0.5) * D]
+                ends = np.unique(steady[np.linspace(0, len(steady) - 1, pushes).round().astype(int)])
+                runs = [(np.array([z]), profile_push(soil, D, velocity, float(z), cells, folder / f"{test.name}_v{velocity:g}"
+                                                     f"_z{z:g}", shallowest_m=float(z), extra=extra)) for z in ends]
+            else:     # one push through the profile, read from where it is steady
+                push = profile_push(soil, D, velocity, float(depths.max()), cells, folder / f"{test.name}_v{velocity:g}",
+                                    extra=extra)
+                runs = [(depths[depths >= steady_from(push)] if push.ok else depths[:0], push)]
+            for read, push in runs:
+                if push.ok:
+                    parts.append((read, np.full(len(read), velocity), np.array([push.mean_at(z) for z in read])))
+                print(f"  {test.name}: {velocity * 1e3:g} mm/s, {len(read) if push.ok else 0} depths from "
+                      f"{push.axis_m[0] if push.ok else float('nan'):.3f} m ({push.status}, {push.entry['wall_s']:.0f} s"
+                      f"{'' if push.ok else ': ' + push.message})", flush=True)
         read, velocity, values = (np.concatenate(x) for x in zip(*parts)) if parts else (np.empty(0),) * 3
         rows = {"depth": read, "velocity": velocity, "cycle": np.ones(len(read)), "resistance": values}
     kept = np.isfinite(rows[("penetration" if test.kind == "fall_cone" else "resistance")])
@@ -76,6 +85,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--tests", nargs="+", default=None, help="only these tests (their files' stems)")
     parser.add_argument("--runs", default="runs/cel_site", help="folder for the CEL runs (default runs/cel_site)")
     parser.add_argument("--set", nargs="+", default=[], help="overrides for every CEL run (solver.initial_travel_m=0.8)")
+    parser.add_argument("--pushes", type=int, default=0, help="a profile as this many short pushes (default: one push)")
     parser.add_argument("overrides", nargs="*", default=["site=synthetic_ccz"], help="dsmv-calibrate overrides")
     args = parser.parse_args(argv)
     settings, problem = check_config(compose("calibrate", ["tracking=disabled", *args.overrides]))
@@ -93,13 +103,13 @@ def main(argv: list[str] | None = None) -> None:
         raise SystemExit(f"cel_site: no test {', '.join(sorted(unknown))}; the site's: "
                          + ", ".join(t.name for t in problem.tests))
     for test in tests:
-        measured = measure(test, soil, args.cells, Path(args.runs), args.cycles, tuple(args.set))
+        measured = measure(test, soil, args.cells, Path(args.runs), args.cycles, tuple(args.set), args.pushes)
         path = write_test(out / f"{test.name}.csv", measured)
         path.write_text(f"# {test.name}: measured on dsmv's CEL ({args.cells} cells across the T-bar; the cone on its "
                         f"own mesh) at {said}, without scatter:\n# python -m dsmv.calibration.cel_site --out {args.out} "
                         f"--cells {args.cells}{f' --cycles {args.cycles}' if args.cycles else ''}"
                         f"{' --set ' + ' '.join(args.set) if args.set else ''}"
-                        f"{' --tests ' + test.name if args.tests else ''} -- "
+                        f"{' --tests ' + test.name if args.tests else ''}{f' --pushes {args.pushes}' if args.pushes else ''} -- "
                         f"{' '.join(args.overrides)}\n" + path.read_text())
     print(f"cel_site: {len(tests)} tests written to {out} in {time.perf_counter() - started:.0f} s")
 

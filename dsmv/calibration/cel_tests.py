@@ -86,6 +86,7 @@ class TbarPush:
         self.status = result.status
         self.entry = {"velocity_m_s": float(velocity), "run_velocity_m_s": float(speed), "status": result.status,
                       "wall_s": wall}
+        self.message = result.message
         self.ok = result.status == "ok"
         if self.ok:
             h = {k: np.asarray(v, dtype=float) for k, v in result.history.items()}
