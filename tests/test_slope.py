@@ -49,8 +49,7 @@ def soil_at_rest_on_a_slope(slope_deg: float, mudline_m: float, steps: int = 100
     state[4] = contact._replace(fixed_node=np.concatenate([contact.fixed_node, sides]).astype(np.int64),
                                 fixed_axis=np.concatenate([contact.fixed_axis, np.ones(sides.size, np.int64)]))
     nodal_mass(state[0], state[1], soil.density_kg_m3, state[3].mass)
-    tresca = registry.load("soil_laws", "tresca", "soil.law")
-    law = SoilLawKernel(tresca.compiled(), np.zeros(8), tresca.compiled_evolve())
+    law = SoilLawKernel.of(registry.load("soil_laws", "tresca", "soil.law")(soil))
     kernels.run_steps(steps, *state, par, np.zeros(N_BODY), np.zeros(N_ENERGY), law)
     v = state[3].v
     return float(np.sqrt((v * v).sum(axis=0)).max())
