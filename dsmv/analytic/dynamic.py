@@ -39,10 +39,10 @@ def layered_factor(law):
     state = law.initial_state()
 
     def factor(xi, rate, depth):
-        shape = np.broadcast(np.asarray(xi), np.asarray(depth)).shape
         values = [each.strength_factor(xi, rate, *(np.full(np.shape(xi), s) for s in state)) for each in laws]
         if len(laws) == 1:
             return values[0]
+        shape = np.broadcast(np.asarray(xi), np.asarray(depth)).shape
         layer = np.searchsorted(tops, np.broadcast_to(depth, shape), side="right") - 1
         return np.choose(layer, [np.broadcast_to(v, shape) for v in values])
 

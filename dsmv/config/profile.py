@@ -73,7 +73,7 @@ def refuse_a_bent_profile(soil, model: str) -> None:
 
 def refuse_a_layered_law(soil, model: str) -> None:
     """A model that takes one set of the law's values refuses a table that layers them, in one line."""
-    if soil.profile is not None and (layers := law_layers(soil.profile)) is not None:
+    if (layers := soil.law_layers) is not None:
         raise ConfigError(KEY, f"a table layering {', '.join(layers.values)}", f"{model} takes one set of the soil "
                           "law's values; a soil whose law changes with depth runs in solver=cel2d or cel3d")
 

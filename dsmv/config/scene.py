@@ -25,7 +25,7 @@ from pydantic import BaseModel, BeforeValidator, Field, ValidationInfo, field_va
 from dsmv import registry
 from dsmv.config.location import CONFIG_DIR
 from dsmv.config.objective import objective_config
-from dsmv.config.profile import LawLayers, StrengthSegments, law_layers, read_points, segments, straight_line
+from dsmv.config.profile import KEY as PROFILE_KEY, LawLayers, StrengthSegments, law_layers, read_points, segments, straight_line
 from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError
 
@@ -78,9 +78,6 @@ class RateConfig(Schema):
     n: Number = Field(gt=0, le=1, description="shear-thinning index n (-)")
     gamma_dot_ref: Number = Field(gt=0, description="reference shear strain rate γ̇ref (1/s)")
     mu: Number = Field(0.0, ge=0, description="log-law rate parameter μ per decade (-)")
-
-
-KEY_PROFILE = "soil.profile"
 
 
 class SoilConfig(Schema):
@@ -151,7 +148,7 @@ class SoilConfig(Schema):
             except ConfigError as error:
                 where = "the first layer" if k == 0 else f"the layer from {layers.top[k]:g} m"
                 column = error.path.removeprefix("soil.")
-                raise ConfigError(KEY_PROFILE, f"{where}'s {column} {error.value!r}", error.allowed) from None
+                raise ConfigError(PROFILE_KEY, f"{where}'s {column} {error.value!r}", error.allowed) from None
         return out
 
     @property

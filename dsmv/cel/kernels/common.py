@@ -31,13 +31,20 @@ BLOCK = 8192
 
 
 @njit(**INLINE)
+def layer_at(top, z0):
+    """The index of the layer (a strength segment, a set of the law's values) holding soil that started at
+    depth z0 (m), of layers whose top depths ``top`` rise from −∞: one layer searches nothing."""
+    k = len(top) - 1
+    while k > 0 and z0 < top[k]:
+        k -= 1
+    return k
+
+
+@njit(**INLINE)
 def intact_strength(par, z0):
     """su_intact(z0) (Pa), the strength of soil that started at depth z0 (m): the profile's segment there,
     intercept + slope·z0 (:class:`dsmv.config.profile.StrengthSegments`; su0 + ks·z0 is one segment)."""
-    depth = par.strength_depth
-    k = len(depth) - 1
-    while k > 0 and z0 < depth[k]:
-        k -= 1
+    k = layer_at(par.strength_depth, z0)
     return par.strength_intercept[k] + par.strength_slope[k] * z0
 
 
@@ -144,24 +151,13 @@ def upwind_value(value, lo, hi, order, un, courant):
 
 
 @njit(**INLINE)
-def law_layer(law, z0):
-    """The layer of the soil law's values holding soil that started at depth z0 (m), as
-    :func:`intact_strength` finds its segment (one layer: no search)."""
-    top = law.top
-    k = len(top) - 1
-    while k > 0 and z0 < top[k]:
-        k -= 1
-    return k
-
-
-@njit(**INLINE)
 def law_factor(law, xi, gamma_dot, s0, s1, z0):
     """The soil law's strength factor su/su_intact (-) at ξ, γ̇ (1/s) and state s0, s1, with the values of
     the layer soil from depth z0 (m) carries (``law``: a :class:`~dsmv.cel.layout.SoilLawKernel`). A factor
     that is negative or not finite comes back as NaN: the cell's strength (``cells.su``) then shows it, its
     stress takes no plastic return, and the controller's law guard ends the run naming the law and the
     cell's state."""
-    k = law_layer(law, z0)
+    k = layer_at(law.top, z0)
     p = law.params
     f = law.factor(xi, gamma_dot, s0, s1, p[k, 0], p[k, 1], p[k, 2], p[k, 3], p[k, 4], p[k, 5], p[k, 6], p[k, 7])
     return f if 0.0 <= f < math.inf else math.nan
@@ -171,7 +167,7 @@ def law_factor(law, xi, gamma_dot, s0, s1, z0):
 def law_state(law, k, s0, s1, xi, dxi, gamma_dot, dt, z0):
     """State variable k of a soil law after a step with plastic strain increment dxi (dsmv.soil_law), with
     the values of the layer soil from depth z0 (m) carries."""
-    m = law_layer(law, z0)
+    m = layer_at(law.top, z0)
     p = law.params
     return law.evolve(float(k), s0, s1, xi, dxi, gamma_dot, dt, p[m, 0], p[m, 1], p[m, 2], p[m, 3], p[m, 4], p[m, 5],
                       p[m, 6], p[m, 7])
