@@ -282,6 +282,10 @@ class Params(NamedTuple):
     gravity_y: float = 0.0
     weight_x: float = 0.0   # the body's weight along +x and +y (N per unit thickness or per radian)
     weight_y: float = 0.0
+    density_row: int = -1   # a layered soil: the last row of q, each cell's density over ``density`` (-1: one density)
+    density_top: np.ndarray = np.array([-np.inf])  # its layers (dsmv.config.profile.DensityLayers): top depth (m),
+    density_ratio: np.ndarray = np.ones(1)          # density over ``density``, the lightest layer's (-), and the
+    density_intercept: np.ndarray = np.zeros(1)     # weighing depth's intercept (m)
 
 
 # the body's mutable state, a float array: time (s), offset of the grid (m, up +), velocity (m/s,

@@ -41,7 +41,7 @@ from dsmv.cel.layout import (
     B_INFLOW, B_MAXDISP, B_MAXEDGE, B_MAXROT, B_MAXSLIDE, B_ROT_X, B_ROT_Z, B_SINKAGE, B_TIME, B_VEL, FORCE_SLOTS,
     FREEDOMS, N_BODY, POSE_SLOTS, VELOCITY_SLOTS, CellRows, Cells, Inflow, Nodes, Params, SoilLawKernel, freedom_mask,
 )
-from dsmv.cel.state import Elastic, geostatic_state, hourglass_factor, step_parameters
+from dsmv.cel.state import Elastic, density_ratios, geostatic_state, hourglass_factor, step_parameters, weighed_soil
 from dsmv.errors import ConfigError
 from dsmv.results import SolveResult, add_plate_sinkage, add_vehicle_answers
 from dsmv.config.scene import FREEDOM_NAMES, RATE_KEYS, Scene
@@ -467,7 +467,7 @@ class CelSolver:
         cells = float(np.prod(counts))
         up = grid.axes[-1]
         soil_cells = cells / counts[-1] * float(np.count_nonzero(0.5 * (up[1:] + up[:-1]) < self.mudline))
-        dt = self.scene.solver.cfl * self.h / Elastic.of(self.scene.soil).wave_speed_m_s
+        dt = self.scene.solver.cfl * self.h / Elastic.of(self.scene.soil, self.scene.soil.lightest_density_kg_m3).wave_speed_m_s
         steps = min(self.expected_duration_s() / dt, self.scene.solver.max_steps)
         output = self.scene.output
         frames = 2 * output.field_frames + 2 if output.fields else 0
@@ -572,7 +572,7 @@ class CelSolver:
         drop = landing.kind == "drop"
         body, par = state.body, state.par
         status, message = ending.status, ending.message
-        mass_now = float(par.density * (state.cells.phi * state.mesh.vol).sum())
+        mass_now = float(par.density * weighed_soil(state.cells, state.mesh, par).sum())
         mass_expected = state.mass0 + par.density * body[B_INFLOW]
         history = {k: np.asarray(v) for k, v in run.history.items()}
         cells = state.cells.phi.size
@@ -850,18 +850,20 @@ class CelSolver:
         shape = tuple(len(a) - 1 for a in grid.axes)
         # gravity in the grid's frame, which lies along the seabed: down its normal and along it
         gravity_x, gravity_y, grav = soil.gravity_components(landing.gravity_m_s2)
-        rho = soil.density_kg_m3
-        elastic = Elastic.of(soil)
+        # a layered soil carries its cells' densities over the lightest layer's, whose waves are the fastest
+        layers, rho = soil.density_layers, soil.lightest_density_kg_m3
+        elastic = Elastic.of(soil, rho)
         body_contact = self.body_contact(grid)
         if self.scene.landing.attitude_key:  # drawn at its attitude (after the upright drawing's footprint)
             body_contact = self.body_contact(grid, np.array(self.scene.landing.attitude_rad))
         body_contact = replace(body_contact, contact=self.seated(body_contact.contact))
         open_frac = body_contact.openings.open_frac
-        phi, q = geostatic_state(grid, rho, grav, elastic.k0, self.mudline, open_frac, (gravity_x, gravity_y))
-        # the soil law's state variables ride with the material, as ξ and z0 do
+        phi, q = geostatic_state(grid, rho, grav, elastic.k0, self.mudline, open_frac, (gravity_x, gravity_y), layers)
+        # the soil law's state variables ride with the material, as ξ and z0 do, and a layered soil's density last
         law_state = self.law.initial_state()
         n_base = q.shape[0]
-        q = np.concatenate([q, np.broadcast_to(law_state.reshape(-1, *(1,) * self.dim), (len(law_state), *shape))])
+        q = np.concatenate([q, np.broadcast_to(law_state.reshape(-1, *(1,) * self.dim), (len(law_state), *shape)),
+                            *([density_ratios(grid, self.mudline, layers, phi)[None]] if layers is not None else [])])
         mesh, faces = self.mesh_and_faces(grid, body_contact)
         shared = np.full(shape, np.nan)  # a merged sliver pair's shared divergence, NaN elsewhere
         merge = body_contact.contact.merge
@@ -894,18 +896,19 @@ class CelSolver:
                                                                 landing.lateral_velocity_m_s)),
             **dict(zip(("base_half_x", "base_half_y"), self.base_half_spans())),
             tresca=cfg.yield_surface == "tresca" or (cfg.yield_surface == "auto" and self.axisym),
+            density_layers=layers, density_row=q.shape[0] - 1 if layers is not None else -1,
         )
-        nodal_mass(mesh, cells, rho, nodes.mass)
+        nodal_mass(mesh, cells, rho, nodes.mass, par.density_row)
         up = grid.axes[-1]
         ghost = np.zeros((q.shape[0], *shape[:-1]))
-        ghost[n_base:] = law_state.reshape(-1, *(1,) * (self.dim - 1))  # soil entering at the base brings it
-        side = np.zeros((q.shape[0], shape[-1]))
-        side[n_base:] = law_state[:, None]  # and soil entering at the sides
+        ghost[n_base:n_base + len(law_state)] = law_state.reshape(-1, *(1,) * (self.dim - 1))  # soil entering
+        side = np.zeros((q.shape[0], shape[-1]))  # at the base brings it, and soil entering at the sides
+        side[n_base:n_base + len(law_state)] = law_state[:, None]
         inflow = Inflow(ghost, np.full(shape[:-1], self.mudline - (up[0] - 0.5 * (up[1] - up[0]))), side,
                         np.zeros(shape[-1]), np.asarray(up, dtype=float), float(self.mudline))
         state = State(grid, mesh, cells, faces, nodes, body_contact.contact, inflow, par, np.zeros(N_BODY),
                       np.zeros(ledger.N_ENERGY), self.law_kernel(par, len(law_state)), scale,
-                      float(rho * (phi * mesh.vol).sum()),
+                      float(rho * weighed_soil(cells, mesh, par).sum()),
                       self.kernels.elastic_energy(phi, q, mesh.vol, par.shear, par.bulk),
                       0.0, 0.5 * par.body_mass * start.velocity_m_s**2 if drop else 0.0)
         self.touchdown(state)

@@ -22,7 +22,7 @@ import math
 import numpy as np
 from numba import njit
 
-from dsmv.cel.kernels.common import INLINE, JIT
+from dsmv.cel.kernels.common import INLINE, JIT, density_ratio_at, weighing_depth
 from dsmv.cel.kernels.nodes import (
     adhesion, apply_fixed, apply_ties, hand_travel_to_parents, held_kinetic_energy, model_freedoms, nodal_mass,
     horizontal_momentum, split_mass_kinetic_change, split_masses, tie_reactions,
@@ -300,14 +300,17 @@ def geostatic_ghost(ghost, c, depth, par, rows, fill=1.0):
     x and y, −1 where the model has none), as an infinite slope on a sloping seabed, the shear of a layer
     ``fill`` full over its fill (:func:`dsmv.cel.state.geostatic_state`)."""
     vertical, horizontal, other, z0, shear_x, shear_y = rows
-    ghost[vertical, c] = -par.density * par.gravity * depth
+    weighed = weighing_depth(par, depth)  # a layered soil's column above weighs its own
+    ghost[vertical, c] = -par.density * par.gravity * weighed
     ghost[horizontal, c] = par.k0 * ghost[vertical, c]
     ghost[other, c] = ghost[horizontal, c]
     ghost[z0, c] = depth
+    if par.density_row >= 0:
+        ghost[par.density_row, c] = density_ratio_at(par, depth)
     if par.sloped:
-        ghost[shear_x, c] = par.density * par.gravity_x * depth / fill
+        ghost[shear_x, c] = par.density * par.gravity_x * weighed / fill
         if shear_y >= 0:
-            ghost[shear_y, c] = par.density * par.gravity_y * depth / fill
+            ghost[shear_y, c] = par.density * par.gravity_y * weighed / fill
 
 
 @njit(**INLINE)
@@ -341,7 +344,7 @@ def settle_nodes(mesh, cells, nodes, contact, par, body, energy, swept, audit):
     energy[E_REMAP_KINETIC] += audit[1]
     nodes.travel[:] = 0.0
     split_masses(contact, nodes.mass, swept)
-    nodal_mass(mesh, cells, par.density, nodes.mass)
+    nodal_mass(mesh, cells, par.density, nodes.mass, par.density_row)
     energy[E_REMAP_KINETIC] += split_mass_kinetic_change(contact, nodes, swept)
     rejoined = np.zeros(2)
     rejoin_ties(contact, nodes, par, body, rejoined)

@@ -33,6 +33,7 @@ import numpy as np
 from dsmv.cel import controller as C
 from dsmv.cel.body import cells_reached
 from dsmv.cel.layout import B_ROT_X, B_ROT_Z
+from dsmv.cel.state import weighed_soil
 from dsmv.cel.ledger import E_PUSH, E_REDRAW, E_SOIL_GRAV
 
 
@@ -235,9 +236,9 @@ def redraw(solver, state, angles: np.ndarray, room_was: np.ndarray):
     dim = cells.phi.ndim
     centres = [(0.5 * (a[1:] + a[:-1])).reshape([-1 if k == axis else 1 for k in range(dim)])
                for axis, a in enumerate(grid.axes)]
-    moved = [-(cells.phi * mesh.vol * c).sum() for c in centres]  # the soil's first moments (m⁴) …
+    moved = [-(weighed_soil(cells, mesh, par) * c).sum() for c in centres]  # the soil's first moments (m⁴) …
     conform(cells.phi, cells.q, mesh.vol, room_was, room)
-    moved = [m + (cells.phi * mesh.vol * c).sum() for m, c in zip(moved, centres)]  # … and how they changed
+    moved = [m + (weighed_soil(cells, mesh, par) * c).sum() for m, c in zip(moved, centres)]  # … how they changed
     cells.solid[:] = new.solid
     cells.open_frac[:] = new.openings.open_frac
     cells.strength_factor[:] = new.strength_factor
@@ -249,7 +250,7 @@ def redraw(solver, state, angles: np.ndarray, room_was: np.ndarray):
         if name.startswith("aperture"):
             getattr(state.faces, name)[:] = getattr(drawn_faces, name)
     state.contact = new.contact
-    nodal_mass(mesh, cells, par.density, nodes.mass)
+    nodal_mass(mesh, cells, par.density, nodes.mass, par.density_row)
     work_against_gravity = par.density * par.gravity * moved[-1]
     if par.sloped:  # and along a sloping seabed
         work_against_gravity -= par.density * (par.gravity_x * moved[0] + (par.gravity_y * moved[1] if dim == 3 else 0.0))

@@ -10,7 +10,8 @@ A table may also layer the soil law's values: further columns named by their soi
 (``sensitivity``, ``xi95``, ``rate.eta``, ``rate.n``, ``rate.gamma_dot_ref``, ``rate.mu``,
 ``params.<name>``), in a CSV or inline as columns (``{depth_m: [...], su_pa: [...], sensitivity: [...]}``).
 A row's values hold from its depth down to the next row's (the first reaching up, the last down): a
-depth given twice with different values is a boundary between layers (:class:`LawLayers`).
+depth given twice with different values is a boundary between layers (:class:`LawLayers`). A
+``density_kg_m3`` column layers the buoyant density the same way (:class:`DensityLayers`).
 
 The solvers read the profile as segments (:class:`StrengthSegments`): each from its top depth down,
 su = intercept + slope·z. A straight line is one segment whose intercept and slope are su0 and ks
@@ -35,6 +36,9 @@ STRENGTH_UNITS = {"su_pa": 1.0, "su_kpa": 1000.0}
 KEY = "soil.profile"
 #: the soil keys a table's further columns may layer (and any ``params.<name>`` of the law's own)
 LAW_KEYS = ("sensitivity", "xi95", "rate.eta", "rate.n", "rate.gamma_dot_ref", "rate.mu")
+#: the soil key of a table's density column (kg/m³)
+DENSITY_KEY = "density_kg_m3"
+LAYERED = f"{', '.join(LAW_KEYS)}, {DENSITY_KEY} or params.<name>"
 
 
 class StrengthSegments(NamedTuple):
@@ -95,6 +99,40 @@ class LawLayers(NamedTuple):
         return int(np.searchsorted(self.top, depth_m, side="right") - 1)
 
 
+class DensityLayers(NamedTuple):
+    """The buoyant density by layer, as the solvers read it: each layer's top depth (m; the first −∞), its
+    density over the lightest layer's (``ratio``, ≥ 1) and the intercept of the weighing depth there.
+
+    The weighing depth of a depth z is the depth of soil of the lightest density as heavy as the column
+    above z: w(z) = ∫₀^z ρ/ρ_lightest dz' = intercept + ratio·z in z's layer, so the geostatic vertical
+    stress is −ρ_lightest·g·w(z) (m)."""
+
+    top: np.ndarray
+    ratio: np.ndarray
+    intercept: np.ndarray
+    lightest_kg_m3: float
+
+    @classmethod
+    def of(cls, layers: LawLayers) -> "DensityLayers":
+        density = layers.values[DENSITY_KEY]
+        lightest = float(density.min())
+        ratio = density / lightest
+        intercept = np.zeros(len(ratio))
+        for k in range(1, len(ratio)):  # w is continuous at each top: the layer above's w there
+            intercept[k] = intercept[k - 1] + (ratio[k - 1] - ratio[k]) * layers.top[k]
+        return cls(layers.top, ratio, intercept, lightest)
+
+    def weighing_depth(self, depth_m) -> np.ndarray:
+        """w(z) at the depths given (m)."""
+        z = np.asarray(depth_m, dtype=float)
+        k = np.searchsorted(self.top, z, side="right") - 1
+        return self.intercept[k] + self.ratio[k] * z
+
+    def ratio_at(self, depth_m) -> np.ndarray:
+        """ρ/ρ_lightest at the depths given."""
+        return self.ratio[np.searchsorted(self.top, np.asarray(depth_m, dtype=float), side="right") - 1]
+
+
 def read_points(value) -> np.ndarray:
     """The profile's points, (n, 2): depth (m) and su (Pa), from an inline table or a CSV path
     (:func:`dsmv.config.location.data_path`), checked: depths in order (a repeated depth is a jump), none
@@ -102,9 +140,12 @@ def read_points(value) -> np.ndarray:
     return read_table(value)[0]
 
 
-def law_layers(value) -> LawLayers | None:
-    """The soil law's layers that the table's further columns give; None without such columns."""
+def law_layers(value, which: str = "law") -> LawLayers | None:
+    """The layers that the table's further columns give: of the law's soil keys (``which`` "law"), of the
+    density ("density") or of both ("all"); None without such columns."""
     points, columns = read_table(value)
+    keep = {"law": _law_key, "density": lambda k: k == DENSITY_KEY, "all": _layer_key}[which]
+    columns = {k: v for k, v in columns.items() if keep(k)}
     if not columns:
         return None
     depth = points[:, 0]
@@ -150,6 +191,10 @@ def _law_key(name: str) -> bool:
     return name in LAW_KEYS or (name.startswith("params.") and len(name) > len("params."))
 
 
+def _layer_key(name: str) -> bool:
+    return _law_key(name) or name == DENSITY_KEY
+
+
 def _read_columns(table: dict) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """An inline table given by columns: depth and strength (with their units) and law columns."""
     names = [str(k).strip().lower() for k in table]
@@ -160,8 +205,8 @@ def _read_columns(table: dict) -> tuple[np.ndarray, dict[str, np.ndarray]]:
                           f"({' | '.join(DEPTH_UNITS)}) and a strength column ({' | '.join(STRENGTH_UNITS)})")
     columns = {}
     for name, raw in zip(names, table.values()):
-        if name not in (depth_col, su_col) and not _law_key(name):
-            raise ConfigError(KEY, f"column {name}", f"not a soil key the table layers: {', '.join(LAW_KEYS)} or params.<name>")
+        if name not in (depth_col, su_col) and not _layer_key(name):
+            raise ConfigError(KEY, f"column {name}", f"not a soil key the table layers: {LAYERED}")
         try:
             columns[name] = np.array(raw, dtype=float).reshape(-1)
         except (TypeError, ValueError):
@@ -195,9 +240,8 @@ def _read_csv(path: Path) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     for k, name in enumerate(header):
         if k in (i, j):
             continue
-        if not _law_key(name):
-            raise ConfigError(KEY, f"{path.name}: column {name}", f"not a soil key the table layers: {', '.join(LAW_KEYS)} "
-                              "or params.<name>")
+        if not _layer_key(name):
+            raise ConfigError(KEY, f"{path.name}: column {name}", f"not a soil key the table layers: {LAYERED}")
         try:
             columns[name] = np.array([float(r[k]) for r in rows[1:]])
         except (ValueError, IndexError):

@@ -25,7 +25,7 @@ from pydantic import BaseModel, BeforeValidator, Field, ValidationInfo, field_va
 from dsmv import registry
 from dsmv.config.location import CONFIG_DIR
 from dsmv.config.objective import objective_config
-from dsmv.config.profile import KEY as PROFILE_KEY, LawLayers, StrengthSegments, law_layers, read_points, segments, straight_line
+from dsmv.config.profile import DENSITY_KEY, KEY as PROFILE_KEY, DensityLayers, LawLayers, StrengthSegments, law_layers, read_points, segments, straight_line
 from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError
 
@@ -119,7 +119,10 @@ class SoilConfig(Schema):
             table = self.strength
             object.__setattr__(self, "su0_pa", float(table.su(0.0)))
             object.__setattr__(self, "ks_pa_per_m", float(table.slope[0]))
-            self.layer_soils()  # each layer's values checked as the soil's are, one line naming the column
+            # each layer's values checked as the soil's are, one line naming the column
+            self.layer_soils(law_layers(self.profile, "all"))
+            if (density := law_layers(self.profile, "density")) is not None:  # the mudline's, as su0 is the table's
+                object.__setattr__(self, "density_kg_m3", float(density.values[DENSITY_KEY][density.at(0.0)]))
         return self
 
     @property
@@ -127,9 +130,22 @@ class SoilConfig(Schema):
         """The law's values by layer when the table layers them (:func:`dsmv.config.profile.law_layers`)."""
         return None if self.profile is None else law_layers(self.profile)
 
-    def layer_soils(self) -> "list[SoilConfig]":
-        """The soil of each of the law's layers: this soil with that layer's values (one layer: itself)."""
-        layers = self.law_layers
+    @property
+    def density_layers(self) -> "DensityLayers | None":
+        """The buoyant density by layer when the table layers it (a ``density_kg_m3`` column)."""
+        layers = None if self.profile is None else law_layers(self.profile, "density")
+        return None if layers is None else DensityLayers.of(layers)
+
+    @property
+    def lightest_density_kg_m3(self) -> float:
+        """The lightest buoyant density at any depth (kg/m³): the fastest elastic waves."""
+        layers = self.density_layers
+        return self.density_kg_m3 if layers is None else layers.lightest_kg_m3
+
+    def layer_soils(self, layers: "LawLayers | None" = None) -> "list[SoilConfig]":
+        """The soil of each of the law's layers (or of ``layers``): this soil with that layer's values (one
+        layer: itself)."""
+        layers = self.law_layers if layers is None else layers
         if layers is None:
             return [self]
         out = []

@@ -48,6 +48,39 @@ def intact_strength(par, z0):
     return par.strength_intercept[k] + par.strength_slope[k] * z0
 
 
+@njit(**INLINE)
+def weighing_depth(par, depth):
+    """The depth of soil of ``par.density`` as heavy as the column above ``depth`` (m): ``depth`` itself in
+    a soil of one density, else ∫₀^depth ρ/ρ_lightest dz (:class:`dsmv.config.profile.DensityLayers`)."""
+    if par.density_row < 0:
+        return depth
+    k = layer_at(par.density_top, depth)
+    return par.density_intercept[k] + par.density_ratio[k] * depth
+
+
+@njit(**INLINE)
+def density_ratio_at(par, depth):
+    """ρ/par.density of the soil at ``depth`` (m) at rest (1 in a soil of one density)."""
+    return par.density_ratio[layer_at(par.density_top, depth)] if par.density_row >= 0 else 1.0
+
+
+@njit(**INLINE)
+def law_rows(q, par, base):
+    """The number of the soil law's state rows of q, which follow its ``base`` rows (the density row, when
+    the soil's density is layered, comes last)."""
+    return q.shape[0] - base - (1 if par.density_row >= 0 else 0)
+
+
+@njit(**INLINE)
+def weigh_line_fluxes(density_flux, flux):
+    """In a layered soil, a line's face fluxes after the cells took them: the volume of soil of
+    ``par.density`` as heavy as what crossed each face (``density_flux``, the density row's fluxes, m³), for
+    the momentum sweep's masses. Returns that of the soil that entered through the line's ends (m³)."""
+    for face in range(flux.shape[0]):
+        flux[face] = density_flux[face]
+    return density_flux[0] - density_flux[-1]
+
+
 @njit(**JIT)
 def tresca_return(s1, s2, s3, su, shear_mod):
     """Return of sorted principal stresses s1 ≥ s2 ≥ s3 to Tresca's hexagon, s1 − s3 ≤ 2·su.

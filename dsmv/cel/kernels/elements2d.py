@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 
 from dsmv.cel.kernels.common import (CUT_OPEN_FLOOR, INLINE, JIT, bulk_viscosity, elastic_energy_density, intact_strength,
-                                     law_factor, law_state, radial_return, tresca_return)
+                                     law_factor, law_rows, law_state, radial_return, tresca_return)
 from dsmv.cel.layout import ROWS_2D
 
 SXX, SYY, SXY, SZZ = (ROWS_2D.of(c) for c in ("xx", "yy", "xy", "zz"))
@@ -334,9 +334,8 @@ def tresca_2d(sxx, syy, sxy, szz, su, shear_mod):
 
 
 @njit(**INLINE)
-def evolve_law_state(q, i, j, law, xi_before, gamma_dot, dt):
-    """A soil law's state variables (rows NQ_BASE… of q) after the step of cell (i, j)."""
-    n_state = q.shape[0] - NQ_BASE
+def evolve_law_state(q, i, j, law, xi_before, gamma_dot, dt, n_state):
+    """A soil law's ``n_state`` state variables (rows NQ_BASE… of q) after the step of cell (i, j)."""
     s0 = q[NQ_BASE, i, j]
     s1 = q[NQ_BASE + 1, i, j] if n_state > 1 else 0.0
     xi = q[XI, i, j]
@@ -422,7 +421,7 @@ def update_stress(mesh, cells, faces, nodes, par, v_body, law, out):
     open_frac, gap, shared = cells.open_frac, cells.gap, cells.shared_divergence
     nx, ny = phi.shape
     ny1 = np.uint64(ny + 1)
-    n_state = q.shape[0] - NQ_BASE
+    n_state = law_rows(q, par, NQ_BASE)
     shear_mod, dt, axisym = par.shear, par.dt, par.axisymmetric
     lam = par.bulk - 2.0 * shear_mod / 3.0
     plastic = 0.0
@@ -467,7 +466,7 @@ def update_stress(mesh, cells, faces, nodes, par, v_body, law, out):
             su_cell[i, j] = su
             plastic = plastic_return(q, i, j, sxx, syy, sxy, szz, su, shear_mod, dx * dy * r * f, par.tresca, plastic)
             if law is not None and n_state > 0:
-                evolve_law_state(q, i, j, law, xi_before, gamma_dot, dt)
+                evolve_law_state(q, i, j, law, xi_before, gamma_dot, dt, n_state)
     out[0] += plastic
 
 

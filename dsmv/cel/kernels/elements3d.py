@@ -24,7 +24,8 @@ import numpy as np
 from numba import njit, prange
 
 from dsmv.cel.kernels.common import (INLINE, JIT, PARALLEL, bulk_viscosity, elastic_energy_density, intact_strength,
-                                     law_factor, law_state, ordered_sums, radial_return, spread_order, tresca_return)
+                                     law_factor, law_rows, law_state, ordered_sums, radial_return,
+                                     spread_order, tresca_return)
 from dsmv.cel.kernels.nodes import zero_in_blocks
 from dsmv.cel.layout import ROWS_3D, corner_sides, hourglass_vectors
 
@@ -364,7 +365,7 @@ def cell_stress(q, su_cell, cell, d, spin, strength, volume, par, law, s, a, vec
     wxy, wyz, wzx = spin
     shear_mod, dt = par.shear, par.dt
     lam = par.bulk - 2.0 * shear_mod / 3.0
-    n_state = q.shape[0] - NQ_BASE
+    n_state = law_rows(q, par, NQ_BASE)
     sxx, syy, szz = q[SXX, i, j, k], q[SYY, i, j, k], q[SZZ, i, j, k]
     sxy, syz, szx = q[SXY, i, j, k], q[SYZ, i, j, k], q[SZX, i, j, k]
     # Jaumann: σ + W·σ − σ·W (W = [[0, wxy, −wzx], [−wxy, 0, wyz], [wzx, −wyz, 0]])

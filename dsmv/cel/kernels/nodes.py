@@ -81,9 +81,10 @@ def normal_speed(body, arm, normal, k):
 
 
 @njit(**JIT)
-def nodal_mass(mesh, cells, density, mass):
+def nodal_mass(mesh, cells, density, mass, density_row=-1):
     """Lumped nodal mass: a quarter (2D; an eighth in 3D) of each neighbouring cell's soil mass (kg),
-    to the nodes of the corner table (a split node takes its own cells' shares).
+    to the nodes of the corner table (a split node takes its own cells' shares); the soil's density
+    ``density`` times, in a layered soil, the cell's row ``density_row`` of q (``Params.density_row``).
 
     A cell the body cuts (``open_frac`` < 1) lends its nodes the mass of at least
     ``CUT_MASS_FILL`` of its volume: its nodes may lie inside the body, where little soil is,
@@ -95,12 +96,15 @@ def nodal_mass(mesh, cells, density, mass):
     phi = cells.phi.reshape(n_cells)
     open_frac = cells.open_frac.reshape(n_cells)
     vol = mesh.vol.reshape(n_cells)
+    ratio = cells.q[max(density_row, 0)].reshape(n_cells)
     share = 1.0 / n_corners
     for c in range(n_cells):
         fill = phi[c]
         if open_frac[c] < 1.0 and open_frac[c] > 0.0 and fill < CUT_MASS_FILL:
             fill = CUT_MASS_FILL
         m = share * density * fill * vol[c]
+        if density_row >= 0 and ratio[c] > 0.0:  # an empty cut cell lends the lightest soil's
+            m *= ratio[c]
         if m > 0.0:
             for k in range(n_corners):
                 mass[np.uint64(corner[c, k])] += m

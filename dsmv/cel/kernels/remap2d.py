@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from dsmv.cel.kernels.common import JIT, elastic_energy_density, soil_through_face, upwind_value, van_leer
+from dsmv.cel.kernels.common import JIT, elastic_energy_density, soil_through_face, upwind_value, van_leer, weigh_line_fluxes
 from dsmv.cel.kernels.elements2d import SXX, SXY, SYY, SZZ
 
 
@@ -31,7 +31,8 @@ def advect_cells(axis, mesh, cells, faces, ux, uy, dt, par, inflow, audit):
     face (0 next to a cell inside the body), ``open_frac`` that of each cell (a cell the body's
     surface cuts holds at most that much soil); the Hirt–Nichols rule works on the fill of the
     open part, φ / open_frac. Returns the net soil volume
-    that entered through the base and the sides (m³). ``audit[0]``
+    that entered through the base and the sides (m³; in a layered soil, as soil of ``par.density``, and the
+    faces' fluxes likewise, :func:`~dsmv.cel.kernels.common.weigh_line_fluxes`). ``audit[0]``
     accumulates the change of stored elastic energy the sweep makes (J), inflow included.
     """
     x, y, vol = mesh.x, mesh.y, mesh.vol
@@ -43,7 +44,7 @@ def advect_cells(axis, mesh, cells, faces, ux, uy, dt, par, inflow, audit):
     order, axisym, phi_min, shear_mod, bulk_mod = par.advection_order, par.axisymmetric, par.phi_min, par.shear, par.bulk
     nx, ny = phi.shape
     nq = q.shape[0]
-    boundary = 0.0
+    boundary, weighed, density_row = 0.0, 0.0, par.density_row
     n_lines = ny if axis == 0 else nx
     n_faces = nx + 1 if axis == 0 else ny + 1
     n_cells = n_faces - 1
@@ -116,7 +117,9 @@ def advect_cells(axis, mesh, cells, faces, ux, uy, dt, par, inflow, audit):
                 qflux[k, face] = signed * upwind_value(value, lo, hi, order, un, courant)
         limit_diverging_outflow(axis, line, flux, qflux, phi, vol)
         apply_line_fluxes(axis, line, flux, qflux, phi, q, vol, shear_mod, bulk_mod, audit)
-    return boundary
+        if density_row >= 0:
+            weighed += weigh_line_fluxes(qflux[density_row], flux[:, line])
+    return weighed if density_row >= 0 else boundary
 
 
 @njit(**JIT)
