@@ -93,7 +93,7 @@ class AnalyticDynamicSolver:
             su0_pa=soil.su0_pa, ks_pa_per_m=soil.ks_pa_per_m, density_kg_m3=soil.density_kg_m3,
             youngs_modulus_pa=soil.youngs_modulus_pa, gravity_m_s2=landing.gravity_m_s2, shape_factor=shape,
             grouser_height_m=body.grouser_height_m if cfg.grousers and body.kind == "track" else 0.0,
-            strength=soil.bent_strength)
+            strength=soil.bent_strength, density=soil.density_layers)
         self.factor = layered_factor(registry.load("soil_laws", soil.law, "soil.law")(soil))
 
     def solve(self, run_dir=None) -> SolveResult:

@@ -54,7 +54,7 @@ from pydantic import BeforeValidator, Field
 
 from dsmv.analytic.bearing import PRANDTL_NC
 from dsmv.config.location import CONFIG_DIR
-from dsmv.config.profile import StrengthSegments
+from dsmv.config.profile import DensityLayers, StrengthSegments, weighed
 from dsmv.config.schema import Count, Number, Schema
 
 #: (κ = ks·B/su, G): a rough surface strip's q/su0 over its weightless value. The midpoints of the
@@ -149,6 +149,18 @@ class Landing:
     grouser_height_m: np.ndarray | float = 0.0  # gh: grousers cut in first (the 3D track), 0: a flat base
     strength: StrengthSegments | None = None  # a bent strength table shared by all (None: su0 + ks·z)
     strength_scale: np.ndarray | float = 1.0  # each landing's factor on that table (soil.profile_scale drawn)
+    density: DensityLayers | None = None  # a density the table layers, shared by all (None: density_kg_m3)
+
+
+#: the Landing fields shared by all its landings (a strength table, a layered density); the others are arrays
+SHARED = ("strength", "density")
+
+
+def density_at(landing: Landing, depth_m):
+    """ρ' at the base's depth (kg/m³)."""
+    if landing.density is None:
+        return landing.density_kg_m3
+    return landing.density.lightest_kg_m3 * landing.density.ratio_at(depth_m)
 
 
 def strength_at(landing: Landing, depth_m):
@@ -173,9 +185,10 @@ def resistance(landing: Landing, depth_m, speed_m_s, factor: Callable, c: Coeffi
     elastic_depth = c.elastic_coefficient * bearing_factor * b * landing.su0_pa / landing.youngs_modulus_pa
     mobilised = -np.expm1(-bearing_on / elastic_depth) if c.elastic_coefficient > 0.0 else 1.0
     strength = factor(c.strain_coefficient * bearing_on / b, c.rate_coefficient * v / b, z)
-    pressure = mobilised * bearing * strength * su + 0.5 * c.drag_coefficient * landing.density_kg_m3 * v * v
-    if buoyancy:
-        pressure = pressure + landing.density_kg_m3 * landing.gravity_m_s2 * z
+    pressure = mobilised * bearing * strength * su + 0.5 * c.drag_coefficient * density_at(landing, z) * v * v
+    if buoyancy:  # ρ'·g·z, the column's buoyant weight
+        rho, height = weighed(landing.density_kg_m3, landing.density, z)
+        pressure = pressure + rho * landing.gravity_m_s2 * height
     return landing.area_m2 * pressure
 
 
@@ -184,7 +197,8 @@ def cut_in(landing: Landing) -> Landing:
     its tips gh deep at the speed gained falling gh under its wet weight (the blades' own resistance
     neglected), carrying the soil trapped between the grousers (its buoyant weight and mass)."""
     gh = landing.grouser_height_m
-    trapped_kg = landing.density_kg_m3 * landing.area_m2 * gh
+    rho, height = weighed(landing.density_kg_m3, landing.density, gh)
+    trapped_kg = rho * landing.area_m2 * height
     speed = np.sqrt(landing.velocity_m_s**2 + 2.0 * landing.weight_n / landing.inertia_kg * gh)
     return replace(landing, velocity_m_s=speed, inertia_kg=landing.inertia_kg + trapped_kg,
                    weight_n=landing.weight_n + trapped_kg * landing.gravity_m_s2)
@@ -198,9 +212,10 @@ def sinkage(landing: Landing, factor: Callable, c: Coefficients, bearing_factor:
     interpolation of K between the last two steps. With ``history``, also the (depth, speed) of
     every step (2D arrays, steps × landings; speed 0 after rest)."""
     fields_ = {f.name: np.asarray(getattr(landing, f.name), dtype=float) for f in fields(Landing)
-               if f.name != "strength"}
+               if f.name not in SHARED}
     shape = np.broadcast_shapes(*(a.shape for a in fields_.values()))
-    lb = cut_in(Landing(**{k: np.broadcast_to(a, shape) for k, a in fields_.items()}, strength=landing.strength))
+    lb = cut_in(Landing(**{k: np.broadcast_to(a, shape) for k, a in fields_.items()}, strength=landing.strength,
+                         density=landing.density))
     step = lb.width_m / STEPS_PER_WIDTH
     kinetic = 0.5 * lb.inertia_kg * lb.velocity_m_s**2
     at_rest = REST_SPEED_FRACTION**2 * kinetic

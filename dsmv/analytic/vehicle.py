@@ -121,9 +121,9 @@ class VehicleModel:
                 su0_pa=soil.su0_pa, ks_pa_per_m=soil.ks_pa_per_m, density_kg_m3=soil.density_kg_m3,
                 youngs_modulus_pa=soil.youngs_modulus_pa, gravity_m_s2=landing.gravity_m_s2, shape_factor=shape,
                 grouser_height_m=body.grouser_height_m,
-                strength=soil.bent_strength)
+                strength=soil.bent_strength, density=soil.density_layers)
         column = {f.name: np.asarray(getattr(tracks, f.name), dtype=float).reshape(-1, 1) for f in fields(Landing)
-                  if f.name not in ("strength", "grouser_height_m")}
+                  if f.name not in (*SHARED, "grouser_height_m")}
         count = max(len(a) for a in column.values())
         column = {k: np.broadcast_to(a, (count, 1)) for k, a in column.items()}
         # per track, its grousers cut in first (tips gh deep, the trapped soil carried); one row per vehicle
@@ -302,7 +302,7 @@ class VehicleModel:
                 state = {name: value[still] for name, value in state.items()}
                 given = {name: value[still] for name, value in given.items()}
                 soil = replace(soil, **{f.name: getattr(soil, f.name)[still] for f in fields(Landing)
-                                        if f.name not in ("strength", "grouser_height_m")})
+                                        if f.name not in (*SHARED, "grouser_height_m")})
                 factor = self.factor_of_rows(index)
         for name in out:
             out[name][index] = state[name]

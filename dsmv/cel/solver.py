@@ -45,6 +45,7 @@ from dsmv.cel.state import Elastic, density_ratios, geostatic_state, hourglass_f
 from dsmv.errors import ConfigError
 from dsmv.results import SolveResult, add_plate_sinkage, add_vehicle_answers
 from dsmv.config.scene import FREEDOM_NAMES, RATE_KEYS, Scene
+from dsmv.config.profile import weighed
 
 #: s/B at which push curves are sampled for the bearing factor q/su0 (averaged over ±0.005·B)
 NC_SAMPLES = {"nc_at_0p02B": 0.02, "nc_at_0p05B": 0.05, "nc_at_0p1B": 0.1, "nc_at_1B": 1.0}
@@ -310,8 +311,9 @@ class CelSolver:
         they have cut in: its base (the tips) gh below the mudline, the speed it gained falling gh
         under its wet weight (the thin blades' own resistance neglected), and the trapped soil's
         (buoyant) weight and mass carried with it."""
-        landing, body, gh = self.scene.landing, self.scene.geometry, self.trapped_soil_m()
-        trapped_kg = self.scene.soil.density_kg_m3 * body.width_m * body.contact_length_m * gh if gh > 0 else 0.0
+        landing, body, gh, soil = self.scene.landing, self.scene.geometry, self.trapped_soil_m(), self.scene.soil
+        rho, height = weighed(soil.density_kg_m3, soil.density_layers, gh)  # a layered column weighs its own
+        trapped_kg = rho * body.width_m * body.contact_length_m * height if gh > 0 else 0.0
         speed = landing.velocity_m_s
         if landing.kind == "drop" and gh > 0:
             speed = math.sqrt(speed**2 + 2.0 * landing.weight_per_track_n / landing.inertia_per_track_kg * gh)

@@ -85,17 +85,14 @@ def geostatic_state(grid, density: float, gravity: float, k0: float, mudline: fl
 
 def layered_columns(up: np.ndarray, mudline: float, layers) -> tuple[np.ndarray, np.ndarray]:
     """Per layer of cells between the node coordinates ``up`` (:func:`layers_below`), in a soil whose density is
-    layered (:class:`~dsmv.config.profile.DensityLayers`): the weighing depth of its soil's centroid as the
-    lumped nodal masses weigh it, the mean of the weighing depths at the soil's top and bottom (m), and the
-    soil's mean density over the lightest layer's, its weight over its height. With these the geostatic
-    stresses balance the nodes' weights exactly, a layer boundary inside a cell too (at the centroid's
-    own weighing depth and layer, the soil by such a cell moved at 3–9 cm/s, level and on a 10° slope)."""
+    layered (:class:`~dsmv.config.profile.DensityLayers`): its soil's weighing depth and mean density over the
+    lightest layer's (:func:`~dsmv.cel.kernels.common.soil_column`)."""
+    from dsmv.cel.kernels.common import soil_column
+
     top = np.clip(mudline - up[1:], 0.0, None)     # depth of the soil's top and bottom in each layer of cells
     bottom = np.maximum(mudline - up[:-1], top)
-    w_top, w_bottom = layers.weighing_depth(top), layers.weighing_depth(bottom)
-    height = bottom - top
-    ratio = np.where(height > 0.0, (w_bottom - w_top) / np.where(height > 0.0, height, 1.0), layers.ratio_at(top))
-    return 0.5 * (w_top + w_bottom), ratio
+    columns = [soil_column(layers.top, layers.intercept, layers.ratio, t, b) for t, b in zip(top, bottom)]
+    return np.array([c[0] for c in columns]), np.array([c[1] for c in columns])
 
 
 def density_ratios(grid, mudline: float, layers, phi) -> np.ndarray:

@@ -22,7 +22,7 @@ import math
 import numpy as np
 from numba import njit
 
-from dsmv.cel.kernels.common import INLINE, JIT, density_ratio_at, weighing_depth
+from dsmv.cel.kernels.common import INLINE, JIT, soil_column
 from dsmv.cel.kernels.nodes import (
     adhesion, apply_fixed, apply_ties, hand_travel_to_parents, held_kinetic_energy, model_freedoms, nodal_mass,
     horizontal_momentum, split_mass_kinetic_change, split_masses, tie_reactions,
@@ -294,19 +294,21 @@ def came_to_rest(par, body, v_old):
 
 
 @njit(**INLINE)
-def geostatic_ghost(ghost, c, depth, par, rows, fill=1.0):
+def geostatic_ghost(ghost, c, depth, half, par, rows, fill=1.0):
     """Column c of a ghost state: intact soil at rest under its weight at ``depth`` (m; ``rows``: the
     vertical stress, its two horizontal ones, z0, and the shear stresses on the horizontal planes along
     x and y, −1 where the model has none), as an infinite slope on a sloping seabed, the shear of a layer
-    ``fill`` full over its fill (:func:`dsmv.cel.state.geostatic_state`)."""
+    ``fill`` full over its fill (:func:`dsmv.cel.state.geostatic_state`); a layered soil's, as the cells
+    weigh soil ``depth`` ± ``half`` (m) (:func:`~dsmv.cel.kernels.common.soil_column`)."""
     vertical, horizontal, other, z0, shear_x, shear_y = rows
-    weighed = weighing_depth(par, depth)  # a layered soil's column above weighs its own
+    weighed = depth
+    if par.density_row >= 0:
+        weighed, ghost[par.density_row, c] = soil_column(par.density_top, par.density_intercept, par.density_ratio,
+                                                          max(depth - half, 0.0), depth + half)
     ghost[vertical, c] = -par.density * par.gravity * weighed
     ghost[horizontal, c] = par.k0 * ghost[vertical, c]
     ghost[other, c] = ghost[horizontal, c]
     ghost[z0, c] = depth
-    if par.density_row >= 0:
-        ghost[par.density_row, c] = density_ratio_at(par, depth)
     if par.sloped:
         ghost[shear_x, c] = par.density * par.gravity_x * weighed / fill
         if shear_y >= 0:
@@ -322,16 +324,16 @@ def prepare_remap(inflow, contact, nodes, par, body, rows):
         sunk = 0.5 * (body[B_REMAP_OFFSET] + body[B_OFFSET])  # the grid's vertical offset, halfway (m, up +)
         depth0 = inflow.depth0.ravel()
         ghost = inflow.ghost.reshape((inflow.ghost.shape[0], depth0.size))
-        for c in range(depth0.size):
-            geostatic_ghost(ghost, c, depth0[c] - sunk, par, rows)
         levels, fill = inflow.levels, inflow.side_fill
+        for c in range(depth0.size):  # the cells below the grid's base, as tall as its lowest
+            geostatic_ghost(ghost, c, depth0[c] - sunk, 0.5 * (levels[1] - levels[0]), par, rows)
         mudline = inflow.mudline - sunk  # in the grid, which went down with the body
         for layer in range(fill.size):  # as dsmv.cel.state.layers_below
             size = levels[layer + 1] - levels[layer]
             fill[layer] = min(max((mudline - levels[layer]) / size, 0.0), 1.0)
             centre = 0.5 * (levels[layer] + levels[layer + 1])
             geostatic_ghost(inflow.side, layer, mudline - centre if fill[layer] >= 1.0 else 0.5 * fill[layer] * size,
-                            par, rows, max(fill[layer], 1e-12))
+                            0.5 * fill[layer] * size, par, rows, max(fill[layer], 1e-12))
     hand_travel_to_parents(contact, nodes)
 
 

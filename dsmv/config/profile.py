@@ -133,6 +133,14 @@ class DensityLayers(NamedTuple):
         return self.ratio[np.searchsorted(self.top, np.asarray(depth_m, dtype=float), side="right") - 1]
 
 
+def weighed(density_kg_m3, layers: DensityLayers | None, depth_m):
+    """The column of soil above ``depth_m`` as a buoyant density (kg/m³) times a height (m) that weighs it:
+    ``density_kg_m3`` and the depth, or a layered density's lightest and its weighing depth there."""
+    if layers is None:
+        return density_kg_m3, depth_m
+    return layers.lightest_kg_m3, layers.weighing_depth(depth_m)
+
+
 def read_points(value) -> np.ndarray:
     """The profile's points, (n, 2): depth (m) and su (Pa), from an inline table or a CSV path
     (:func:`dsmv.config.location.data_path`), checked: depths in order (a repeated depth is a jump), none
