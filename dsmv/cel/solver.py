@@ -580,6 +580,7 @@ class CelSolver:
         cells = state.cells.phi.size
         metrics = {
             "mass_error": abs(mass_now - mass_expected) / state.mass0,
+            "soil_entered_kg": par.density * body[B_INFLOW],  # net, through the base and the sides
             "phi_max": float(state.cells.phi.max()),
             "phi_min": float(state.cells.phi.min()),
             "compile_s": compile_s,
@@ -594,7 +595,7 @@ class CelSolver:
             # (a run gone unstable may have summed infinities: NaN, which its report leaves out)
             "hourglass_mode_ratio": zigzag,
         }
-        units = {"mass_error": "-", "phi_max": "-", "phi_min": "-", "compile_s": "s", "wall_s": "s", "steps": "-",
+        units = {"mass_error": "-", "soil_entered_kg": "kg", "phi_max": "-", "phi_min": "-", "compile_s": "s", "wall_s": "s", "steps": "-",
                  "time_step_s": "s", "cells": "-", "cells_whole_body": "-",
                  "cell_updates_per_s": "1/s", "core_cell_size_m": "m",
                  "hourglass_mode_ratio": "-"}
