@@ -347,3 +347,15 @@ def test_the_soil_entering_the_grid_is_the_soil_its_cells_hold_at_that_depth():
     np.testing.assert_allclose(ghost[vertical, below] * fill[below], q[vertical, 0, below], rtol=1e-13)
     np.testing.assert_allclose(ghost[-1, below], q[-1, 0, below], rtol=1e-13)
     assert np.ptp(q[-1, 0, below]) > 0.9  # both layers, and the cell between them, are there
+
+
+def test_the_commands_that_take_one_density_refuse_a_layered_one_in_one_line():
+    from dsmv.calibration.run import check_config as check_calibration
+    from dsmv.surrogate.predict import check_config as check_prediction
+    from dsmv.testing import compose_config
+
+    table = density_layers(1200)
+    with pytest.raises(ConfigError, match="dsmv-predict takes one density"):
+        check_prediction(compose_config("predict", table, "tracking=disabled"))
+    with pytest.raises(ConfigError, match="dsmv-calibrate takes one density"):
+        check_calibration(compose_config("calibrate", "site=synthetic_ccz", "tracking=disabled", table))

@@ -111,6 +111,17 @@ def test_a_slope_the_soil_cannot_stand_is_refused_with_its_limit(compose_cfg):
     assert refused.value.path == "soil.slope_deg" and f"{steepest:.3g}°" in str(refused.value)
 
 
+def test_a_slope_a_layered_soil_cannot_stand_is_refused_with_its_limit(compose_cfg):
+    """As above, the soil twice as heavy from 1 m down: at depth d the column weighs ρ'·g·w(d), w(3.6 m) =
+    1 + 2·2.6 = 6.2 m of the light soil; su(d)/w(d) is least at 3.6 m (1.10 at 1 m, 0.285 there)."""
+    table = "soil.profile={depth_m:[0,1,1,3.6],su_pa:[5000,6500,6500,10400],density_kg_m3:[600,600,1200,1200]}"
+    r, a = 10400.0 / 6.2 / (600.0 * 9.81), 0.5 * (1.0 - 0.49 / 0.51)
+    steepest = math.degrees(math.asin(math.sqrt((r * r - a * a) / (1.0 - a * a))))
+    build_scene(compose_cfg([table, f"soil.slope_deg={steepest - 0.1}"]))
+    with pytest.raises(ConfigError, match=f"{steepest:.3g}°"):
+        build_scene(compose_cfg([table, f"soil.slope_deg={steepest + 0.1}"]))
+
+
 @pytest.mark.parametrize("overrides, key", [
     (["soil.slope_deg=5", "solver=analytic_energy"], "soil.slope_deg"),
     (["soil.slope_deg=5", "soil.downslope_direction_deg=90"], "soil.downslope_direction_deg"),  # plane strain

@@ -30,7 +30,7 @@ from dsmv.calibration.cel_tests import cyclic_push, profile_push
 from dsmv.calibration.data import KINDS, MEASURED, SiteTest, read_test, write_test
 from dsmv.calibration.fit import DEFAULT_BOUNDS, Calibration, Problem, _get, calibrate
 from dsmv.config.location import CONFIG_DIR, data_path
-from dsmv.config.profile import refuse_a_layered_law
+from dsmv.config.profile import refuse_a_layered_density, refuse_a_layered_law
 from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError
 from dsmv.surrogate.reliability import DRAWN
@@ -101,6 +101,7 @@ def check_config(cfg: DictConfig) -> tuple[CalibrateSettings, Problem]:
 
     validated = _validate(SoilConfig, container["soil"], "soil")
     refuse_a_layered_law(validated, "dsmv-calibrate")
+    refuse_a_layered_density(validated, "dsmv-calibrate")
     soil = validated.model_dump()
     keys = list(dict.fromkeys(settings.parameters))
     if "soil.profile_scale" in keys and settings.exceedance.sinkage_limit_m is not None:

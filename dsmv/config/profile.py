@@ -82,6 +82,14 @@ def refuse_a_layered_law(soil, model: str) -> None:
                           "law's values; a soil whose law changes with depth runs in solver=cel2d or cel3d")
 
 
+def refuse_a_layered_density(soil, model: str) -> None:
+    """A model that takes one density refuses a table that layers it, in one line."""
+    if soil.density_layers is not None:
+        raise ConfigError(KEY, f"a table layering {DENSITY_KEY}", f"{model} takes one density; a soil whose "
+                          "density changes with depth runs in solver=cel2d, cel3d, analytic_dynamic or "
+                          "analytic_dynamic_3d")
+
+
 def straight_line(su0_pa: float, ks_pa_per_m: float) -> StrengthSegments:
     """su0 + ks·z as one segment."""
     return StrengthSegments(np.array([-math.inf]), np.array([float(su0_pa)]), np.array([float(ks_pa_per_m)]))

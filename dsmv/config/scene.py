@@ -25,7 +25,8 @@ from pydantic import BaseModel, BeforeValidator, Field, ValidationInfo, field_va
 from dsmv import registry
 from dsmv.config.location import CONFIG_DIR
 from dsmv.config.objective import objective_config
-from dsmv.config.profile import DENSITY_KEY, KEY as PROFILE_KEY, DensityLayers, LawLayers, StrengthSegments, law_layers, read_points, segments, straight_line
+from dsmv.config.profile import (DENSITY_KEY, KEY as PROFILE_KEY, DensityLayers, LawLayers, StrengthSegments, law_layers,
+                                 read_points, segments, straight_line, weighed)
 from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError
 
@@ -208,9 +209,12 @@ class SoilConfig(Schema):
         segments. On level ground the check is not made."""
         if gravity_m_s2 <= 0.0:
             return 90.0
-        table = self.strength
-        depths = np.array([d for d in table.depth[1:] if 0.0 < d < depth_m] + [depth_m])
-        ratio = float(np.min(table.su(depths) / depths)) / (self.density_kg_m3 * gravity_m_s2)
+        table, density = self.strength, self.density_layers
+        # a layered density weighs d as its weighing depth w(d): su(d)/w(d) is least where either bends
+        bends = [*table.depth[1:], *(density.top[1:] if density is not None else [])]
+        depths = np.array(sorted({d for d in bends if 0.0 < d < depth_m} | {depth_m}))
+        rho, weighed_depths = weighed(self.density_kg_m3, density, depths)
+        ratio = float(np.min(table.su(depths) / weighed_depths)) / (rho * gravity_m_s2)
         half_difference = 0.5 * (1.0 - self.poisson_ratio / (1.0 - self.poisson_ratio))
         if ratio <= half_difference:
             return 0.0

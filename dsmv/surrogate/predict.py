@@ -49,7 +49,7 @@ from pydantic import Field
 
 from dsmv.analytic.landing_model import LARGEST_SINKAGE_WIDTHS
 from dsmv.analytic.vehicle import check_vehicle_scene
-from dsmv.config.profile import refuse_a_bent_profile, refuse_a_layered_law
+from dsmv.config.profile import refuse_a_bent_profile, refuse_a_layered_density, refuse_a_layered_law
 from dsmv.config.scene import _resolve, build_scene, build_tracking
 from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError, DsmvError
@@ -427,6 +427,7 @@ def check_config(cfg: DictConfig) -> tuple[PredictSettings, object]:
     settings = settings_from(cfg)
     scene = build_scene(cfg)
     refuse_a_layered_law(scene.soil, "dsmv-predict")
+    refuse_a_layered_density(scene.soil, "dsmv-predict")
     if scene.geometry.vehicle:  # the fast vehicle model lands its samples: no registered model
         if settings.task != "exceedance":
             raise ConfigError("task", settings.task, "a vehicle scene answers task=exceedance (the fast vehicle "
