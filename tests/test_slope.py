@@ -76,7 +76,7 @@ LAYERED_DENSITY = "soil.profile={depth_m:[0,0.4,0.4,1.5,1.5,3],su_pa:[5000,5600,
 def test_soil_whose_density_is_layered_stays_at_rest_level_and_on_a_slope():
     """The geostatic stress of a layered density weighs the column above (ρ'·g·w, w the weighing depth), the
     nodes the cells' own densities: level and on a 10° slope the soil stays at rest to round-off, as a
-    uniform soil does (measured 3.8e-16 and 4.7e-16 m/s uniform, 3.1e-16 and 7.8e-16 layered). A cell the
+    uniform soil does (measured 3.8e-16 and 4.7e-16 m/s uniform, 3.9e-16 and 8.4e-16 layered). A cell the
     boundary at 1.5 m cuts holds its soil's mean density, and its stress weighs the column as the lumped
     masses do; read at its centroid's layer instead, that soil moved at 3.4 and 8.6 cm/s."""
     assert soil_at_rest_on_a_slope(0.0, 0.0, 1000, LAYERED_DENSITY) < 1e-12

@@ -99,7 +99,7 @@ class SoilConfig(Schema):
     profile: Optional[Union[list[list[Number]], dict[str, list[Number]], str]] = Field(None, description=(
         "su_intact against depth: [[depth_m, su_pa], ...], columns {depth_m: [...], su_pa: [...], ...} or a CSV "
         "path (columns depth_m|depth_cm, su_pa|su_kpa); further columns layer the law's values by soil key "
-        "(sensitivity, xi95, rate.eta, ..., params.<name>); null: su0 + ks·z"))
+        "(sensitivity, xi95, rate.eta, ..., params.<name>) and the density (density_kg_m3); null: su0 + ks·z"))
     profile_scale: Number = Field(1.0, gt=0, description=(
         "factor on the table's strengths (-): the profile's shape from the site, its level fitted "
         "(dsmv-calibrate); a straight line's level is su0_pa and ks_pa_per_m; youngs_modulus_pa is not scaled"))
