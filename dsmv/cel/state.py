@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dsmv.cel.kernels.common import soil_column
 from dsmv.cel.layout import CellRows, Params, freedom_mask
 from dsmv.config.profile import straight_line
 
@@ -87,8 +88,6 @@ def layered_columns(up: np.ndarray, mudline: float, layers) -> tuple[np.ndarray,
     """Per layer of cells between the node coordinates ``up`` (:func:`layers_below`), in a soil whose density is
     layered (:class:`~dsmv.config.profile.DensityLayers`): its soil's weighing depth and mean density over the
     lightest layer's (:func:`~dsmv.cel.kernels.common.soil_column`)."""
-    from dsmv.cel.kernels.common import soil_column
-
     top = np.clip(mudline - up[1:], 0.0, None)     # depth of the soil's top and bottom in each layer of cells
     bottom = np.maximum(mudline - up[:-1], top)
     columns = [soil_column(layers.top, layers.intercept, layers.ratio, t, b) for t, b in zip(top, bottom)]
