@@ -32,8 +32,8 @@ STROKE_DIAMETERS = 4.0
 #: the shallowest start of the bar's axis (diameters): the bar starts wished in place, buried. From 1.5 D a
 #: rough bar on D/10 in soil of St 4 dragged its cover down and kept it: slip in one softened column of cells
 #: at its shoulder, a trench above, the soil never closing behind it, 21 % under full flow down to 0.6 m at
-#: 0.2 mm/s (where the rate's weak brake never broke the band; at 2 mm/s it broke within 3 D, at 20 mm/s it did not hold). Started
-#: at 2.5 D the same push reads full flow (−0.4 % against the model; without softening +0.4 %)
+#: 0.2 mm/s, where the rate's weak brake never broke the band (at 2 mm/s it broke within 3 D; at 20 mm/s it
+#: did not hold). Started at 2.5 D the same push reads full flow (−0.4 % against the model)
 SHALLOWEST_AXIS_DIAMETERS = 2.5
 #: the fall cone's length (m): GEONOR's 30° cone, 35 mm long (conf/geometry/fall_cone_30deg.yaml)
 CONE_LENGTH_M = 0.035
