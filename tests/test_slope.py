@@ -16,7 +16,7 @@ import pytest
 from dsmv import registry
 from dsmv.cel.grid import build_grid_2d
 from dsmv.cel.kernels import for_dimension
-from dsmv.cel.kernels.nodes import nodal_mass
+from dsmv.cel.kernels.nodes import nodal_mass_of_soil
 from dsmv.cel.layout import N_BODY, SoilLawKernel
 from dsmv.cel.ledger import N_ENERGY
 from dsmv.cel.solver2d import Cel2DSolver
@@ -52,7 +52,7 @@ def soil_at_rest_on_a_slope(slope_deg: float, mudline_m: float, steps: int = 100
     sides = np.concatenate([index[0], index[-1]])  # held along the slope too, as the solver holds them
     state[4] = contact._replace(fixed_node=np.concatenate([contact.fixed_node, sides]).astype(np.int64),
                                 fixed_axis=np.concatenate([contact.fixed_axis, np.ones(sides.size, np.int64)]))
-    nodal_mass(state[0], state[1], rho, state[3].mass, par.density_row)
+    nodal_mass_of_soil(state[0], state[1], par, state[3].mass)
     law = SoilLawKernel.of(registry.load("soil_laws", "tresca", "soil.law")(soil))
     kernels.run_steps(steps, *state, par, np.zeros(N_BODY), np.zeros(N_ENERGY), law)
     v = state[3].v

@@ -845,7 +845,7 @@ class CelSolver:
         subclass gives the grid (:meth:`build`), the body's contact (:meth:`body_contact`), the mesh and
         faces (:meth:`mesh_and_faces`) and whether the soil may part from the body
         (:meth:`contact_separation`)."""
-        from dsmv.cel.kernels.nodes import nodal_mass
+        from dsmv.cel.kernels.nodes import nodal_mass_of_soil
 
         scene, cfg = self.scene, self.scene.solver
         soil, landing = scene.soil, scene.landing
@@ -901,7 +901,7 @@ class CelSolver:
             tresca=cfg.yield_surface == "tresca" or (cfg.yield_surface == "auto" and self.axisym),
             density_layers=layers, density_row=q.shape[0] - 1 if layers is not None else -1,
         )
-        nodal_mass(mesh, cells, rho, nodes.mass, par.density_row)
+        nodal_mass_of_soil(mesh, cells, par, nodes.mass)
         up = grid.axes[-1]
         ghost = np.zeros((q.shape[0], *shape[:-1]))
         ghost[n_base:n_base + len(law_state)] = law_state.reshape(-1, *(1,) * (self.dim - 1))  # soil entering

@@ -24,7 +24,7 @@ from numba import njit
 
 from dsmv.cel.kernels.common import INLINE, JIT, soil_column
 from dsmv.cel.kernels.nodes import (
-    adhesion, apply_fixed, apply_ties, hand_travel_to_parents, held_kinetic_energy, model_freedoms, nodal_mass,
+    adhesion, apply_fixed, apply_ties, hand_travel_to_parents, held_kinetic_energy, model_freedoms, nodal_mass_of_soil,
     horizontal_momentum, split_mass_kinetic_change, split_masses, tie_reactions,
 )
 from dsmv.cel.layout import (
@@ -346,7 +346,7 @@ def settle_nodes(mesh, cells, nodes, contact, par, body, energy, swept, audit):
     energy[E_REMAP_KINETIC] += audit[1]
     nodes.travel[:] = 0.0
     split_masses(contact, nodes.mass, swept)
-    nodal_mass(mesh, cells, par.density, nodes.mass, par.density_row)
+    nodal_mass_of_soil(mesh, cells, par, nodes.mass)
     energy[E_REMAP_KINETIC] += split_mass_kinetic_change(contact, nodes, swept)
     rejoined = np.zeros(2)
     rejoin_ties(contact, nodes, par, body, rejoined)

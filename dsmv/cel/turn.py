@@ -214,7 +214,7 @@ def redraw(solver, state, angles: np.ndarray, room_was: np.ndarray):
     """Draw the body of ``state`` turned by ``angles`` (rad, about x, y, z; module docstring), in place,
     the soil having filled ``room_was`` of each cell (:func:`room_outside`) at the last drawing; returns
     the room now, or why the body cannot be drawn (its staircase leaves the uniform core)."""
-    from dsmv.cel.kernels.nodes import kinetic_energy, nodal_mass
+    from dsmv.cel.kernels.nodes import kinetic_energy, nodal_mass_of_soil
     from dsmv.cel.state import hourglass_factor
     from dsmv.cel.stepper import rejoin_ties
 
@@ -250,7 +250,7 @@ def redraw(solver, state, angles: np.ndarray, room_was: np.ndarray):
         if name.startswith("aperture"):
             getattr(state.faces, name)[:] = getattr(drawn_faces, name)
     state.contact = new.contact
-    nodal_mass(mesh, cells, par.density, nodes.mass, par.density_row)
+    nodal_mass_of_soil(mesh, cells, par, nodes.mass)
     work_against_gravity = par.density * par.gravity * moved[-1]
     if par.sloped:  # and along a sloping seabed
         work_against_gravity -= par.density * (par.gravity_x * moved[0] + (par.gravity_y * moved[1] if dim == 3 else 0.0))

@@ -24,7 +24,7 @@ import numpy as np
 from numba import njit, prange
 
 from dsmv.cel.kernels.common import BLOCK, INLINE, JIT, PARALLEL, ordered_sums
-from dsmv.cel.layout import B_VEL, MODEL_FREEDOMS, VELOCITY_SLOTS
+from dsmv.cel.layout import B_VEL, MODEL_FREEDOMS, VELOCITY_SLOTS, Cells
 
 #: a cell the body cuts lends its nodes at least the mass of this fill of the whole cell: its open
 #: faces are as stiff as a full cell's, and the explicit step stays stable (see nodal_mass)
@@ -81,10 +81,9 @@ def normal_speed(body, arm, normal, k):
 
 
 @njit(**JIT)
-def nodal_mass(mesh, cells, density, mass, density_row=-1):
+def nodal_mass(mesh, cells, density, mass):
     """Lumped nodal mass: a quarter (2D; an eighth in 3D) of each neighbouring cell's soil mass (kg),
-    to the nodes of the corner table (a split node takes its own cells' shares); the soil's density
-    ``density`` times, in a layered soil, the cell's row ``density_row`` of q (``Params.density_row``).
+    to the nodes of the corner table (a split node takes its own cells' shares).
 
     A cell the body cuts (``open_frac`` < 1) lends its nodes the mass of at least
     ``CUT_MASS_FILL`` of its volume: its nodes may lie inside the body, where little soil is,
@@ -96,18 +95,27 @@ def nodal_mass(mesh, cells, density, mass, density_row=-1):
     phi = cells.phi.reshape(n_cells)
     open_frac = cells.open_frac.reshape(n_cells)
     vol = mesh.vol.reshape(n_cells)
-    ratio = cells.q[max(density_row, 0)].reshape(n_cells)
     share = 1.0 / n_corners
     for c in range(n_cells):
         fill = phi[c]
         if open_frac[c] < 1.0 and open_frac[c] > 0.0 and fill < CUT_MASS_FILL:
             fill = CUT_MASS_FILL
         m = share * density * fill * vol[c]
-        if density_row >= 0 and ratio[c] > 0.0:  # an empty cut cell lends the lightest soil's
-            m *= ratio[c]
         if m > 0.0:
             for k in range(n_corners):
                 mass[np.uint64(corner[c, k])] += m
+
+
+@njit(**INLINE)
+def nodal_mass_of_soil(mesh, cells, par, mass):
+    """:func:`nodal_mass` of the cells' soil: in a layered soil (``par.density_row``), each cell's fill as the
+    lightest soil as heavy (its fill times its density row; an empty cut cell lends the lightest's)."""
+    if par.density_row < 0:
+        nodal_mass(mesh, cells, par.density, mass)
+    else:
+        weighed = Cells(cells.phi * cells.q[par.density_row], cells.q, cells.su, cells.strength_factor, cells.solid,
+                        cells.open_frac, cells.gap, cells.shared_divergence, cells.hourglass_factor)
+        nodal_mass(mesh, weighed, par.density, mass)
 
 
 @njit(**INLINE)
