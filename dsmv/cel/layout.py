@@ -236,7 +236,7 @@ class Params(NamedTuple):
     """The step's parameters: SI floats and switches, fixed for a run."""
 
     dt: float               # time step (s)
-    density: float          # soil's buoyant density (kg/m³)
+    density: float          # soil's buoyant density (kg/m³; a layered soil's lightest, see density_row)
     shear: float            # shear modulus G (Pa)
     bulk: float             # bulk modulus K (Pa)
     wave_speed: float       # P-wave speed (m/s)

@@ -112,8 +112,8 @@ class DensityLayers(NamedTuple):
     density over the lightest layer's (``ratio``, ≥ 1) and the intercept of the weighing depth there.
 
     The weighing depth of a depth z is the depth of soil of the lightest density as heavy as the column
-    above z: w(z) = ∫₀^z ρ/ρ_lightest dz' = intercept + ratio·z in z's layer, so the geostatic vertical
-    stress is −ρ_lightest·g·w(z) (m)."""
+    above z (m): w(z) = ∫₀^z ρ/ρ_lightest dz' = intercept + ratio·z in z's layer, so the geostatic vertical
+    stress is −ρ_lightest·g·w(z)."""
 
     top: np.ndarray
     ratio: np.ndarray
