@@ -2,6 +2,7 @@
 
 import json
 import os
+import shlex
 import subprocess
 from pathlib import Path
 
@@ -222,6 +223,11 @@ def test_a_track_s_summary_names_its_sinkages_and_a_section_its_3d_estimate(comp
     assert (f"3D track: about {0.0532 + SECTION_TO_TRACK_M['median']:.3f} m at the grouser tips "
             f"({low:.3f}–{high:.3f} m") in out
     assert "the 3D answer: dsmv solver=cel3d soil.su0_pa=6000\n" in out  # the user's mesh is 2D's, not 3D's
+    table = "soil.profile={depth_m:[0,3],su_pa:[5000,9500]}"  # braces a shell would expand, quoted
+    print_summary(build_scene(compose_cfg([table])), SolveResult("ok", "came to rest", {"max_sinkage_m": 0.0532}),
+                  tmp_path, None, multirun=False, overrides=[table])
+    assert shlex.split(capsys.readouterr().out.split("the 3D answer: ")[1].splitlines()[0]) == [
+        "dsmv", "solver=cel3d", table]
 
 
 def test_the_slurm_launcher_composes_with_dsmv_s_defaults(compose_cfg):

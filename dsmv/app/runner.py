@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import os
+import shlex
 import signal
 import sys
 import threading
@@ -361,7 +362,9 @@ def track_estimate(scene: Scene, result: SolveResult, overrides: list[str] = ())
     sinkage = result.metrics.get("max_sinkage_m")
     if result.status != "ok" or sinkage is None or scene.landing.kind == "push" or not is_cross_section(scene):
         return None
-    command = " ".join(["dsmv solver=cel3d", *(o for o in overrides if not o.split("=")[0].lstrip("+~").startswith(("solver", "mesh")))])
+    # quoted as a shell reads it: a table's braces and brackets would expand
+    command = shlex.join(["dsmv", "solver=cel3d", *(o for o in overrides
+                                                    if not o.split("=")[0].lstrip("+~").startswith(("solver", "mesh")))])
     offset = SECTION_TO_TRACK_M
     if scene.soil.slope_deg:
         return f"not estimated on a sloping seabed (the 3D–2D difference is measured on level ones); the 3D answer: {command}"
