@@ -359,3 +359,19 @@ def test_the_commands_that_take_one_density_refuse_a_layered_one_in_one_line():
         check_prediction(compose_config("predict", table, "tracking=disabled"))
     with pytest.raises(ConfigError, match="dsmv-calibrate takes one density"):
         check_calibration(compose_config("calibrate", "site=synthetic_ccz", "tracking=disabled", table))
+
+
+def test_a_layered_density_is_in_the_field_frames(compose_cfg, tmp_path):
+    """The frames carry the cells' density where the table layers it: at the start, 600 kg/m³ in the cells
+    above 0.05 m and 1200 below (a cell the boundary cuts, between)."""
+    from dsmv.cel.fields import read_frame, series
+
+    scene = build_scene(compose_cfg(["solver=cel2d", "mesh.cell_size_m=0.04", "solver.progress=off",
+                                     "output.fields=true", "output.plots=false", density_layers(1200)]))
+    result = registry.load("solvers", scene.solver.name, "solver.name")(scene).solve(tmp_path)
+    assert result.status == "ok", result.message
+    first = read_frame(series(tmp_path)[0][1])
+    density, phi = first.cells["density_kg_m3"], first.cells["volume_fraction"]
+    soil = density[phi > 0.999]
+    assert soil.min() == pytest.approx(600.0, rel=1e-6) and soil.max() == pytest.approx(1200.0, rel=1e-6)
+    assert (density[phi == 0.0] == 0.0).all()

@@ -23,23 +23,25 @@ grid's nodes shifted by the body's displacement at that instant. Units are SI.
 
 Cell data (float32):
 
-===================================  ====  ======================================================
-``volume_fraction``                  -     soil volume per cell volume φ (compressed soil: > 1)
-``stress_xx_pa`` … ``stress_zx_pa``  Pa    the soil's own stress, tension positive; in 2D xx, yy,
-                                           xy and zz, the out-of-plane stress (the hoop stress in
-                                           axisymmetry); in 3D xx, yy, zz, xy, yz, zx
-``su_pa``                            Pa    current undrained strength, the stress update's own
-                                           (su_intact(z0)·law factor·α in an interface layer)
-``mobilised_strength``               -     √J2/su (Tresca: (σ1 − σ3)/(2·su)); 1 at yield
-``plastic_shear_strain``             -     ξ, the accumulated plastic shear strain
-``shear_strain_rate_per_s``          1/s   γ̇ = ε̇1 − ε̇3 by the stress update's own rule
-``plastic_shear_strain_rate_per_s``  1/s   γ̇ where the soil is at yield (YIELD_RATIO), else 0
-``initial_depth_m``                  m     z0, the depth where the cell's soil started
-``hourglass_velocity_m_s``           m/s   amplitude of the hourglass (zig-zag) modes in the
-                                           cell's nodal velocities (a checkerboard shows here):
-                                           the Q4 mode in 2D, the four hexahedral vectors in 3D
-``body``                             -     1 in cells inside the rigid body
-===================================  ====  ======================================================
+===================================  =====  ======================================================
+``volume_fraction``                  -      soil volume per cell volume φ (compressed soil: > 1)
+``stress_xx_pa`` … ``stress_zx_pa``  Pa     the soil's own stress, tension positive; in 2D xx, yy,
+                                            xy and zz, the out-of-plane stress (the hoop stress in
+                                            axisymmetry); in 3D xx, yy, zz, xy, yz, zx
+``su_pa``                            Pa     current undrained strength, the stress update's own
+                                            (su_intact(z0)·law factor·α in an interface layer)
+``mobilised_strength``               -      √J2/su (Tresca: (σ1 − σ3)/(2·su)); 1 at yield
+``plastic_shear_strain``             -      ξ, the accumulated plastic shear strain
+``shear_strain_rate_per_s``          1/s    γ̇ = ε̇1 − ε̇3 by the stress update's own rule
+``plastic_shear_strain_rate_per_s``  1/s    γ̇ where the soil is at yield (YIELD_RATIO), else 0
+``initial_depth_m``                  m      z0, the depth where the cell's soil started
+``hourglass_velocity_m_s``           m/s    amplitude of the hourglass (zig-zag) modes in the
+                                            cell's nodal velocities (a checkerboard shows here):
+                                            the Q4 mode in 2D, the four hexahedral vectors in 3D
+``body``                             -      1 in cells inside the rigid body
+``density_kg_m3``                    kg/m³  the soil's buoyant density, when the table layers it
+                                            (0 in cells without soil)
+===================================  =====  ======================================================
 
 Point data: ``velocity_m_s`` (n, 3), the nodal material velocity in the laboratory frame
 (the solver's own values at the grid's nodes, z component 0 in 2D; empty nodes carry 0; a body's split
@@ -157,8 +159,10 @@ class FieldRecorder:
     no stress (derived fields are 0 there).
     """
 
-    def __init__(self, grid, solid, corner, *, tresca: bool, stress_cutoff: float, frames: int, spacing_s: float):
+    def __init__(self, grid, solid, corner, *, tresca: bool, stress_cutoff: float, frames: int, spacing_s: float,
+                 density: tuple[float, int] = (0.0, -1)):
         self.grid, self.solid, self.corner = grid, solid, corner
+        self.density = density  # a layered soil's lightest density (kg/m³) and its cells' density row of q
         self.tresca, self.stress_cutoff = tresca, stress_cutoff
         self.frames = frames
         self.spacing_s = spacing_s
@@ -216,6 +220,9 @@ class FieldRecorder:
             "hourglass_velocity_m_s": np.where(soil, hourglass_velocity(self.corner, snap.v), 0.0),
             "body": self.solid.astype(float),
         }
+        lightest, row = self.density
+        if row >= 0:
+            out["density_kg_m3"] = lightest * q[row]
         return out
 
     def _mesh(self, snap: _Snapshot):

@@ -793,7 +793,8 @@ class CelSolver:
         recorder = FieldRecorder(state.grid, state.cells.solid, state.mesh.corner, tresca=state.par.tresca,
                                  stress_cutoff=self.scene.solver.stress_cutoff,
                                  frames=self.scene.output.field_frames,
-                                 spacing_s=self.steps_per_sample(state) * state.par.dt)
+                                 spacing_s=self.steps_per_sample(state) * state.par.dt,
+                                 density=(state.par.density, state.par.density_row))
         recorder.sample(0.0, 0.0, *self.snapshot(state))
         return recorder
 
