@@ -38,8 +38,8 @@ import numpy as np
 
 from dsmv.analytic.bearing import PRANDTL_NC, green_horizontal, green_vertical
 from dsmv.analytic.landing_model import (
-    LARGEST_SINKAGE_WIDTHS, REST_OUT_OF_BALANCE, REST_SPEED_AFTER_FALL, SHARED, Landing, cut_in, default_config, resistance,
-    strength_at,
+    LARGEST_SINKAGE_WIDTHS, REST_OUT_OF_BALANCE, REST_SPEED_AFTER_FALL, SHARED, Landing, cut_in, default_config,
+    resistance, strength_at,
 )
 from dsmv.config.scene import Scene
 from dsmv.errors import ConfigError

@@ -363,8 +363,8 @@ def track_estimate(scene: Scene, result: SolveResult, overrides: list[str] = ())
     if result.status != "ok" or sinkage is None or scene.landing.kind == "push" or not is_cross_section(scene):
         return None
     # quoted as a shell reads it: a table's braces and brackets would expand
-    command = shlex.join(["dsmv", "solver=cel3d", *(o for o in overrides
-                                                    if not o.split("=")[0].lstrip("+~").startswith(("solver", "mesh")))])
+    kept = [o for o in overrides if not o.split("=")[0].lstrip("+~").startswith(("solver", "mesh"))]
+    command = shlex.join(["dsmv", "solver=cel3d", *kept])
     offset = SECTION_TO_TRACK_M
     if scene.soil.slope_deg:
         return f"not estimated on a sloping seabed (the 3D–2D difference is measured on level ones); the 3D answer: {command}"

@@ -469,7 +469,8 @@ class CelSolver:
         cells = float(np.prod(counts))
         up = grid.axes[-1]
         soil_cells = cells / counts[-1] * float(np.count_nonzero(0.5 * (up[1:] + up[:-1]) < self.mudline))
-        dt = self.scene.solver.cfl * self.h / Elastic.of(self.scene.soil, self.scene.soil.lightest_density_kg_m3).wave_speed_m_s
+        soil = self.scene.soil
+        dt = self.scene.solver.cfl * self.h / Elastic.of(soil, soil.lightest_density_kg_m3).wave_speed_m_s
         steps = min(self.expected_duration_s() / dt, self.scene.solver.max_steps)
         output = self.scene.output
         frames = 2 * output.field_frames + 2 if output.fields else 0
@@ -595,8 +596,8 @@ class CelSolver:
             # (a run gone unstable may have summed infinities: NaN, which its report leaves out)
             "hourglass_mode_ratio": zigzag,
         }
-        units = {"mass_error": "-", "soil_entered_kg": "kg", "phi_max": "-", "phi_min": "-", "compile_s": "s", "wall_s": "s", "steps": "-",
-                 "time_step_s": "s", "cells": "-", "cells_whole_body": "-",
+        units = {"mass_error": "-", "soil_entered_kg": "kg", "phi_max": "-", "phi_min": "-", "compile_s": "s",
+                 "wall_s": "s", "steps": "-", "time_step_s": "s", "cells": "-", "cells_whole_body": "-",
                  "cell_updates_per_s": "1/s", "core_cell_size_m": "m",
                  "hourglass_mode_ratio": "-"}
         audit = ledger.audit(

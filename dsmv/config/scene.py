@@ -25,8 +25,8 @@ from pydantic import BaseModel, BeforeValidator, Field, ValidationInfo, field_va
 from dsmv import registry
 from dsmv.config.location import CONFIG_DIR
 from dsmv.config.objective import objective_config
-from dsmv.config.profile import (DENSITY_KEY, KEY as PROFILE_KEY, DensityLayers, LawLayers, StrengthSegments, law_layers,
-                                 read_points, segments, straight_line, weighed)
+from dsmv.config.profile import (DENSITY_KEY, KEY as PROFILE_KEY, DensityLayers, LawLayers, StrengthSegments,
+                                 law_layers, read_points, segments, straight_line, weighed)
 from dsmv.config.schema import Count, Number, Schema, _validate
 from dsmv.errors import ConfigError
 

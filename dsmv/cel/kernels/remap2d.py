@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from dsmv.cel.kernels.common import JIT, elastic_energy_density, soil_through_face, upwind_value, van_leer, weigh_line_fluxes
+from dsmv.cel.kernels.common import (JIT, elastic_energy_density, soil_through_face, upwind_value, van_leer,
+                                     weigh_line_fluxes)
 from dsmv.cel.kernels.elements2d import SXX, SXY, SYY, SZZ
 
 

@@ -16,7 +16,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from dsmv.cel.kernels.common import INLINE, JIT, PARALLEL, soil_through_face, upwind_value, van_leer, weigh_line_fluxes
+from dsmv.cel.kernels.common import (INLINE, JIT, PARALLEL, soil_through_face, upwind_value, van_leer,
+                                     weigh_line_fluxes)
 from dsmv.cel.kernels.elements3d import cell_elastic_energy_density
 
 
@@ -177,7 +178,8 @@ def apply_line(axis, la, lb, phi, q, vol, line_flux, qflux, flux, par):
 def advect_line(axis, la, lb, mesh, cells, phi0, u, aperture, flux, inflow, par):
     """One line of a sweep of the cell state along ``axis`` (:func:`dsmv.cel.kernels.remap2d.advect_cells`,
     in 3D): its face fluxes, the limit on diverging outflow, its cells updated. Returns (net soil volume
-    entered, elastic energy change), in a layered soil weighed (:func:`~dsmv.cel.kernels.common.weigh_line_fluxes`)."""
+    entered, elastic energy change), in a layered soil weighed
+    (:func:`~dsmv.cel.kernels.common.weigh_line_fluxes`)."""
     la, lb = np.int64(la), np.int64(lb)  # a parallel loop's index is unsigned: mixed with int64 it would unify to float
     n_faces = (cells.phi.shape[0], cells.phi.shape[1], cells.phi.shape[2])[axis] + 1
     qflux = np.zeros((cells.q.shape[0], n_faces))
