@@ -84,6 +84,8 @@ class Problem:
     bounds: list[tuple[float, float]]
     model: PenetrometerModel
     gravity_m_s2: float = 9.81
+    #: each test's rows' factors, the CEL's values over the models' at a fit (None: the models alone)
+    correction: list[np.ndarray] | None = None
 
     def __post_init__(self):
         if not self.keys:
@@ -107,12 +109,14 @@ class Problem:
             _set(tree, key, value)
         return _validate(SoilConfig, tree, "soil")
 
-    def predict(self, values) -> list[np.ndarray]:
-        """Each test's modelled values (its measured quantity, SI) in the soil at ``values``."""
+    def predict(self, values, tests: list[SiteTest] | None = None, corrected: bool = True) -> list[np.ndarray]:
+        """Each test's modelled values (its measured quantity, SI) in the soil at ``values``: this problem's
+        tests, or ``tests`` of the same kinds. This problem's own are times its CEL correction, if it has
+        one and ``corrected`` (:mod:`dsmv.calibration.correction`)."""
         soil = self.soil_at(values)
         law, strength = self._law_cls(soil), soil.strength
         out = []
-        for test in self.tests:
+        for test in self.tests if tests is None else tests:
             c = test.columns
             if test.kind == "tbar":
                 passes = 2.0 * (c["cycle"] - 1.0)
@@ -121,6 +125,8 @@ class Problem:
             else:
                 out.append(fall_cone_depth(self.model, law, strength, c["mass"], test.apex_angle_deg,
                                            c["sample_depth"], self.gravity_m_s2))
+        if self.correction is not None and corrected and tests is None:
+            out = [modelled * factors for modelled, factors in zip(out, self.correction)]
         return out
 
     def residuals(self, values, measured=None) -> np.ndarray:
@@ -202,10 +208,15 @@ def linear_widths(problem: Problem, best, confidence: float, step: float = 1e-3)
     return 2.0 * norm.ppf(0.5 + confidence / 2.0) * std
 
 
+def best_fit(problem: Problem) -> np.ndarray:
+    """The values that fit the data best, searched from the starting soil's."""
+    return _solve(problem.residuals, problem.start, problem.bounds)
+
+
 def calibrate(problem: Problem, bootstrap: int = 200, confidence: float = 0.9, resolved_width: float = 0.2,
               seed: int = 0, progress: Callable[[int, int], None] | None = None) -> Calibration:
     """The best fit and ``bootstrap`` refits on resampled residuals (see the module's docstring)."""
-    best = _solve(problem.residuals, problem.start, problem.bounds)
+    best = best_fit(problem)
     residuals = problem.residuals(best)
     modelled = problem.measured * np.exp(residuals)
     slices, at = [], 0
@@ -234,4 +245,4 @@ def calibrate(problem: Problem, bootstrap: int = 200, confidence: float = 0.9, r
                        linear_widths(problem, best, confidence), problem.bounds)
 
 
-__all__ = ["Problem", "Calibration", "calibrate", "DEFAULT_BOUNDS"]
+__all__ = ["Problem", "Calibration", "calibrate", "best_fit", "DEFAULT_BOUNDS"]

@@ -27,6 +27,7 @@ from pydantic import Field
 
 from dsmv.analytic.penetrometer import PenetrometerModel, tbar_resistance
 from dsmv.calibration.cel_tests import cyclic_push, profile_push
+from dsmv.calibration.correction import corrected
 from dsmv.calibration.data import KINDS, MEASURED, SiteTest, read_test, write_test
 from dsmv.calibration.fit import DEFAULT_BOUNDS, Calibration, Problem, _get, calibrate
 from dsmv.config.location import CONFIG_DIR, data_path
@@ -82,8 +83,12 @@ class CalibrateSettings(Schema):
     seed: int = Field(0, description="the bootstrap's seed (-)")
     name: str = Field("site", pattern=r"^[A-Za-z0-9_]+$", description="name of the soil= and uncertainty= files")
     cel_check: bool = Field(True, description="run the CEL T-bar at the best fit")
-    cel_check_cells_per_diameter: Count = Field(10, ge=4, description="the CEL check's core cells across the bar")
+    cel_check_cells_per_diameter: Count = Field(10, ge=4, description=(
+        "the CEL runs' core cells across the bar (the check's and the corrections')"))
     cel_check_cycles: Count = Field(2, ge=0, description="the cycles of a cyclic test the CEL check pushes (0: none)")
+    cel_corrections: Count = Field(0, ge=0, description=(
+        "rounds of CEL correction before the bootstrap: each measures every test on the CEL at the fit and fits "
+        "the models times the CEL's values over theirs (0: the models alone; dsmv.calibration.correction)"))
     models: PenetrometerModel
     landing_uncertainty: Optional[str] = Field("nodule_field", description="uncertainty= file whose landing entries are kept")
     synthetic: Optional[Synthetic] = Field(None, description="generate the tests' data from known values")
@@ -197,6 +202,17 @@ def _cyclic_check(problem: Problem, law, soil, test: SiteTest, cycles: int, cell
     return out
 
 
+def cel_measure(settings: CalibrateSettings, run_dir: Path):
+    """The CEL correction's measurement: a test's design run in a soil (:func:`dsmv.calibration.cel_site.measure`,
+    a profile one push through it), its runs under ``cel_correction/round_<k>``."""
+    from dsmv.calibration.cel_site import measure
+
+    def run(test: SiteTest, soil, round_: int) -> SiteTest:
+        return measure(test, soil, settings.cel_check_cells_per_diameter, run_dir / "cel_correction" / f"round_{round_}")
+
+    return run
+
+
 # ----------------------------------------------------------------------------- outputs
 
 
@@ -208,7 +224,7 @@ def _tree_set(tree: dict, key: str, value) -> None:
 
 
 def write_outputs(settings: CalibrateSettings, problem: Problem, cal: Calibration, checks: list[dict],
-                  run_dir: Path) -> dict[str, Path]:
+                  run_dir: Path, corrections: list[dict] | None = None) -> dict[str, Path]:
     """calibration.json, draws.csv, the soil= and uncertainty= files, fit.png and the tests' data."""
     run_dir.mkdir(parents=True, exist_ok=True)
     files = {}
@@ -259,6 +275,7 @@ def write_outputs(settings: CalibrateSettings, problem: Problem, cal: Calibratio
                   for i, t in enumerate(problem.tests)],
         "held": _held(problem),
         "cel_check": checks,
+        "cel_corrections": corrections or [],
         "synthetic": settings.synthetic.model_dump() if settings.synthetic else None,
     }
     (run_dir / RESULT_FILE).write_text(json.dumps(summary, indent=2) + "\n")
@@ -449,20 +466,27 @@ def run_calibration(cfg: DictConfig, run_dir: Path) -> dict:
     print(f"dsmv-calibrate: {', '.join(problem.keys)} of the {problem.soil['law']} law, from "
           f"{len(problem.tests)} tests ({rows} values){' generated from known values' if settings.synthetic else ''}")
 
+    corrections, correcting = [], time.perf_counter()
+    if settings.cel_corrections:
+        problem, corrections = corrected(problem, settings.cel_corrections, cel_measure(settings, run_dir),
+                                         lambda line: print(line, flush=True))
+    correcting_s = time.perf_counter() - correcting
+    fitting = time.perf_counter()
+
     def progress(done: int, total: int) -> None:
         if done == total or done % max(total // 10, 1) == 0:
-            elapsed = time.perf_counter() - started
+            elapsed = time.perf_counter() - fitting
             print(f"  bootstrap {done}/{total} refits  [{elapsed:.0f} s elapsed, about "
                   f"{elapsed / done * (total - done):.0f} s left]", flush=True)
 
     cal = calibrate(problem, settings.bootstrap, settings.confidence, settings.resolved_width, settings.seed, progress)
-    fit_s = time.perf_counter() - started
+    fit_s = time.perf_counter() - started - correcting_s
     checks = []
     if settings.cel_check and any(t.kind == "tbar" for t in problem.tests):
         print("  CEL check: the T-bar at the best fit, one push per rate …", flush=True)
         checks = cel_check(problem, cal.best, settings.cel_check_cells_per_diameter, run_dir,
                            settings.cel_check_cycles)
-    files = write_outputs(settings, problem, cal, checks, run_dir)
+    files = write_outputs(settings, problem, cal, checks, run_dir, corrections)
     compared = {}
     if settings.exceedance.sinkage_limit_m is not None:
         compared = compare_exceedance(cfg, settings, files["uncertainty"],
@@ -476,14 +500,19 @@ def run_calibration(cfg: DictConfig, run_dir: Path) -> dict:
     metrics |= {f"cel_check_{c['test']}_" + (f"cycle_{c['cycle']}" if "cycle" in c else f"{c['velocity_m_s']:g}"):
                 c["model_over_cel"] for c in checks if "model_over_cel" in c}
     metrics |= {f"exceedance_{which}": answer["probability"] for which, answer in compared.items()}
+    if corrections:   # how far the last round moved the fit: the rounds' convergence
+        metrics |= {"cel_correction_rounds": float(len(corrections)), "cel_correction_wall_s": correcting_s,
+                    "cel_correction_last_move": max(abs(m) for m in corrections[-1]["moved"].values())}
     metrics |= {"resolved_parameters": float(sum(cal.resolved)), "fit_wall_s": fit_s,
                 "calibrate_wall_s": time.perf_counter() - started}
     logged = log_to_mlflow(cfg, settings, cal, files, metrics) if cfg.tracking.get("enabled", True) else None
-    print_summary(settings, problem, cal, checks, compared, run_dir, logged, time.perf_counter() - started)
+    print_summary(settings, problem, cal, checks, compared, run_dir, logged, time.perf_counter() - started,
+                  corrections)
     return {"calibration": cal, "checks": checks, "files": files, "metrics": metrics, "exceedance": compared}
 
 
-def print_summary(settings, problem: Problem, cal: Calibration, checks, compared, run_dir: Path, logged, wall_s) -> None:
+def print_summary(settings, problem: Problem, cal: Calibration, checks, compared, run_dir: Path, logged, wall_s,
+                  corrections=()) -> None:
     c = f"{cal.confidence:.0%}"
     print(f"\ndsmv-calibrate: {problem.soil['law']} fitted to {len(problem.tests)} tests in {wall_s:.0f} s "
           f"({len(cal.draws)} bootstrap refits: the {c} intervals and the joint draws)")
@@ -499,6 +528,12 @@ def print_summary(settings, problem: Problem, cal: Calibration, checks, compared
               + " (not fitted; a power law's gamma_dot_ref enters only as eta·gamma_dot_ref^-n: the data cannot tell it)")
     for i, test in enumerate(problem.tests):
         print(f"  misfit   : {test.name} ({test.kind}, {len(test)} values): {cal.rms(i):.1%} rms")
+    for record in corrections:
+        ratios = [t for t in record["tests"] if t["rows_read"]]
+        print(f"  CEL corr.: round {record['round']}, the models times the CEL's values over theirs "
+              f"({min(t['cel_over_model_min'] for t in ratios):.3f} to {max(t['cel_over_model_max'] for t in ratios):.3f}"
+              + "; not read: " + (", ".join(t["test"] for t in record["tests"] if not t["rows_read"]) or "none")
+              + "); the refit moved " + ", ".join(f"{k.removeprefix('soil.')} {m:+.1%}" for k, m in record["moved"].items()))
     for check in checks:
         if "model_over_cel" in check:
             cycle = f", cycle {check['cycle']}" if "cycle" in check else ""
