@@ -240,8 +240,9 @@ def write_outputs(settings: CalibrateSettings, problem: Problem, cal: Calibratio
     soil_dir.mkdir(parents=True, exist_ok=True)
     fitted = ", ".join(f"{k} = {v:.6g}" for k, v in zip(cal.keys, cal.best))
     (soil_dir / f"{settings.name}.yaml").write_text(
-        f"# Calibrated by dsmv-calibrate ({run_dir}): {fitted}.\n"
-        f"# Every other value is the starting soil's ({problem.soil['name']}).\n"
+        f"# Calibrated by dsmv-calibrate ({run_dir}): {fitted}"
+        + (f", the models corrected by the CEL in {len(corrections)} rounds.\n" if corrections else ".\n")
+        + f"# Every other value is the starting soil's ({problem.soil['name']}).\n"
         + OmegaConf.to_yaml(OmegaConf.create(soil)))
     files["soil"] = soil_dir / f"{settings.name}.yaml"
 
@@ -347,7 +348,8 @@ def plot_fit(problem: Problem, cal: Calibration, path: Path) -> Path:
             ax.set_ylabel("penetration (mm)")
         ax.set_title(f"{test.name}: misfit {cal.rms(k):.1%}", fontsize=9)
         ax.legend(fontsize=7)
-    fig.suptitle("dsmv-calibrate: data, best fit (lines), bootstrap draws (grey)", fontsize=10)
+    corrected_by = " (the models corrected by the CEL)" if problem.correction is not None else ""
+    fig.suptitle(f"dsmv-calibrate: data, best fit (lines){corrected_by}, bootstrap draws (grey)", fontsize=10)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
