@@ -146,7 +146,11 @@ def calibrate() -> None:
 
     registry.register_plugin_configs()
     check_app_command_line("dsmv-calibrate", sys.argv[1:])
-    _hydra_main(_calibrate_job, "calibrate")()
+    try:
+        _hydra_main(_calibrate_job, "calibrate")()
+    except KeyboardInterrupt as exc:  # a signal, in a CEL run (its state is in its folder) or between them
+        print(f"dsmv-calibrate: interrupted{f': {exc}' if str(exc) else ''}", file=sys.stderr)
+        sys.exit(EXIT_CODES["interrupted"])
 
 
 def predict() -> None:

@@ -115,4 +115,12 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except KeyboardInterrupt as stop:  # the tests written before it are kept
+        import sys
+
+        from dsmv.results import EXIT_CODES
+
+        print(f"cel_site: interrupted: {stop}", file=sys.stderr)
+        sys.exit(EXIT_CODES["interrupted"])

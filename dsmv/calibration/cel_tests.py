@@ -69,6 +69,8 @@ def _solve(overrides: list[str], folder: Path):
     folder.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
     result = registry.load("solvers", scene.solver.name, "solver.name")(scene).solve(folder)
+    if result.status == "interrupted":  # a signal stopped the run: it stops what runs it too
+        raise KeyboardInterrupt(f"{result.message} ({folder})")
     return scene, result, time.perf_counter() - started
 
 

@@ -11,9 +11,11 @@ each row's model value by the CEL's over the model's there,
 then fits the corrected model c·model(θ) again: θ_{k+1}. This is defect correction, the simplest form
 of space mapping. If the data are the CEL's at some θ*, then θ* is a fixed point: there the corrected
 model is the CEL. The rounds contract as fast as the models' error against the CEL changes with θ,
-compared with how fast the models themselves change. A row the CEL did not read (a profile's rows
-shallower than where its push is steady, a cycle after an unstable stroke) borrows the factor of the
-nearest row it did read at the same rate.
+compared with how fast the models themselves change. With scatter in the data the fixed point is the
+corrected models' least-squares fit (their Jacobian's normal equations), not the CEL's own; the
+bootstrap's intervals take the factors as exact. A row the CEL did not read (a profile's rows
+shallower than where its push is steady) borrows the factor of the nearest row it did read at the
+same rate; a rate or a cyclic test it read nothing of keeps the models' value, and is reported.
 """
 
 from __future__ import annotations
@@ -30,40 +32,52 @@ from dsmv.calibration.fit import Problem, best_fit
 Measure = Callable[[SiteTest, object, int], SiteTest]
 
 
-def row_factors(test: SiteTest, read: SiteTest, factors: np.ndarray) -> np.ndarray:
-    """The factors of ``read``'s rows carried onto ``test``'s: each row takes the factor of the read row
-    nearest it, a T-bar's at its rate (then its cycle, then its depth), a cone's at its sample's depth
-    (then its mass). 1 where nothing was read."""
-    out = np.ones(len(test))
+def row_factors(test: SiteTest, read: SiteTest, factors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The factors of ``read``'s rows carried onto ``test``'s, and which rows got one: a T-bar's row takes
+    the factor of the read row at its rate (within 1e-6) nearest in cycle, then in depth; a cone's, the
+    read cone nearest in its sample's depth, then in mass. A rate the CEL did not read keeps 1 and is
+    reported uncorrected: the factors change with the rate, which is what they correct."""
+    out, matched = np.ones(len(test)), np.zeros(len(test), bool)
     if len(read) == 0:
-        return out
+        return out, matched
     c, r = test.columns, read.columns
-    if test.kind == "tbar":
-        same, near = ("velocity",), (("cycle", 1.0), ("depth", 1.0 / test.diameter_m))
-    else:
-        same, near = ("sample_depth",), (("mass", 1.0),)
     for i in range(len(test)):
-        candidates = np.flatnonzero(np.all([np.isclose(r[k], c[k][i], rtol=1e-9, atol=0.0) for k in same], axis=0))
-        if len(candidates) == 0:
-            continue
-        distance = [tuple(abs(r[k][j] - c[k][i]) * scale for k, scale in near) for j in candidates]
-        out[i] = factors[candidates[min(range(len(candidates)), key=distance.__getitem__)]]
-    return out
+        if test.kind == "tbar":
+            candidates = np.flatnonzero(np.isclose(r["velocity"], c["velocity"][i], rtol=1e-6, atol=0.0))
+            keys = (np.abs(r["cycle"] - c["cycle"][i]), np.abs(r["depth"] - c["depth"][i]))
+        else:
+            candidates = np.arange(len(read))
+            keys = (np.abs(r["sample_depth"] - c["sample_depth"][i]), np.abs(r["mass"] - c["mass"][i]))
+        if len(candidates):
+            nearest = candidates[np.lexsort(tuple(k[candidates] for k in reversed(keys)))[0]]
+            out[i], matched[i] = factors[nearest], True
+    return out, matched
 
 
 def discrepancy(problem: Problem, values, measure: Measure, round_: int = 1) -> tuple[list[np.ndarray], list[dict]]:
     """Each test measured at ``values`` by ``measure`` (in round ``round_``): its rows' factors, the CEL's
-    over the models' (uncorrected), and a summary of them per test."""
+    over the models' alone, and per test the rows corrected and the factors' range. A row the CEL read
+    with no positive finite value counts as not read."""
     soil = problem.soil_at(values)
     factors, summary = [], []
     for test in problem.tests:
         read = measure(test, soil, round_)
-        ratio = read.measured / problem.predict(values, [read])[0] if len(read) else np.empty(0)
-        factors.append(row_factors(test, read, ratio))
+        ratio = read.measured / problem.predict(values, [read], corrected=False)[0] if len(read) else np.empty(0)
+        good = np.isfinite(ratio) & (ratio > 0)
+        read = SiteTest(read.kind, read.name, {k: np.asarray(v)[good] for k, v in read.columns.items()},
+                        read.diameter_m, read.apex_angle_deg)
+        row, matched = row_factors(test, read, ratio[good])
+        factors.append(row)
         summary.append({"test": test.name, "rows": len(test), "rows_read": len(read),
-                        "cel_over_model_min": float(ratio.min()) if len(ratio) else float("nan"),
-                        "cel_over_model_max": float(ratio.max()) if len(ratio) else float("nan")})
+                        "rows_corrected": int(matched.sum()), "factors": [float(f) for f in row],
+                        "cel_over_model_min": float(row[matched].min()) if matched.any() else float("nan"),
+                        "cel_over_model_max": float(row[matched].max()) if matched.any() else float("nan")})
     return factors, summary
+
+
+def relative_move(before: float, after: float) -> float:
+    """after/before − 1, the move of a value that was 0 its absolute change."""
+    return float(after / before - 1.0) if before else float(after - before)
 
 
 def corrected(problem: Problem, rounds: int, measure: Measure,
@@ -80,11 +94,10 @@ def corrected(problem: Problem, rounds: int, measure: Measure,
         refit = best_fit(problem)
         history.append({"round": k, "measured_at": dict(zip(problem.keys, map(float, best))), "tests": summary,
                         "refit": dict(zip(problem.keys, map(float, refit))),
-                        "moved": {key: float(b / a - 1.0) if a else float("nan")
-                                  for key, a, b in zip(problem.keys, best, refit)}})
+                        "moved": {key: relative_move(a, b) for key, a, b in zip(problem.keys, best, refit)}})
         said("    refit moved " + ", ".join(f"{key} {m:+.1%}" for key, m in history[-1]["moved"].items()))
         best = refit
     return problem, history
 
 
-__all__ = ["corrected", "discrepancy", "row_factors", "Measure"]
+__all__ = ["corrected", "discrepancy", "row_factors", "relative_move", "Measure"]

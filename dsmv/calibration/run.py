@@ -89,6 +89,9 @@ class CalibrateSettings(Schema):
     cel_corrections: Count = Field(0, ge=0, description=(
         "rounds of CEL correction before the bootstrap: each measures every test on the CEL at the fit and fits "
         "the models times the CEL's values over theirs (0: the models alone; dsmv.calibration.correction)"))
+    cel_correction_pushes: Count = Field(0, ge=0, description=(
+        "the corrections read a T-bar profile by this many short pushes to its depths, as the site's CEL data "
+        "were measured (python -m dsmv.calibration.cel_site --pushes); 0: one push through it"))
     models: PenetrometerModel
     landing_uncertainty: Optional[str] = Field("nodule_field", description="uncertainty= file whose landing entries are kept")
     synthetic: Optional[Synthetic] = Field(None, description="generate the tests' data from known values")
@@ -204,11 +207,13 @@ def _cyclic_check(problem: Problem, law, soil, test: SiteTest, cycles: int, cell
 
 def cel_measure(settings: CalibrateSettings, run_dir: Path):
     """The CEL correction's measurement: a test's design run in a soil (:func:`dsmv.calibration.cel_site.measure`,
-    a profile one push through it), its runs under ``cel_correction/round_<k>``."""
+    a profile one push through it or ``calibrate.cel_correction_pushes`` short ones), its runs under
+    ``cel_correction/round_<k>``."""
     from dsmv.calibration.cel_site import measure
 
     def run(test: SiteTest, soil, round_: int) -> SiteTest:
-        return measure(test, soil, settings.cel_check_cells_per_diameter, run_dir / "cel_correction" / f"round_{round_}")
+        return measure(test, soil, settings.cel_check_cells_per_diameter, run_dir / "cel_correction" / f"round_{round_}",
+                       pushes=settings.cel_correction_pushes)
 
     return run
 
@@ -531,16 +536,17 @@ def print_summary(settings, problem: Problem, cal: Calibration, checks, compared
     for i, test in enumerate(problem.tests):
         print(f"  misfit   : {test.name} ({test.kind}, {len(test)} values): {cal.rms(i):.1%} rms")
     for record in corrections:
-        ratios = [t for t in record["tests"] if t["rows_read"]]
-        print(f"  CEL corr.: round {record['round']}, the models times the CEL's values over theirs "
-              f"({min(t['cel_over_model_min'] for t in ratios):.3f} to {max(t['cel_over_model_max'] for t in ratios):.3f}"
-              + "; not read: " + (", ".join(t["test"] for t in record["tests"] if not t["rows_read"]) or "none")
-              + "); the refit moved " + ", ".join(f"{k.removeprefix('soil.')} {m:+.1%}" for k, m in record["moved"].items()))
+        print(f"  CEL corr.: round {record['round']}, the models times the CEL's values over theirs, rows corrected: "
+              + ", ".join(f"{t['test']} {t['rows_corrected']}/{t['rows']}" + (
+                  f" {t['cel_over_model_min']:.3f}–{t['cel_over_model_max']:.3f}" if t["rows_corrected"] else
+                  " (NOT corrected: the CEL read none)") for t in record["tests"]))
+        print("             the refit moved " + ", ".join(f"{k.removeprefix('soil.')} {m:+.1%}"
+                                                        for k, m in record["moved"].items()))
     for check in checks:
         if "model_over_cel" in check:
             cycle = f", cycle {check['cycle']}" if "cycle" in check else ""
             print(f"  CEL check: {check['test']} at {check['velocity_m_s'] * 1e3:g} mm/s{cycle}, {check['depth_m']:.3f} m: "
-                  f"CEL {check['q_cel_pa'] / 1e3:.2f} kPa, model {check['q_model_pa'] / 1e3:.2f} kPa "
+                  f"CEL {check['q_cel_pa'] / 1e3:.2f} kPa, fast model {check['q_model_pa'] / 1e3:.2f} kPa "
                   f"({check['model_over_cel'] - 1:+.1%}), data {check['q_data_pa'] / 1e3:.2f} kPa ({check['wall_s']:.0f} s"
                   + (f"; run at {check['run_velocity_m_s'] * 1e3:g} mm/s, gamma_dot_ref scaled alike)"
                      if check["run_velocity_m_s"] != check["velocity_m_s"] else ")"))
