@@ -118,3 +118,35 @@ def test_no_page_retypes_a_figure_the_report_measured():
     retyped = [f"{page.relative_to(root)}: {figure}" for page in pages for figure in figures
                if re.search(rf"(?<![\d.]){re.escape(figure)}(?!\d)", FENCE.sub("", page.read_text()))]
     assert not retyped, retyped
+
+
+def test_checks_rerun_alone_are_merged_into_the_report_each_with_its_commit(tmp_path, monkeypatch):
+    """``dsmv-report --only KEY`` reruns that check and keeps every other one the committed report holds,
+    with its outcomes and the commit that measured it; the page names both commits, and each section its
+    own. A check the report held that no longer exists is dropped."""
+    import json
+
+    first = report.Check("first", "First check", "nc_at_0p05B", 5.0, "a truth", (), (0.025, 0.05, 0.1), None, 1.0)
+    second = report.Check("second", "Second check", "nc_at_0p05B", 5.0, "a truth", (), (0.025, 0.05, 0.1), None, 1.0)
+    old = {"commit": "0ld0ld0ld0", "tree": "clean", "date": "2026-01-01 00:00 UTC", "machine": "a machine"}
+    new = {"commit": "5e5e5e5e5e", "tree": "clean", "date": "2026-02-01 00:00 UTC", "machine": "a machine"}
+    page = tmp_path / "report.md"
+    report.write_page(page, [(first, _outcomes(5.0, 40.0, 2.0, first.cells_m)),
+                             (second, _outcomes(5.0, 40.0, 2.0, second.cells_m))], quick=False, stamp=old)
+    stored = json.loads(page.with_suffix(".json").read_text())
+    stored["checks"].append({**stored["checks"][0], "key": "gone"})
+    page.with_suffix(".json").write_text(json.dumps(stored))
+    monkeypatch.setattr(report, "PAGE", page)
+    monkeypatch.setattr(report, "CHECKS", (first, second))
+    monkeypatch.setattr(report, "provenance", lambda: new)
+    monkeypatch.setattr(report, "run", lambda check, cell: report.Outcome(cell, "ok", 5.0 + 20.0 * cell**2, 2.0))
+    assert report.main(["--only", "second"]) == 0
+    numbers = json.loads(page.with_suffix(".json").read_text())
+    assert [c["key"] for c in numbers["checks"]] == ["first", "second"]
+    assert [c["stamp"]["commit"] for c in numbers["checks"]] == ["0ld0ld0ld0", "5e5e5e5e5e"]
+    assert numbers["checks"][0]["outcomes"] == stored["checks"][0]["outcomes"]
+    assert numbers["checks"][1]["outcomes"][0]["value"] == 5.0 + 20.0 * 0.025**2
+    text = page.read_text()
+    assert "- commit `5e5e5e5e5e` (clean tree), 2026-02-01 00:00 UTC: 1 check" in text
+    assert "- commit `0ld0ld0ld0` (clean tree), 2026-01-01 00:00 UTC: 1 check" in text
+    assert text.count("Measured on commit `0ld0ld0ld0`") == 1 and text.count("Measured on commit `5e5e5e5e5e`") == 1
