@@ -14,64 +14,11 @@ models, they say how well those models recover a truth that is not their own.
 from __future__ import annotations
 
 import argparse
-import math
 import time
 from pathlib import Path
 
-import numpy as np
-
-from dsmv.calibration.cel_tests import (SHALLOWEST_AXIS_DIAMETERS, STEADY_TRAVEL_DIAMETERS, cone_drop, cyclic_push,
-                                        profile_push, steady_from)
-from dsmv.calibration.data import SiteTest, write_test
-
-
-def measure(test: SiteTest, soil, cells: int, folder: Path, cycles: int | None = None,
-            extra: tuple[str, ...] = (), pushes: int = 0) -> SiteTest:
-    """``test``'s design run on the CEL in ``soil``: the rows it measured, their values clean. ``extra``:
-    overrides for every run (a solver setting); ``pushes``: a profile read by that many short pushes, each
-    to one of its depths, in place of one push through it."""
-    c, D = test.columns, test.diameter_m
-    if test.kind == "fall_cone":
-        depths = []
-        for i, (mass, sample) in enumerate(zip(c["mass"], c["sample_depth"])):
-            depth, status, wall = cone_drop(soil, mass, test.apex_angle_deg, sample, folder / f"{test.name}_{i}", extra)
-            print(f"  {test.name}: {mass * 1e3:g} g cone, sample from {sample:g} m: {depth * 1e3:.3f} mm "
-                  f"({status}, {wall:.0f} s)", flush=True)
-            depths.append(depth if status == "ok" else math.nan)
-        rows = {**c, "penetration": np.array(depths)}
-    elif len(np.unique(c["cycle"])) > 1:
-        depth, velocity = float(np.median(c["depth"])), float(np.median(c["velocity"]))
-        n = int(c["cycle"].max()) if cycles is None else cycles
-        push = cyclic_push(soil, D, velocity, depth, n - 1, cells, folder / f"{test.name}_cycles", extra)
-        values = [push.mean_at(depth, 2 * (k - 1)) if push.ok else math.nan for k in range(1, n + 1)]
-        print(f"  {test.name}: {n} cycles at {depth:g} m: " + ", ".join(f"{q / 1e3:.2f}" for q in values)
-              + f" kPa ({push.status}, {push.entry['wall_s']:.0f} s{'' if push.ok else ': ' + push.message})", flush=True)
-        rows = {"depth": np.full(n, depth), "velocity": np.full(n, velocity), "cycle": np.arange(1.0, n + 1),
-                "resistance": np.array(values)}
-    else:
-        parts = []
-        for velocity in np.unique(c["velocity"]):
-            at = c["velocity"] == velocity
-            depths = c["depth"][at]
-            if pushes:  # one push of STEADY_TRAVEL_DIAMETERS to each of `pushes` depths spread over the rows'
-                steady = depths[depths >= (SHALLOWEST_AXIS_DIAMETERS + STEADY_TRAVEL_DIAMETERS - 0.5) * D]
-                ends = np.unique(steady[np.linspace(0, len(steady) - 1, pushes).round().astype(int)])
-                runs = [(np.array([z]), profile_push(soil, D, velocity, float(z), cells, folder / f"{test.name}_v{velocity:g}"
-                                                     f"_z{z:g}", shallowest_m=float(z), extra=extra)) for z in ends]
-            else:     # one push through the profile, read from where it is steady
-                push = profile_push(soil, D, velocity, float(depths.max()), cells, folder / f"{test.name}_v{velocity:g}",
-                                    extra=extra)
-                runs = [(depths[depths >= steady_from(push)] if push.ok else depths[:0], push)]
-            for read, push in runs:
-                if push.ok:
-                    parts.append((read, np.full(len(read), velocity), np.array([push.mean_at(z) for z in read])))
-                print(f"  {test.name}: {velocity * 1e3:g} mm/s, {len(read) if push.ok else 0} depths from "
-                      f"{push.axis_m[0] if push.ok else float('nan'):.3f} m ({push.status}, {push.entry['wall_s']:.0f} s"
-                      f"{'' if push.ok else ': ' + push.message})", flush=True)
-        read, velocity, values = (np.concatenate(x) for x in zip(*parts)) if parts else (np.empty(0),) * 3
-        rows = {"depth": read, "velocity": velocity, "cycle": np.ones(len(read)), "resistance": values}
-    kept = np.isfinite(rows[("penetration" if test.kind == "fall_cone" else "resistance")])
-    return SiteTest(test.kind, test.name, {k: np.asarray(v)[kept] for k, v in rows.items()}, D, test.apex_angle_deg)
+from dsmv.calibration.cel_tests import measure
+from dsmv.calibration.data import write_test
 
 
 def main(argv: list[str] | None = None) -> None:

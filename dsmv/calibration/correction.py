@@ -3,7 +3,7 @@
 A fit by the fast test models carries their error against the CEL: on a site measured on the CEL the
 cycles' softening (+5 % at the tenth) and the T-bar's rate gain (2 % less over two decades) took the
 sensitivity 5–12 % and η 14–22 % low (docs, site tests). A round of correction measures every test on
-the CEL at the fit θ_k, each on its own design (:func:`dsmv.calibration.cel_site.measure`), and multiplies
+the CEL at the fit θ_k, each on its own design (:func:`dsmv.calibration.cel_tests.measure`), and multiplies
 each row's model value by the CEL's over the model's there,
 
     c_i = CEL_i(θ_k) / model_i(θ_k),

@@ -26,7 +26,7 @@ from omegaconf import DictConfig, OmegaConf
 from pydantic import Field
 
 from dsmv.analytic.penetrometer import PenetrometerModel, tbar_resistance
-from dsmv.calibration.cel_tests import cyclic_push, profile_push
+from dsmv.calibration.cel_tests import cyclic_push, measure, profile_push
 from dsmv.calibration.correction import corrected
 from dsmv.calibration.data import KINDS, MEASURED, SiteTest, read_test, write_test
 from dsmv.calibration.fit import DEFAULT_BOUNDS, Calibration, Problem, _get, calibrate
@@ -206,11 +206,9 @@ def _cyclic_check(problem: Problem, law, soil, test: SiteTest, cycles: int, cell
 
 
 def cel_measure(settings: CalibrateSettings, run_dir: Path):
-    """The CEL correction's measurement: a test's design run in a soil (:func:`dsmv.calibration.cel_site.measure`,
+    """The CEL correction's measurement: a test's design run in a soil (:func:`dsmv.calibration.cel_tests.measure`,
     a profile one push through it or ``calibrate.cel_correction_pushes`` short ones), its runs under
     ``cel_correction/round_<k>``."""
-    from dsmv.calibration.cel_site import measure
-
     def run(test: SiteTest, soil, round_: int) -> SiteTest:
         return measure(test, soil, settings.cel_check_cells_per_diameter, run_dir / "cel_correction" / f"round_{round_}",
                        pushes=settings.cel_correction_pushes)
