@@ -197,7 +197,7 @@ def measure(test: SiteTest, soil, cells: int, folder: Path, cycles: int | None =
         read, velocity, values = (np.concatenate(x) for x in zip(*parts)) if parts else (np.empty(0),) * 3
         rows = {"depth": read, "velocity": velocity, "cycle": np.ones(len(read)), "resistance": values}
     kept = np.isfinite(rows[("penetration" if test.kind == "fall_cone" else "resistance")])
-    return SiteTest(test.kind, test.name, {k: np.asarray(v)[kept] for k, v in rows.items()}, D, test.apex_angle_deg)
+    return SiteTest(test.kind, test.name, rows, D, test.apex_angle_deg).rows(kept)
 
 
 __all__ = ["measure", "TbarPush", "profile_push", "cyclic_push", "cone_drop", "steady_from", "tbar_overrides", "soil_overrides",

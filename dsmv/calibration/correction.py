@@ -64,8 +64,7 @@ def discrepancy(problem: Problem, values, measure: Measure, round_: int = 1) -> 
         read = measure(test, soil, round_)
         ratio = read.measured / problem.predict(values, [read], corrected=False)[0] if len(read) else np.empty(0)
         good = np.isfinite(ratio) & (ratio > 0)
-        read = SiteTest(read.kind, read.name, {k: np.asarray(v)[good] for k, v in read.columns.items()},
-                        read.diameter_m, read.apex_angle_deg)
+        read = read.rows(good)
         row, matched = row_factors(test, read, ratio[good])
         factors.append(row)
         summary.append({"test": test.name, "rows": len(test), "rows_read": len(read),

@@ -14,7 +14,7 @@ A mistake in a file is one line naming the file, the column or row, and what is 
 from __future__ import annotations
 
 import csv
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -56,6 +56,10 @@ class SiteTest:
 
     def __len__(self) -> int:
         return len(self.measured)
+
+    def rows(self, which: np.ndarray) -> SiteTest:
+        """The test with only the rows ``which`` selects (a mask or indices)."""
+        return replace(self, columns={k: np.asarray(v)[which] for k, v in self.columns.items()})
 
 
 def _quantity(column: str) -> str | None:

@@ -210,8 +210,8 @@ def cel_measure(settings: CalibrateSettings, run_dir: Path):
     a profile one push through it or ``calibrate.cel_correction_pushes`` short ones), its runs under
     ``cel_correction/round_<k>``."""
     def run(test: SiteTest, soil, round_: int) -> SiteTest:
-        return measure(test, soil, settings.cel_check_cells_per_diameter, run_dir / "cel_correction" / f"round_{round_}",
-                       pushes=settings.cel_correction_pushes)
+        return measure(test, soil, settings.cel_check_cells_per_diameter,
+                       run_dir / "cel_correction" / f"round_{round_}", pushes=settings.cel_correction_pushes)
 
     return run
 

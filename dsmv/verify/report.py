@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections import Counter
 import math
 import re
 import platform
@@ -341,11 +342,9 @@ def write_page(path: Path, results: list[tuple[Check, list[Outcome]]], quick: bo
     figure(path.parent / FIGURE, results)
     mode = "quick (coarse meshes, a subset: `dsmv-report --quick`)" if quick else "full (`dsmv-report`)"
     if mixed:
-        commits = {}
-        for own in stamps:
-            commits.setdefault((own["commit"], own["tree"], own["date"]), []).append(own)
-        measured = [f"- commit `{commit}` ({tree} tree), {date}: {len(group)} check{'s' if len(group) > 1 else ''}"
-                    for (commit, tree, date), group in sorted(commits.items(), key=lambda kv: kv[0][2], reverse=True)]
+        counts = Counter((own["commit"], own["tree"], own["date"]) for own in stamps)
+        measured = [f"- commit `{commit}` ({tree} tree), {date}: {n} check{'s' if n > 1 else ''}"
+                    for (commit, tree, date), n in sorted(counts.items(), key=lambda kv: kv[0][2], reverse=True)]
         mode = "merged: checks rerun by `dsmv-report --only` beside those measured before, each with its commit"
     else:
         measured = [f"- commit `{stamp['commit']}` ({stamp['tree']} tree)", f"- {stamp['date']}"]
@@ -431,8 +430,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="dsmv-report", description="Run the verification checks and write the "
                                      "report, stamped with the commit (full: docs/verification/report.md).")
     parser.add_argument("--quick", action="store_true", help="coarse meshes of a subset, written under runs/report/")
-    parser.add_argument("--only", nargs="*", help="only the checks whose key is, or whose name contains, one of these words, merged "
-                        "into the committed report (each check keeps the commit it was measured on)")
+    parser.add_argument("--only", nargs="*", help="only the checks whose key is, or whose name contains, one of "
+                        "these words, merged into the committed report (each check keeps the commit it was measured on)")
     args = parser.parse_args(argv)
     checks = [c for c in CHECKS if (c.quick_cells_m is not None or not args.quick)
               and (not args.only or any(w.lower() in c.name.lower() or w == c.key for w in args.only))]
@@ -461,8 +460,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.only and not args.quick and page.with_suffix(".json").exists():
         results, stamps = merged(results, stamp, json.loads(page.with_suffix(".json").read_text()))
     write_page(page, results, args.quick, stamp, stamps)
-    print(f"dsmv-report: wrote {page} ({len(checks)} checks run{f', {len(results) - len(checks)} kept' if stamps else ''}, "
-          f"commit {stamp['commit'][:10]}, {stamp['tree']} tree)")
+    kept = f", {len(results) - len(checks)} kept" if stamps else ""
+    print(f"dsmv-report: wrote {page} ({len(checks)} checks run{kept}, commit {stamp['commit'][:10]}, {stamp['tree']} tree)")
     return 1 if failed else 0
 
 
