@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from dsmv.analytic import vehicle
-from dsmv.analytic.dynamic import AnalyticDynamicSolver
+from dsmv.analytic.dynamic import AnalyticDynamicSolver, fast_vehicle
 from dsmv.config.scene import build_scene
 
 VEHICLE = ["geometry=vehicle_pioneer_i", "solver=analytic_dynamic", "tracking=disabled"]
@@ -175,26 +175,6 @@ SET_DOWN = ["soil.law=tresca", "soil.su0_pa=20000", "soil.ks_pa_per_m=0", "soil.
             "landing.velocity_m_s=0.05", "landing.mass_kg=20000", "landing.free=[z,x,ry]"]
 
 
-def green_slope_deg(scene, depth_m: float) -> float:
-    """The slope at which a track of the vehicle, its base ``depth_m`` deep, carries V = W·cos β and
-    H = W·sin β: its base on Green's envelope, its strength s that of its bearing capacity at that depth,
-    A·p/(2 + π), and the faces of the soil its grousers trap, the track's length, on Rankine's undrained
-    passive and active pressures, 4·su·D per unit length."""
-    import math
-
-    from scipy.optimize import brentq
-
-    from dsmv.analytic.bearing import PRANDTL_NC, green_horizontal
-    from dsmv.analytic.dynamic import fast_vehicle
-
-    model = fast_vehicle(scene)
-    weight, area = 0.5 * model.weight_n[0], scene.geometry.contact_area_m2
-    strength = area * model.pressure(np.array([[depth_m]]), np.array([[0.0]]))[0, 0] / PRANDTL_NC
-    faces = 4.0 * scene.soil.su0_pa * depth_m * scene.geometry.contact_length_m  # uniform su
-    return math.degrees(brentq(lambda b: weight * math.sin(b) - strength * green_horizontal(
-        weight * math.cos(b) / strength) - faces, 1e-3, 1.5))
-
-
 def test_a_vehicle_set_down_slowly_slides_where_green_s_envelope_says(compose_cfg):
     """Set down at 0.05 m/s on slopes across its tracks: each track carries V = W·cos β and H = W·sin β.
     Green's (1954) envelope with the trapped soil's passive faces, at the embedment the vehicle reaches on
@@ -202,9 +182,8 @@ def test_a_vehicle_set_down_slowly_slides_where_green_s_envelope_says(compose_cf
     (the acceptance: within 10 % in slope angle; 1.1 would be steeper than this seabed stands, 70.7°).
     Measured: it starts to slide between 60° and 61°, 8–9 % below the envelope."""
     level = build_scene(compose_cfg([*VEHICLE, *SET_DOWN]))
-    assert level.soil.ks_pa_per_m == 0.0  # green_slope_deg's faces take su uniform
     held = land(compose_cfg, *SET_DOWN, "soil.slope_deg=55")
-    envelope = green_slope_deg(level, held.metrics["max_edge_sinkage_m"])
+    envelope = fast_vehicle(level).sliding_slope_deg(held.metrics["max_edge_sinkage_m"])
     assert held.status == "ok" and 55.0 < envelope < 70.0
     stays = land(compose_cfg, *SET_DOWN, f"soil.slope_deg={0.9 * envelope}")
     slides = land(compose_cfg, *SET_DOWN, f"soil.slope_deg={1.05 * envelope}")

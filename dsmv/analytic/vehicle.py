@@ -370,6 +370,24 @@ class VehicleModel:
         su = [strength_at(soil, fraction * d)[0] for fraction in (0.0, 0.5, 1.0)]
         return 4.0 * d * (su[0] + 4.0 * su[1] + su[2]) / 6.0
 
+    def sliding_slope_deg(self, depth_m: float) -> float:
+        """The seabed slope (degrees, across the tracks) at which a track whose grousers' tips are ``depth_m``
+        deep reaches its capacity along the seabed, set down slowly: V = W·cos β and H = W·sin β per track,
+        its base on Green's (1954) envelope with the strength s of its bearing pressure at that depth,
+        A·p/(2 + π), and the faces of the soil its grousers trap along its length (:meth:`passive_push`):
+        where a vehicle with that embedment starts to slide, by the strip's inclined-load capacity."""
+        from scipy.optimize import brentq
+
+        weight, body = 0.5 * float(self.weight_n[0]), self.scene.geometry
+        depth = np.array([[depth_m]])
+        strength = body.contact_area_m2 * float(self.pressure(depth, np.zeros_like(depth))[0, 0]) / PRANDTL_NC
+        faces = float(self.passive_push(depth, self.patch_soil)[0, 0]) * body.contact_length_m
+
+        def unheld(slope):  # the push along the seabed over what the track holds there (N)
+            return weight * math.sin(slope) - strength * float(green_horizontal(weight * math.cos(slope) / strength)) - faces
+
+        return math.degrees(brentq(unheld, 1e-6, 0.5 * math.pi))
+
     def solve(self) -> SolveResult:
         body = self.scene.geometry
         landed = self.land(history=True)
