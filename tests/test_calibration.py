@@ -495,3 +495,20 @@ def test_a_signal_that_stops_a_site_test_s_cel_run_stops_what_runs_it(tmp_path, 
     monkeypatch.setattr(registry.load("solvers", "cel2d", "solver.name"), "solve", stopped)
     with pytest.raises(KeyboardInterrupt, match="SIGTERM.*cone"):
         cone_drop(soil, 0.08, 30.0, 0.2, tmp_path / "cone")
+
+
+def test_a_cel_check_without_a_datum_at_its_depth_says_so_in_words():
+    """A profile read at a few depths may have no value within D/2 of the depth the check pushed to (the
+    median of its depths): the line says so, where it once printed 'data nan kPa'."""
+    from dsmv.calibration.run import cel_check_line
+
+    check = {"test": "tbar_20mm_s", "velocity_m_s": 0.02, "run_velocity_m_s": 0.1, "depth_m": 0.46,
+             "q_cel_pa": 136510.0, "q_model_pa": 138950.0, "model_over_cel": 138950.0 / 136510.0, "wall_s": 57.0}
+    bare = cel_check_line(check | {"q_data_pa": None})
+    assert bare.endswith("(+1.8%), no datum within D/2 of that depth (57 s; run at 100 mm/s, "
+                         "gamma_dot_ref scaled alike)"), bare
+    read = cel_check_line(check | {"q_data_pa": 137000.0, "run_velocity_m_s": 0.02})
+    assert read.endswith("(+1.8%), data 137.00 kPa (57 s)"), read
+    assert "nan" not in bare + read
+    assert cel_check_line({"test": "tbar_2mm_s", "velocity_m_s": 0.002, "status": "unstable"}) == \
+        "  CEL check: tbar_2mm_s at 2 mm/s ended unstable"

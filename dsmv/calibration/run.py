@@ -176,7 +176,7 @@ def cel_check(problem: Problem, best, cells_per_diameter: int, run_dir: Path, cy
                 q_cel = push.mean_at(axis)
                 q_model = float(tbar_resistance(problem.model, law, soil.strength, axis, velocity, D))
                 near = rows & (np.abs(c["depth"] - axis) <= D / 2.0)
-                q_data = float(np.mean(c["resistance"][near])) if near.any() else float("nan")
+                q_data = float(np.mean(c["resistance"][near])) if near.any() else None  # no datum within D/2
                 entry |= {"depth_m": axis, "q_cel_pa": q_cel, "q_model_pa": q_model, "q_data_pa": q_data,
                           "model_over_cel": q_model / q_cel}
             checks.append(entry | {"test": test.name})
@@ -200,7 +200,7 @@ def _cyclic_check(problem: Problem, law, soil, test: SiteTest, cycles: int, cell
         q_model = float(tbar_resistance(problem.model, law, soil.strength, depth, velocity, D, 2 * (cycle - 1)))
         data = c["resistance"][c["cycle"] == cycle]
         out.append(push.entry | {"test": test.name, "cycle": cycle, "depth_m": depth, "q_cel_pa": q_cel,
-                                 "q_model_pa": q_model, "q_data_pa": float(np.mean(data)) if len(data) else float("nan"),
+                                 "q_model_pa": q_model, "q_data_pa": float(np.mean(data)) if len(data) else None,
                                  "model_over_cel": q_model / q_cel})
     return out
 
@@ -516,6 +516,22 @@ def run_calibration(cfg: DictConfig, run_dir: Path) -> dict:
     return {"calibration": cal, "checks": checks, "files": files, "metrics": metrics, "exceedance": compared}
 
 
+def cel_check_line(check: dict) -> str:
+    """One CEL check's summary line: the CEL's resistance against the fast model's and the data's there
+    (the data may have no value within D/2 of the depth the check pushed to), or how the push ended."""
+    head = f"  CEL check: {check['test']} at {check['velocity_m_s'] * 1e3:g} mm/s"
+    if "model_over_cel" not in check:
+        return f"{head} ended {check['status']}"
+    cycle = f", cycle {check['cycle']}" if "cycle" in check else ""
+    data = (f"data {check['q_data_pa'] / 1e3:.2f} kPa" if check["q_data_pa"] is not None
+            else "no datum within D/2 of that depth")
+    run = (f"; run at {check['run_velocity_m_s'] * 1e3:g} mm/s, gamma_dot_ref scaled alike"
+           if check["run_velocity_m_s"] != check["velocity_m_s"] else "")
+    return (f"{head}{cycle}, {check['depth_m']:.3f} m: CEL {check['q_cel_pa'] / 1e3:.2f} kPa, fast model "
+            f"{check['q_model_pa'] / 1e3:.2f} kPa ({check['model_over_cel'] - 1:+.1%}), {data} "
+            f"({check['wall_s']:.0f} s{run})")
+
+
 def print_summary(settings, problem: Problem, cal: Calibration, checks, compared, run_dir: Path, logged, wall_s,
                   corrections=()) -> None:
     c = f"{cal.confidence:.0%}"
@@ -541,15 +557,7 @@ def print_summary(settings, problem: Problem, cal: Calibration, checks, compared
         print("             the refit moved " + ", ".join(f"{k.removeprefix('soil.')} {m:+.1%}"
                                                         for k, m in record["moved"].items()))
     for check in checks:
-        if "model_over_cel" in check:
-            cycle = f", cycle {check['cycle']}" if "cycle" in check else ""
-            print(f"  CEL check: {check['test']} at {check['velocity_m_s'] * 1e3:g} mm/s{cycle}, {check['depth_m']:.3f} m: "
-                  f"CEL {check['q_cel_pa'] / 1e3:.2f} kPa, fast model {check['q_model_pa'] / 1e3:.2f} kPa "
-                  f"({check['model_over_cel'] - 1:+.1%}), data {check['q_data_pa'] / 1e3:.2f} kPa ({check['wall_s']:.0f} s"
-                  + (f"; run at {check['run_velocity_m_s'] * 1e3:g} mm/s, gamma_dot_ref scaled alike)"
-                     if check["run_velocity_m_s"] != check["velocity_m_s"] else ")"))
-        else:
-            print(f"  CEL check: {check['test']} at {check['velocity_m_s'] * 1e3:g} mm/s ended {check['status']}")
+        print(cel_check_line(check))
     for which, answer in compared.items():
         print(f"  exceed   : P(z > {settings.exceedance.sinkage_limit_m:g} m) = {answer['probability']:.4f} "
               f"± {answer['monte_carlo_error']:.4f}, default scene, {which} uncertainty "
@@ -566,3 +574,4 @@ def print_summary(settings, problem: Problem, cal: Calibration, checks, compared
 
 
 __all__ = ["run_calibration", "check_config", "cel_check", "CalibrateSettings", "RESULT_FILE", "DRAWS_FILE", "FIGURE_FILE"]
+
