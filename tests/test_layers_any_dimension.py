@@ -117,7 +117,7 @@ def _contact(fixed_node, fixed_axis, tied=(), full=(), normal=np.zeros((0, 3)), 
     return Contact(tied, np.asarray(full, dtype=bool), np.asarray(normal, dtype=float), np.zeros(len(tied)),
                    np.zeros(len(tied) + 1, dtype=np.int64), np.zeros((0, 2), dtype=np.int64),
                    np.ones(len(tied), dtype=bool), none, none, fixed_node, fixed_axis, np.zeros((0, 4), dtype=np.int64),
-                   arm)
+                   arm, np.zeros(len(tied), dtype=bool))
 
 
 def _body(**velocities):

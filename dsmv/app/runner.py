@@ -346,6 +346,13 @@ def is_cross_section(scene: Scene) -> bool:
     return scene.solver.name in ("cel2d", "cel2d_check") or flat_section
 
 
+def holds_trapped_soil(scene: Scene) -> bool:
+    """A CEL track drawn as its grousers' envelope, whose trapped soil holds under contact separation."""
+    body = scene.geometry
+    return (body.kind == "track" and getattr(body, "grousers", None) == "trapped_soil" and body.grouser_height_m > 0
+            and scene.solver.name in ("cel2d", "cel3d") and not is_cross_section(scene))
+
+
 def track_sinkage_bound(scene: Scene, result: SolveResult) -> float | None:
     """For a 2D cross-section's landing with the grousers the difference was measured with: the most the
     3D track sinks by it (the section + the largest measured difference, m); None for anything else."""
@@ -437,7 +444,8 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
                 steps += f" and along its length of {step_deg(scene.geometry.contact_length_m):.2g}°"
             print(f"  turn    : redrawn into the grid {m['redraws']:.0f} times as it turned, a rough staircase of "
                   f"cells that draws a tilt {steps} (one cell), " + (
-                "whose soil lets go where it pulls away (contact separation)" if parts else
+                "whose soil lets go where it pulls away (contact separation)" + (
+                    ", but for the soil its grousers trap, which holds" if holds_trapped_soil(scene) else "") if parts else
                 "tied to its soil (solver.contact_separation=false: the soil holds it in tension)"))
     print(f"  outputs : {run_dir}")
     if tracker is not None:

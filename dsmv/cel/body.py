@@ -67,6 +67,10 @@ class Turned:
     def inside(self, x, y):
         return self.shape.inside(*((x, y) if self.angle == 0.0 else self.upright(x, y)))
 
+    def heights(self, x, y):
+        """How high points (x, y) of the grid frame lie above the body's base, up its own axis (m)."""
+        return self.upright(x, y)[1]
+
     def face_normals(self, x, y, h: float) -> np.ndarray:
         """Per point (x, y) beside the turned body (a flat body's base and walls), the normal into the soil of
         the face nearest to it, (points, 2); zero at a corner (within h/2 of both faces, as a flat
@@ -345,6 +349,10 @@ class Turned3D:
 
     def inside(self, x, y, z):
         return self.shape.inside(*self.pose.to_body(x, y, z))
+
+    def heights(self, x, y, z):
+        """How high points of the grid frame lie above the body's base, up its own axis (m)."""
+        return self.pose.to_body(x, y, z)[2]
 
     def face_normals(self, x, y, z, h: float) -> np.ndarray:
         """Per point (grid frame) beside the turned body, the normal into the soil of its face nearest to

@@ -338,6 +338,7 @@ def build_contact(rules: ContactRules, shape, grid: Grid2D, j_base: int) -> Body
         fixed_node=fixed_node, fixed_axis=fixed_axis,
         merge=sliver_pairs(openings),
         arm=tie_arms((grid.x, grid.y), node, split_node, split_parent, grid.y[j_base]),
+        bonded=np.zeros(len(node), dtype=np.bool_),
     )
     factor = np.ones(solid.shape)
     if rules.cut_cells:
@@ -348,11 +349,12 @@ def build_contact(rules: ContactRules, shape, grid: Grid2D, j_base: int) -> Body
                        gap_cells(rules, solid, tie_i, tie_j, normal))
 
 
-def build_turned_contact(shape, grid, base_m: float) -> BodyContact:
+def build_turned_contact(shape, grid, base_m: float, trapped_m: float = 0.0) -> BodyContact:
     """A body that turns in large deformation, drawn at its pose now as a rough staircase (decision
     0030), on a grid of any number of axes: the cells ``shape`` holds (its turned shape's), every node
     touching them tied fully while it holds, and with contact separation let go along the normal of
-    its nearest face (``shape.face_normals``; none at a corner or deep inside); no split nodes, no
+    its nearest face (``shape.face_normals``; none at a corner or deep inside), but for the nodes
+    within ``trapped_m`` of its base in its own axes (:func:`trapped_ties`); no split nodes, no
     adhesion caps. ``base_m``: the height of the body's reference point (the middle of its base)."""
     solid = solid_cells(shape, grid)
     dim = solid.ndim
@@ -372,10 +374,22 @@ def build_turned_contact(shape, grid, base_m: float) -> BodyContact:
         split_node=none, split_parent=none, fixed_node=fixed_node, fixed_axis=fixed_axis,
         merge=np.zeros((0, 2 * dim), dtype=np.int64),
         arm=tie_arms(grid.axes, node, none, none, base_m),
+        bonded=trapped_ties(shape.heights(*(a[i] for a, i in zip(grid.axes, ties))), trapped_m, grid.h),
     )
     openings = Openings.of_cells(solid) if dim == 2 else Openings(1.0 - solid, np.zeros(0), np.zeros(0))
     return BodyContact(solid, openings, contact, structured_corners(solid.shape), int(np.prod(node_shape)),
                        np.ones(solid.shape), np.zeros(solid.shape, dtype=bool))
+
+
+def trapped_ties(heights: np.ndarray, trapped_m: float, h: float) -> np.ndarray:
+    """Which ties hold the soil a track's grousers trap (``trapped_m``, their height, m; 0: none): those
+    whose nodes lie within it of the base, ``heights`` up the body's own axis (m). That soil meets the
+    soil beside and below it as soil, which does not part in undrained clay (suction holds it): contact
+    separation leaves these ties holding, as it lets go of the steel above (decision 0042). A node on
+    the grousers' height counts with them."""
+    if trapped_m <= 0.0:
+        return np.zeros(len(heights), dtype=np.bool_)
+    return np.asarray(heights) <= trapped_m + 1e-9 * h
 
 
 def gap_cells(rules: ContactRules, solid, tie_i, tie_j, normal) -> np.ndarray:
@@ -423,7 +437,7 @@ def flat_share(solid, i, j, k, dx, dy) -> float:
 
 
 def build_plate_contact(shape, grid, k_base: int, alpha: float, wall_area: float = 1.0,
-                        staircase: bool = False) -> BodyContact:
+                        staircase: bool = False, trapped_m: float = 0.0) -> BodyContact:
     """The contact of a flat-based body on a 3D grid (a plate, a strip slab), from the same ideas as
     the flat faces of 2D (:func:`build_contact`):
 
@@ -446,6 +460,9 @@ def build_plate_contact(shape, grid, k_base: int, alpha: float, wall_area: float
       nodes along its normal as the base does, and a curved body's steps seen from below (a
       sprocket's arc) hold theirs along the bisector of their faces;
       the body's other nodes move with it.
+
+    The ties within ``trapped_m`` of the base (a track's grousers' envelope: the soil they trap) hold
+    whatever the soil does (:func:`trapped_ties`).
 
     ``shape`` is in the grid frame (x = y = 0 on the symmetry planes, z = 0 at the base);
     ``wall_area`` scales the walls' adhesion to the body's true wall: the faces of a circle's
@@ -535,6 +552,7 @@ def build_plate_contact(shape, grid, k_base: int, alpha: float, wall_area: float
         fixed_node=np.concatenate([fixed_node, extra[:, 0]]), fixed_axis=np.concatenate([fixed_axis, extra[:, 1]]),
         merge=np.zeros((0, 6), dtype=np.int64),
         arm=tie_arms((grid.x, grid.y, grid.z), node, split_node, split_parent, grid.z[k_base]),
+        bonded=trapped_ties(np.concatenate([grid.z[tie_k] - grid.z[k_base], np.zeros(n_split)]), trapped_m, grid.h),
     )
     return BodyContact(solid, Openings(1.0 - solid, np.zeros(0), np.zeros(0)), contact, corner, n_grid + n_split,
                        np.ones(solid.shape), np.zeros(solid.shape, dtype=bool))

@@ -180,7 +180,9 @@ class Contact(NamedTuple):
     which ties hold this step. Split nodes: each with the structured node it copies
     (``split_parent``). Boundary conditions: node and axis of every fixed velocity component.
     Merged slivers of a cut body: rows (i, j, i', j'). ``arm`` (ties, d): each tied node's position
-    relative to the body's centre of gravity (m), the lever of its reaction."""
+    relative to the body's centre of gravity (m), the lever of its reaction. ``bonded``: the ties that
+    hold whatever the soil does, soil against soil (the soil a track's grousers trap), which contact
+    separation leaves holding."""
 
     node: np.ndarray
     full: np.ndarray
@@ -195,6 +197,7 @@ class Contact(NamedTuple):
     fixed_axis: np.ndarray
     merge: np.ndarray
     arm: np.ndarray
+    bonded: np.ndarray
 
 
 class Inflow(NamedTuple):

@@ -230,12 +230,13 @@ class Cel3DSolver(CelSolver):
         k_base = grid.row_of(0.0)
         if self.rules.turning:
             body_contact = build_turned_contact(self.body_shape(grid, (0.0, 0.0, 0.0) if angles is None else angles),
-                                                grid, grid.z[k_base])
+                                                grid, grid.z[k_base], self.trapped_soil_m())
         else:
             shape = self.shape()
             body_contact = build_plate_contact(shape, grid, k_base, self.scene.geometry.adhesion_factor,
                                                wall_area=math.pi / 4 if isinstance(shape, Disc) else 1.0,
-                                               staircase=isinstance(shape, (Disc, TrackBody)))
+                                               staircase=isinstance(shape, (Disc, TrackBody)),
+                                               trapped_m=self.trapped_soil_m())
         if angles is None:
             footprint = body_contact.solid[:, :, k_base]
             self.footprint_m2 = float((np.diff(grid.x)[:, None] * np.diff(grid.y)[None, :])[footprint].sum())

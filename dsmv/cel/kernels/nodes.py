@@ -251,7 +251,7 @@ def apply_fixed(nodes, contact):
 def ties_that_hold(contact, nodes, dt, gravity, sideways, mass_floor, body):
     """With contact separation: which ties hold this step (``contact.holding``), those whose free
     velocity would carry the node into the body, not away from the face (no tension). A tie with no
-    normal (a corner, a staircase) and an empty node hold."""
+    normal (a corner, a staircase), a bonded one (soil against soil) and an empty node hold."""
     v, f, mass, normal, holding = nodes.v, nodes.f, nodes.mass, contact.normal, contact.holding
     dim = v.shape[0]
     up = dim - 1
@@ -268,7 +268,7 @@ def ties_that_hold(contact, nodes, dt, gravity, sideways, mass_floor, body):
                     on_face = True
                     g = -gravity if a == up else sideways[a]
                     vn_free += (v[a, n] + dt * (f[a, n] / m + g)) * nk
-            if on_face:
+            if on_face and not contact.bonded[k]:
                 held = vn_free <= normal_speed(body, contact.arm, normal, k)
         holding[k] = held
 
