@@ -177,10 +177,11 @@ SET_DOWN = ["soil.law=tresca", "soil.su0_pa=20000", "soil.ks_pa_per_m=0", "soil.
 
 def test_a_vehicle_set_down_slowly_slides_where_green_s_envelope_says(compose_cfg):
     """Set down at 0.05 m/s on slopes across its tracks: each track carries V = W·cos β and H = W·sin β.
-    Green's (1954) envelope with the trapped soil's passive faces, at the embedment the vehicle reaches on
-    a slope it holds (55°), holds it up to 66.0°. The vehicle rests at 0.9 of that and slides away at 1.05
-    (the acceptance: within 10 % in slope angle; 1.1 would be steeper than this seabed stands, 70.7°).
-    Measured: it starts to slide between 60° and 61°, 8–9 % below the envelope."""
+    Green's (1954) envelope with the trapped soil's faces (the face behind held over the grousers' height,
+    decision 0042), at the embedment the vehicle reaches on a slope it holds (55°), holds it up to 60.7°.
+    The vehicle rests at 0.9 of that and slides away at 1.05 (the acceptance: within 10 % in slope angle;
+    1.1 would be steeper than this seabed stands, 70.7°). Measured: it starts to slide between 57.0° and
+    57.6°, 5–6 % below the envelope."""
     level = build_scene(compose_cfg([*VEHICLE, *SET_DOWN]))
     held = land(compose_cfg, *SET_DOWN, "soil.slope_deg=55")
     envelope = fast_vehicle(level).sliding_slope_deg(held.metrics["max_edge_sinkage_m"])
