@@ -512,3 +512,21 @@ def test_a_cel_check_without_a_datum_at_its_depth_says_so_in_words():
     assert "nan" not in bare + read
     assert cel_check_line({"test": "tbar_2mm_s", "velocity_m_s": 0.002, "status": "unstable"}) == \
         "  CEL check: tbar_2mm_s at 2 mm/s ended unstable"
+
+
+def test_a_profile_push_that_ends_early_says_no_depth_was_read(monkeypatch, tmp_path, capsys):
+    """A push that did not end ``ok`` gives the test no rows, and its line says so in words, where it once
+    printed '0 depths from nan m'."""
+    from dsmv.calibration import cel_tests
+    from dsmv.calibration.data import SiteTest
+
+    class Stopped:
+        ok, status, message, entry = False, "unstable", "the energy audit tripped", {"wall_s": 3.0}
+
+    monkeypatch.setattr(cel_tests, "profile_push", lambda *args, **kwargs: Stopped())
+    test = SiteTest("tbar", "tbar_20mm_s", {"depth": np.array([0.2, 0.3]), "velocity": np.array([0.02, 0.02]),
+                                            "cycle": np.ones(2), "resistance": np.array([9e3, 1e4])})
+    rows = cel_tests.measure(test, soil=None, cells=10, folder=tmp_path)
+    line = capsys.readouterr().out.strip()
+    assert line == "tbar_20mm_s: 20 mm/s, no depth read, the push ended (unstable, 3 s: the energy audit tripped)"
+    assert len(rows.columns["resistance"]) == 0

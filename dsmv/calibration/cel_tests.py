@@ -191,9 +191,9 @@ def measure(test: SiteTest, soil, cells: int, folder: Path, cycles: int | None =
             for read, push in runs:
                 if push.ok:
                     parts.append((read, np.full(len(read), velocity), np.array([push.mean_at(z) for z in read])))
-                print(f"  {test.name}: {velocity * 1e3:g} mm/s, {len(read) if push.ok else 0} depths from "
-                      f"{push.axis_m[0] if push.ok else float('nan'):.3f} m ({push.status}, {push.entry['wall_s']:.0f} s"
-                      f"{'' if push.ok else ': ' + push.message})", flush=True)
+                print(f"  {test.name}: {velocity * 1e3:g} mm/s, " + (
+                    f"{len(read)} depths from {push.axis_m[0]:.3f} m" if push.ok else "no depth read, the push ended")
+                    + f" ({push.status}, {push.entry['wall_s']:.0f} s{'' if push.ok else ': ' + push.message})", flush=True)
         read, velocity, values = (np.concatenate(x) for x in zip(*parts)) if parts else (np.empty(0),) * 3
         rows = {"depth": read, "velocity": velocity, "cycle": np.ones(len(read)), "resistance": values}
     kept = np.isfinite(rows[("penetration" if test.kind == "fall_cone" else "resistance")])
