@@ -59,6 +59,16 @@ def green_horizontal(v):
     return np.sin(0.5 * (low + high))
 
 
+def undrained_wall_coefficient(adhesion_factor: float) -> float:
+    """K such that a vertical wall pushed into (pulled from) weightless undrained soil meets σv ± K·su
+    normal to it, the wall holding the soil by α·su along it: the slip-line field's fan turns the
+    principal stresses from Rankine's state at the free surface by Δ = ½·arcsin α onto the wall, and
+    Hencky's relation adds 2·su·Δ to the mean stress along the way, so K = 1 + arcsin α + √(1 − α²):
+    Rankine's 2 on a smooth wall, 1 + π/2 = 2.571 on a rough one (Coulomb's planar wedge gives the
+    larger 2·√(1 + α), an upper bound)."""
+    return 1.0 + math.asin(adhesion_factor) + math.sqrt(1.0 - adhesion_factor**2)
+
+
 def segment_distance_integral(half_angle: float, radius: float) -> float:
     """∫ r dA over a circular segment (m³): the chord subtending 2α at radius R, r the distance from
     the circle's centre. The sector's 2α·R³/3 less the triangle's d³·(sec α·tan α + ln(sec α + tan α))/3,

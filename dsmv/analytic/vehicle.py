@@ -36,7 +36,7 @@ from dataclasses import fields, replace
 
 import numpy as np
 
-from dsmv.analytic.bearing import PRANDTL_NC, green_horizontal, green_vertical
+from dsmv.analytic.bearing import PRANDTL_NC, green_horizontal, green_vertical, undrained_wall_coefficient
 from dsmv.analytic.landing_model import (
     LARGEST_SINKAGE_WIDTHS, REST_OUT_OF_BALANCE, REST_SPEED_AFTER_FALL, SHARED, Landing, cut_in, default_config,
     density_at, resistance, strength_at,
@@ -361,22 +361,24 @@ class VehicleModel:
 
     def passive_push(self, depth: np.ndarray, soil: Landing) -> np.ndarray:
         """The push (N per m of face) the soil a track's grousers trap, its tips ``depth`` deep (m), meets on a
-        face pushed into the soil ahead and pulled from the soil behind: Rankine's undrained passive pressure
-        σv + 2·su over the whole depth D ahead; behind, the active σv − 2·su over the trapped soil's height gh
+        face pushed into the soil ahead and pulled from the soil behind: the undrained passive pressure
+        σv + K·su over the whole depth D ahead; behind, the active σv − K·su over the trapped soil's height gh
         only, which holds the soil behind it, while the steel above lets it go (contact separation, decision
-        0042). So 2·su over D, 2·su over min(D, gh), and the overburden σv = ρ'·g·z on the face ahead where
-        the one behind has let go. Simpson's rule over each depth (exact on a straight line); a lower bound
-        (a statically admissible stress field, the faces smooth), from the intact strength, without rate
-        gain."""
+        0042). So K·su over D, K·su over min(D, gh), and the overburden σv = ρ'·g·z on the face ahead where
+        the one behind has let go; K = 1 + arcsin α + √(1 − α²) for the track's adhesion α (the slip-line
+        field's, :func:`~dsmv.analytic.bearing.undrained_wall_coefficient`: Rankine's 2 smooth, 2.571 rough;
+        decision 0036). Simpson's rule over each depth (exact on a straight line), from the intact strength,
+        without rate gain."""
         d = np.maximum(depth, 0.0)
         held = np.minimum(d, self.grouser_height_m)
+        k = undrained_wall_coefficient(self.scene.geometry.adhesion_factor)
 
         def strength_over(length):  # ∫ su dz from the mudline down ``length`` (N/m)
             su = [strength_at(soil, fraction * length)[0] for fraction in (0.0, 0.5, 1.0)]
             return length * (su[0] + 4.0 * su[1] + su[2]) / 6.0
 
         overburden = density_at(soil, 0.5 * (held + d)) * soil.gravity_m_s2 * 0.5 * (d * d - held * held)
-        return 2.0 * strength_over(d) + 2.0 * strength_over(held) + overburden
+        return k * (strength_over(d) + strength_over(held)) + overburden
 
     def sliding_slope_deg(self, depth_m: float) -> float:
         """The seabed slope (degrees, across the tracks) at which a track whose grousers' tips are ``depth_m``
