@@ -24,7 +24,7 @@ import numpy as np
 from numba import njit, prange
 
 from dsmv.cel.kernels.common import BLOCK, INLINE, JIT, PARALLEL, ordered_sums
-from dsmv.cel.layout import B_VEL, MODEL_FREEDOMS, VELOCITY_SLOTS, Cells
+from dsmv.cel.layout import MODEL_FREEDOMS, VELOCITY_SLOTS, Cells
 
 #: a cell the body cuts lends its nodes at least the mass of this fill of the whole cell: its open
 #: faces are as stiff as a full cell's, and the explicit step stays stable (see nodal_mass)
