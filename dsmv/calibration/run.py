@@ -574,4 +574,3 @@ def print_summary(settings, problem: Problem, cal: Calibration, checks, compared
 
 
 __all__ = ["run_calibration", "check_config", "cel_check", "CalibrateSettings", "RESULT_FILE", "DRAWS_FILE", "FIGURE_FILE"]
-
