@@ -86,8 +86,8 @@ def test_a_face_grips_a_partly_filled_cell_in_proportion_to_its_fill():
     start, cells = grip_cells(solid, (np.array([1]), np.array([1])), [])  # the tie at node (1, 1)
     none = np.zeros(0, dtype=np.int64)
     contact = Contact(np.array([4]), np.array([False]), np.array([[1.0, 0.0]]), np.array([1.0]), start, cells,
-                      np.array([True]), none, none, none, none, np.zeros((0, 4), dtype=np.int64), np.zeros((1, 2)),
-                      np.array([False]))
+                      np.ones(1), none, none, none, none, np.zeros((0, 4), dtype=np.int64), np.zeros((1, 2)),
+                      np.zeros(1))
 
     def grip():
         state = Cells(phi, np.zeros((6, 2, 2)), np.where(phi > 0.0, su_pa, 0.0), np.ones((2, 2)), solid,

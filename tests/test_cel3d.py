@@ -70,8 +70,8 @@ def test_a_geostatic_column_stays_at_rest():
     fixed_node, fixed_axis = fixed_velocities((4, 3, 7))
     none = np.zeros(0, dtype=np.int64)
     contact = Contact(none, none.astype(bool), np.zeros((0, 3)), np.zeros(0), np.zeros(1, dtype=np.int64),
-                      np.zeros((0, 3), dtype=np.int64), none.astype(bool), none, none, fixed_node, fixed_axis,
-                      np.zeros((0, 6), dtype=np.int64), np.zeros((0, 3)), none.astype(bool))
+                      np.zeros((0, 3), dtype=np.int64), np.zeros(0), none, none, fixed_node, fixed_axis,
+                      np.zeros((0, 6), dtype=np.int64), np.zeros((0, 3)), np.zeros(0))
     par = step_parameters(dt=0.5 * 0.2 / elastic.wave_speed_m_s, density=rho, elastic=elastic, h=0.2, gravity=g,
                           su0=5000.0, ks=1500.0, hourglass=0.05, bulk_linear=0.06, bulk_quadratic=1.2,
                           stress_cutoff=0.01, push_velocity=0.0, axisymmetric=False, advection_order=2, drop=False,

@@ -116,8 +116,8 @@ def _contact(fixed_node, fixed_axis, tied=(), full=(), normal=np.zeros((0, 3)), 
     arm = np.zeros((len(tied), 3)) if arm is None else np.asarray(arm, dtype=float)
     return Contact(tied, np.asarray(full, dtype=bool), np.asarray(normal, dtype=float), np.zeros(len(tied)),
                    np.zeros(len(tied) + 1, dtype=np.int64), np.zeros((0, 2), dtype=np.int64),
-                   np.ones(len(tied), dtype=bool), none, none, fixed_node, fixed_axis, np.zeros((0, 4), dtype=np.int64),
-                   arm, np.zeros(len(tied), dtype=bool))
+                   np.ones(len(tied)), none, none, fixed_node, fixed_axis, np.zeros((0, 4), dtype=np.int64),
+                   arm, np.zeros(len(tied)))
 
 
 def _body(**velocities):

@@ -333,12 +333,12 @@ def build_contact(rules: ContactRules, shape, grid: Grid2D, j_base: int) -> Body
         normal=np.ascontiguousarray(np.concatenate([normal, split_normal])),
         cap=np.concatenate([cap, [c for *_, c in splits]]).astype(float),
         grip_start=grip_start, grip_cell=grip_cell,
-        holding=np.ones(len(tie_i) + len(splits), dtype=np.bool_),
+        holding=np.ones(len(tie_i) + len(splits)),
         split_node=split_node, split_parent=split_parent,
         fixed_node=fixed_node, fixed_axis=fixed_axis,
         merge=sliver_pairs(openings),
         arm=tie_arms((grid.x, grid.y), node, split_node, split_parent, grid.y[j_base]),
-        bonded=np.zeros(len(node), dtype=np.bool_),
+        bond=np.zeros(len(node)),
     )
     factor = np.ones(solid.shape)
     if rules.cut_cells:
@@ -353,8 +353,8 @@ def build_turned_contact(shape, grid, base_m: float, trapped_m: float = 0.0) -> 
     """A body that turns in large deformation, drawn at its pose now as a rough staircase (decision
     0030), on a grid of any number of axes: the cells ``shape`` holds (its turned shape's), every node
     touching them tied fully while it holds, and with contact separation let go along the normal of
-    its nearest face (``shape.face_normals``; none at a corner or deep inside), but for the nodes
-    within ``trapped_m`` of its base in its own axes (:func:`trapped_ties`); no split nodes, no
+    its nearest face (``shape.face_normals``; none at a corner or deep inside), but for the share of
+    its face within ``trapped_m`` of its base in its own axes (:func:`trapped_shares`); no split nodes, no
     adhesion caps. ``base_m``: the height of the body's reference point (the middle of its base)."""
     solid = solid_cells(shape, grid)
     dim = solid.ndim
@@ -370,26 +370,31 @@ def build_turned_contact(shape, grid, base_m: float, trapped_m: float = 0.0) -> 
         normal=np.ascontiguousarray(shape.face_normals(*(a[i] for a, i in zip(grid.axes, ties)), grid.h)),
         cap=np.zeros(len(node)),
         grip_start=grip_start, grip_cell=grip_cell,
-        holding=np.ones(len(node), dtype=np.bool_),
+        holding=np.ones(len(node)),
         split_node=none, split_parent=none, fixed_node=fixed_node, fixed_axis=fixed_axis,
         merge=np.zeros((0, 2 * dim), dtype=np.int64),
         arm=tie_arms(grid.axes, node, none, none, base_m),
-        bonded=trapped_ties(shape.heights(*(a[i] for a, i in zip(grid.axes, ties))), trapped_m, grid.h),
+        bond=trapped_shares(shape.heights(*(a[i] for a, i in zip(grid.axes, ties))), trapped_m, grid.h),
     )
     openings = Openings.of_cells(solid) if dim == 2 else Openings(1.0 - solid, np.zeros(0), np.zeros(0))
     return BodyContact(solid, openings, contact, structured_corners(solid.shape), int(np.prod(node_shape)),
                        np.ones(solid.shape), np.zeros(solid.shape, dtype=bool))
 
 
-def trapped_ties(heights: np.ndarray, trapped_m: float, h: float) -> np.ndarray:
-    """Which ties hold the soil a track's grousers trap (``trapped_m``, their height, m; 0: none): those
-    whose nodes lie within it of the base, ``heights`` up the body's own axis (m). That soil meets the
-    soil beside and below it as soil, which does not part in undrained clay (suction holds it): contact
-    separation leaves these ties holding, as it lets go of the steel above (decision 0042). A node on
-    the grousers' height counts with them."""
+def trapped_shares(heights: np.ndarray, trapped_m: float, h: float) -> np.ndarray:
+    """How much of each tie's share of the body's face the soil a track's grousers trap covers
+    (``trapped_m``, their height, m; 0: none), from its node's height up the body's own axis
+    (``heights``, m): a node on the wall at height z stands for the face from z − h/2 to z + h/2, so its
+    share is (trapped_m − z)/h + ½ clipped to [0, 1]; a node on the base's level or below, 1. That soil
+    meets the soil beside and below it as soil, which does not part in undrained clay (suction holds
+    it): contact separation leaves this share of a tie holding, as it lets go of the steel above
+    (decision 0042). The held wall then measures ``trapped_m`` on any mesh whose first wall node lies
+    within it, where whole nodes held a wall that stepped with the cell."""
+    heights = np.asarray(heights, dtype=float)
     if trapped_m <= 0.0:
-        return np.zeros(len(heights), dtype=np.bool_)
-    return np.asarray(heights) <= trapped_m + 1e-9 * h
+        return np.zeros(len(heights))
+    share = np.clip((trapped_m - heights) / h + 0.5, 0.0, 1.0)
+    return np.where(heights <= 1e-9 * h, 1.0, share)
 
 
 def gap_cells(rules: ContactRules, solid, tie_i, tie_j, normal) -> np.ndarray:
@@ -461,8 +466,8 @@ def build_plate_contact(shape, grid, k_base: int, alpha: float, wall_area: float
       sprocket's arc) hold theirs along the bisector of their faces;
       the body's other nodes move with it.
 
-    The ties within ``trapped_m`` of the base (a track's grousers' envelope: the soil they trap) hold
-    whatever the soil does (:func:`trapped_ties`).
+    The share of the ties' face within ``trapped_m`` of the base (a track's grousers' envelope: the soil
+    they trap) holds whatever the soil does (:func:`trapped_shares`).
 
     ``shape`` is in the grid frame (x = y = 0 on the symmetry planes, z = 0 at the base);
     ``wall_area`` scales the walls' adhesion to the body's true wall: the faces of a circle's
@@ -547,12 +552,12 @@ def build_plate_contact(shape, grid, k_base: int, alpha: float, wall_area: float
         cap=np.concatenate([cap, split_cap]),
         grip_start=np.concatenate([[0], np.cumsum([len(g) for g in grips + split_grips])]).astype(np.int64),
         grip_cell=np.array([c for g in grips + split_grips for c in g], dtype=np.int64).reshape(-1, 3),
-        holding=np.ones(len(tie_i) + n_split, dtype=np.bool_),
+        holding=np.ones(len(tie_i) + n_split),
         split_node=split_node, split_parent=split_parent,
         fixed_node=np.concatenate([fixed_node, extra[:, 0]]), fixed_axis=np.concatenate([fixed_axis, extra[:, 1]]),
         merge=np.zeros((0, 6), dtype=np.int64),
         arm=tie_arms((grid.x, grid.y, grid.z), node, split_node, split_parent, grid.z[k_base]),
-        bonded=trapped_ties(np.concatenate([grid.z[tie_k] - grid.z[k_base], np.zeros(n_split)]), trapped_m, grid.h),
+        bond=trapped_shares(np.concatenate([grid.z[tie_k] - grid.z[k_base], np.zeros(n_split)]), trapped_m, grid.h),
     )
     return BodyContact(solid, Openings(1.0 - solid, np.zeros(0), np.zeros(0)), contact, corner, n_grid + n_split,
                        np.ones(solid.shape), np.zeros(solid.shape, dtype=bool))

@@ -177,12 +177,12 @@ class Contact(NamedTuple):
     its adhesion capacity ``cap`` (α × its share of the face, m or m²/rad: the face pulls it along
     by at most cap·su), and the cells whose strength grips it (``grip_cell`` rows from
     ``grip_start[k]`` to ``grip_start[k + 1]``, cell indices per axis). ``holding`` is work space:
-    which ties hold this step. Split nodes: each with the structured node it copies
+    how much of each tie holds this step (1 all of it, 0 none). Split nodes: each with the structured node it copies
     (``split_parent``). Boundary conditions: node and axis of every fixed velocity component.
     Merged slivers of a cut body: rows (i, j, i', j'). ``arm`` (ties, d): each tied node's position
-    relative to the body's centre of gravity (m), the lever of its reaction. ``bonded``: the ties that
-    hold whatever the soil does, soil against soil (the soil a track's grousers trap), which contact
-    separation leaves holding."""
+    relative to the body's centre of gravity (m), the lever of its reaction. ``bond``: the share of
+    each tie that holds whatever the soil does, soil against soil (the soil a track's grousers trap),
+    which contact separation leaves holding."""
 
     node: np.ndarray
     full: np.ndarray
@@ -197,7 +197,7 @@ class Contact(NamedTuple):
     fixed_axis: np.ndarray
     merge: np.ndarray
     arm: np.ndarray
-    bonded: np.ndarray
+    bond: np.ndarray
 
 
 class Inflow(NamedTuple):

@@ -185,8 +185,8 @@ def body_free_state(x, y, phi, q, vol):
         Faces2D(open_cells.aperture_x, open_cells.aperture_y, np.zeros((nx + 1, ny)), np.zeros((ny + 1, nx))),
         Nodes(np.zeros((2, n_nodes)), np.zeros((2, n_nodes)), np.zeros(n_nodes), np.zeros((2, n_nodes))),
         Contact(none, none.astype(np.bool_), np.zeros((0, 2)), np.zeros(0), np.zeros(1, dtype=np.int64),
-                np.zeros((0, 2), dtype=np.int64), none.astype(np.bool_), none, none, fixed_node, fixed_axis,
-                np.zeros((0, 4), dtype=np.int64), np.zeros((0, 2)), none.astype(np.bool_)),
+                np.zeros((0, 2), dtype=np.int64), np.zeros(0), none, none, fixed_node, fixed_axis,
+                np.zeros((0, 4), dtype=np.int64), np.zeros((0, 2)), np.zeros(0)),
         Inflow(np.zeros((q.shape[0], nx)), np.zeros(nx)),
     )
 

@@ -13,7 +13,9 @@ next step. The contact's dissipation is the pull times the slip it leaves, m·|�
 (the kinetic energy a tie removes is the internal forces' work, already counted). With contact
 separation a tie on a face (one with a normal) lets go, for the step, of a node whose free
 velocity would carry it away from the face (no tension): it then moves with the soil, and
-pushes nothing onto the body. Corners and staircase nodes (no normal) hold.
+pushes nothing onto the body. Corners and staircase nodes (no normal) hold, and so does a tie's
+``bond``, the share of its face that is soil against soil (a track's trapped soil): a tie holding a
+share s of its node moves it s of the way to the body and lends the body s of its mass and force.
 """
 
 from __future__ import annotations
@@ -249,17 +251,18 @@ def apply_fixed(nodes, contact):
 
 @njit(**JIT)
 def ties_that_hold(contact, nodes, dt, gravity, sideways, mass_floor, body):
-    """With contact separation: which ties hold this step (``contact.holding``), those whose free
-    velocity would carry the node into the body, not away from the face (no tension). A tie with no
-    normal (a corner, a staircase), a bonded one (soil against soil) and an empty node hold."""
+    """With contact separation: how much of each tie holds this step (``contact.holding``). All of it
+    when the node's free velocity would carry it into the body, not away from the face (no tension),
+    and for a tie with no normal (a corner, a staircase) or an empty node; else its ``bond``, the
+    share soil against soil (the soil a track's grousers trap), which does not part."""
     v, f, mass, normal, holding = nodes.v, nodes.f, nodes.mass, contact.normal, contact.holding
     dim = v.shape[0]
     up = dim - 1
     for k in range(len(contact.node)):
         n = np.uint64(contact.node[k])  # unsigned: no wraparound check at each access
         m = mass[n]
-        held = True
-        if m > mass_floor:
+        held = 1.0
+        if m > mass_floor and contact.bond[k] < 1.0:
             vn_free = 0.0  # the free velocity along the normal, from its nonzero components only
             on_face = False
             for a in range(dim):
@@ -268,8 +271,8 @@ def ties_that_hold(contact, nodes, dt, gravity, sideways, mass_floor, body):
                     on_face = True
                     g = -gravity if a == up else sideways[a]
                     vn_free += (v[a, n] + dt * (f[a, n] / m + g)) * nk
-            if on_face and not contact.bonded[k]:
-                held = vn_free <= normal_speed(body, contact.arm, normal, k)
+            if on_face and vn_free > normal_speed(body, contact.arm, normal, k):
+                held = contact.bond[k]
         holding[k] = held
 
 
@@ -294,11 +297,12 @@ def tie_reactions(contact, nodes, gravity, sideways, force, inertia, momentum=Fa
     freedoms = model_freedoms(dim)
     levers = np.zeros(6)
     for k in range(len(contact.node)):
-        if not contact.holding[k]:
+        share = contact.holding[k]
+        if share == 0.0:
             continue
         n = np.uint64(contact.node[k])  # unsigned: no wraparound check at each access
-        m = mass[n]
-        scale = m if momentum else 1.0
+        m = share * mass[n]  # the part of the node the tie holds
+        scale = m if momentum else share
         if contact.full[k]:
             for a in range(dim):
                 fa = scale * f[a, n] - m * gravity if a == up else scale * f[a, n] + m * sideways[a]
@@ -332,19 +336,22 @@ def tie_reactions(contact, nodes, gravity, sideways, force, inertia, momentum=Fa
 @njit(**JIT)
 def apply_ties(contact, nodes, body):
     """A holding tied node's velocity: the body's at its place (full tie), or its own with the normal
-    part the body's. Returns the change of the vertical momentum (kg·m/s)."""
+    part the body's; a tie that holds a share of its node (:func:`ties_that_hold`) moves it that share
+    of the way. Returns the change of the vertical momentum (kg·m/s)."""
     v, mass, normal, arm = nodes.v, nodes.mass, contact.normal, contact.arm
     dim = v.shape[0]
     up = dim - 1
     change = 0.0
     for k in range(len(contact.node)):
-        if not contact.holding[k]:
+        share = contact.holding[k]
+        if share == 0.0:
             continue
         n = np.uint64(contact.node[k])  # unsigned: no wraparound check at each access
         v_free = v[up, n]
         if contact.full[k]:
             for a in range(dim):
-                v[a, n] = rigid_velocity(body, arm, k, a)
+                target = rigid_velocity(body, arm, k, a)
+                v[a, n] = target if share == 1.0 else v[a, n] + share * (target - v[a, n])
         else:
             vn = 0.0
             for a in range(dim):
@@ -352,6 +359,7 @@ def apply_ties(contact, nodes, body):
             gap = -vn  # the body's normal speed there less the node's
             for a in range(dim):
                 gap += rigid_velocity(body, arm, k, a) * normal[k, a]
+            gap *= share
             for a in range(dim):
                 v[a, n] += gap * normal[k, a]
         change += mass[n] * (v[up, n] - v_free)
@@ -360,11 +368,11 @@ def apply_ties(contact, nodes, body):
 
 @njit(**INLINE)
 def held_kinetic_energy(contact, nodes):
-    """The kinetic energy of the nodes the holding ties hold (J)."""
+    """The kinetic energy of the nodes the holding ties hold, wholly or in part (J)."""
     v, mass = nodes.v, nodes.mass
     total = 0.0
     for k in range(len(contact.node)):
-        if contact.holding[k]:
+        if contact.holding[k] > 0.0:
             n = np.uint64(contact.node[k])  # unsigned: no wraparound check at each access
             for a in range(v.shape[0]):
                 total += 0.5 * mass[n] * v[a, n] ** 2
@@ -436,7 +444,7 @@ def adhesion(contact, cells, nodes, body, dt, mass_floor, energy_slip, pull):
     change = 0.0
     reaction = np.zeros(3)
     for k in range(len(contact.node)):
-        if contact.full[k] or contact.cap[k] <= 0.0 or not contact.holding[k]:
+        if contact.full[k] or contact.cap[k] <= 0.0 or contact.holding[k] == 0.0:
             continue
         n = np.uint64(contact.node[k])  # unsigned: no wraparound check at each access
         m = mass[n]
