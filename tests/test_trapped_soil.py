@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from dsmv.cel.contact import trapped_shares
-from dsmv.cel.kernels.nodes import apply_ties, tie_reactions, ties_that_hold
-from dsmv.cel.layout import B_VEL, N_BODY, Contact, Nodes
+from dsmv.cel.kernels.nodes import (apply_ties, catch_up_of_shared_ties, rigid_velocity, tie_reactions,
+                                    ties_that_hold)
+from dsmv.cel.layout import B_VEL, B_WY, N_BODY, Contact, Nodes
 from dsmv.cel.solver3d import Cel3DSolver
 from dsmv.config.scene import build_scene
 
@@ -58,6 +59,35 @@ def test_a_tie_holding_a_share_of_its_node_keeps_the_momentum_of_body_and_node(s
     kinetic = 0.5 * body_kg * body[B_VEL] ** 2 + 0.5 * node_kg * nodes.v[2, 0] ** 2
     assert kinetic <= 0.5 * body_kg * body_m_s ** 2
     assert (nodes.v[2, 0] == body[B_VEL]) == (share == 1.0)  # a whole tie carries its node with the body
+
+
+@pytest.mark.parametrize("share,lag", [(1.0, 0.0), (0.4, 0.3), (0.9, -0.2)])
+@pytest.mark.parametrize("full", [True, False])
+def test_a_step_with_a_shared_tie_changes_the_momentum_by_the_forces_alone(share, lag, full):
+    """One explicit step of the body (10 kg under 50 N down, falling at 1 m/s and turning at 2 rad/s about
+    y) and a node (2 kg, 8 N on it) its tie holds a share of, as a step runs them: the body moves under
+    its force, the ties' reactions and their catch-up (:func:`catch_up_of_shared_ties`) with the tied
+    inertia, the node under its force, then the tie. A shared tie's node lags the body's point (``lag``,
+    m/s up); a whole one's does not (its tie closed the lag the step before). The vertical momentum of the
+    two changes by the forces' impulse alone, to round-off."""
+    dt, body_kg, weight_n, node_kg, node_n = 1e-3, 10.0, -50.0, 2.0, 8.0
+    contact = _face_ties([share], normal=(0.0, 0.0, -1.0))
+    contact = contact._replace(full=np.array([full]), arm=np.array([[0.3, 0.0, -0.2]]))
+    contact.holding[:] = share
+    body = np.zeros(N_BODY)
+    body[B_VEL], body[B_WY] = -1.0, 2.0
+    point = np.array([rigid_velocity(body, contact.arm, 0, a) for a in range(3)])
+    nodes = Nodes((point + [0.1 * lag, 0.0, lag])[:, None], np.array([[0.0], [0.0], [node_n]]), np.array([node_kg]),
+                  np.zeros((3, 1)))
+    before = body_kg * body[B_VEL] + node_kg * nodes.v[2, 0]
+    force, inertia = np.zeros(6), np.zeros((6, 6))
+    tie_reactions(contact, nodes, 0.0, (0.0, 0.0), force, inertia)
+    catch_up_of_shared_ties(contact, nodes, body, dt, force)
+    body[B_VEL] += dt * (weight_n + force[2]) / (body_kg + inertia[2, 2])  # the vertical freedom alone is free
+    nodes.v[:, 0] += dt * nodes.f[:, 0] / node_kg
+    apply_ties(contact, nodes, body)
+    after = body_kg * body[B_VEL] + node_kg * nodes.v[2, 0]
+    assert after - before == pytest.approx(dt * (weight_n + node_n), rel=1e-9)
 
 
 @pytest.mark.parametrize("h", [0.1, 0.075, 0.05, 0.04, 0.0375, 0.025])

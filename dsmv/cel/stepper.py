@@ -24,8 +24,8 @@ from numba import njit
 
 from dsmv.cel.kernels.common import INLINE, JIT, soil_column
 from dsmv.cel.kernels.nodes import (
-    adhesion, apply_fixed, apply_ties, hand_travel_to_parents, held_kinetic_energy, model_freedoms, nodal_mass_of_soil,
-    horizontal_momentum, split_mass_kinetic_change, split_masses, tie_reactions,
+    adhesion, apply_fixed, apply_ties, catch_up_of_shared_ties, hand_travel_to_parents, held_kinetic_energy,
+    model_freedoms, nodal_mass_of_soil, horizontal_momentum, split_mass_kinetic_change, split_masses, tie_reactions,
 )
 from dsmv.cel.layout import (
     B_FCOUNT, B_FELL, B_MAXDISP, B_MAXEDGE, B_MAXROT, B_MAXSLIDE, B_OFFSET, B_OFFSET_X, B_OFFSET_Y, B_REMAP_OFFSET,
@@ -100,6 +100,7 @@ def move_body(nodes, contact, par, body, energy, beside):
     force = np.zeros(6)
     inertia = np.zeros((6, 6))
     tie_reactions(contact, nodes, par.gravity, (par.gravity_x, par.gravity_y), force, inertia)
+    catch_up_of_shared_ties(contact, nodes, body, par.dt, force)
     freedoms = model_freedoms(nodes.v.shape[0])
     free = np.empty(6, dtype=np.int64)
     n_free = 0

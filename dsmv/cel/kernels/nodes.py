@@ -334,6 +334,36 @@ def tie_reactions(contact, nodes, gravity, sideways, force, inertia, momentum=Fa
 
 
 @njit(**JIT)
+def catch_up_of_shared_ties(contact, nodes, body, dt, force):
+    """What a tie holding a share s of its node (0 < s < 1, :func:`ties_that_hold`) puts on the body by
+    closing s of the node's lag behind it this step (:func:`apply_ties`): s·m·(v − V)/dt along the tie
+    (N; its moment about the centre of gravity, N·m), added to ``force`` per freedom. With it the body
+    meets the whole impulse its tie gives the node, and the two keep their momentum; a whole tie closes
+    the lag every step and has none to meet."""
+    v, mass, normal, arm = nodes.v, nodes.mass, contact.normal, contact.arm
+    dim = v.shape[0]
+    freedoms = model_freedoms(dim)
+    for k in range(len(contact.node)):
+        share = contact.holding[k]
+        if share == 0.0 or share == 1.0:
+            continue
+        n = np.uint64(contact.node[k])  # unsigned: no wraparound check at each access
+        rate = share * mass[n] / dt
+        if contact.full[k]:
+            for a in range(dim):
+                fa = rate * (v[a, n] - rigid_velocity(body, arm, k, a))
+                for q in freedoms:
+                    force[q] += lever(arm, k, a, q) * fa
+        else:
+            fn = 0.0
+            for a in range(dim):
+                fn += rate * (v[a, n] - rigid_velocity(body, arm, k, a)) * normal[k, a]
+            for q in freedoms:
+                for a in range(dim):
+                    force[q] += fn * normal[k, a] * lever(arm, k, a, q)
+
+
+@njit(**JIT)
 def apply_ties(contact, nodes, body):
     """A holding tied node's velocity: the body's at its place (full tie), or its own with the normal
     part the body's; a tie that holds a share of its node (:func:`ties_that_hold`) moves it that share
