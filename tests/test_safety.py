@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 
+from dsmv.app.runner import SECTION_TO_TRACK_M
 from dsmv.config.scene import SafetyConfig, build_scene
 from dsmv.results import SolveResult
 from dsmv.safety import G0_M_S2, assess, max_deceleration_g, verdict
@@ -75,7 +76,7 @@ def test_the_cross_section_is_judged_by_the_most_the_3d_track_sinks_and_the_verd
     assert run.data.tags["dsmv.safety"] == line.split(": ", 1)[1]
     result = json.loads(next(tmp_path.glob("runs/outputs/*/*/result.json")).read_text())
     section = result["metrics"]["max_sinkage_m"]
-    assert result["metrics"]["judged_sinkage_m"] == pytest.approx(section + 0.0685, rel=1e-12)
+    assert result["metrics"]["judged_sinkage_m"] == pytest.approx(section + SECTION_TO_TRACK_M["largest"], rel=1e-12)
     assert result["metrics"]["safe"] == 0.0 and result["units"]["max_deceleration_g"] == "g"
     assert 0.0 < result["metrics"]["max_deceleration_g"] < 15.0
 

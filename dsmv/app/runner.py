@@ -333,7 +333,7 @@ def _motion(metrics: dict, landing) -> str:
 #: over the 22 landings of docs/verification/track-3d.md ("The section and the track": the default,
 #: Tresca, and the levels of the study's eight parameters), with 0.05 m grousers: median, least and
 #: largest (m). The two differ by about the grouser height, not by a factor (1.06-5.3 over the same landings)
-SECTION_TO_TRACK_M = {"grouser_height_m": 0.05, "median": 0.0530, "least": 0.0122, "largest": 0.0685}
+SECTION_TO_TRACK_M = {"grouser_height_m": 0.05, "median": 0.0514, "least": 0.0067, "largest": 0.0682}
 
 
 def is_cross_section(scene: Scene) -> bool:
