@@ -332,7 +332,7 @@ def _motion(metrics: dict, landing) -> str:
 #: the 3D track's max sinkage (grouser tips, cel3d's default mesh) less the 2D cross-section's (cel2d's),
 #: over the 22 landings of docs/verification/track-3d.md ("The section and the track": the default,
 #: Tresca, and the levels of the study's eight parameters), with 0.05 m grousers: median, least and
-#: largest (m). The two differ by about the grouser height, not by a factor (1.06-5.3 over the same landings)
+#: largest (m). The two differ by about the grouser height, not by a factor (1.03-5.2 over the same landings)
 SECTION_TO_TRACK_M = {"grouser_height_m": 0.05, "median": 0.0514, "least": 0.0067, "largest": 0.0682}
 
 

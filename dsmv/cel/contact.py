@@ -388,8 +388,8 @@ def trapped_shares(heights: np.ndarray, trapped_m: float, h: float) -> np.ndarra
     share is (trapped_m − z)/h + ½ clipped to [0, 1]; a node on the base's level or below, 1. That soil
     meets the soil beside and below it as soil, which does not part in undrained clay (suction holds
     it): contact separation leaves this share of a tie holding, as it lets go of the steel above
-    (decision 0042). The held wall then measures ``trapped_m`` on any mesh whose first wall node lies
-    within it, where whole nodes held a wall that stepped with the cell."""
+    (decision 0042). The held wall then measures ``trapped_m`` on any cells up to twice it (coarser, the base's
+    half cell holds whole), where whole nodes held a wall that stepped with the cell."""
     heights = np.asarray(heights, dtype=float)
     if trapped_m <= 0.0:
         return np.zeros(len(heights))
