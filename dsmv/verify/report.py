@@ -62,6 +62,12 @@ def push_along(degrees: float) -> tuple[str, str]:
             f"landing.horizontal_velocity_m_s={0.1 * math.cos(angle):.6f}")
 
 
+#: the 3D track's meshes, B/30, B/16 and B/8 across its 0.6 m: each at most twice the grousers' 0.05 m, the
+#: coarsest that measures the soil they trap (docs/decisions/0042); B/4's held wall is the base's half cell,
+#: 0.075 m, and made three meshes that included it read order 2.8 and ± 0.0001 m where B/30 lay 0.0003 m off
+TRAPPED_SOIL_CELLS_M = (0.02, 0.0375, 0.075)
+
+
 @dataclass(frozen=True)
 class Check:
     """A scene with a reference answer, run on a sequence of core cell sizes (m, fine to coarse).
@@ -192,10 +198,10 @@ CHECKS = (
           (0.005, 0.01, 0.02, 0.04), (0.02, 0.04, 0.08), 0.6),  # the track's B
     Check("track_3d", "The track in 3D (cel3d): default landing, max sinkage (m), no exact answer", "max_sinkage_m",
           None, "its own value extrapolated from the three meshes", ("solver=cel3d",),
-          (0.0375, 0.075, 0.15), None, 0.6),  # B/16, B/8, B/4 across the track's 0.6 m
+          TRAPPED_SOIL_CELLS_M, None, 0.6),
     Check("vehicle_3d", "The vehicle on two tracks 2.6 m apart (cel3d): default landing, max sinkage per track (m), "
           "no exact answer", "max_sinkage_m", None, "its own value extrapolated from the three meshes",
-          ("geometry=vehicle_pioneer_i",), (0.0375, 0.075, 0.15), None, 0.6),  # B/16, B/8, B/4 across a track
+          ("geometry=vehicle_pioneer_i",), TRAPPED_SOIL_CELLS_M, None, 0.6),
     Check("landing_tresca", "Default landing on Tresca soil: max sinkage (m), no exact answer", "max_sinkage_m", None,
           "its own value extrapolated from the three finest meshes", ("solver=cel2d", "soil.law=tresca"),
           (0.005, 0.01, 0.02, 0.04), None, 0.6),
