@@ -4,8 +4,8 @@ A result z(h) on core cells h1 < h2 < h3 (each about twice the last) is taken to
 z(h) = z* + C·h^p. The three runs fix z*, C and p; the error of the fine answer is |z* − z1|. When
 the sequence is not in that regime — the differences change sign, or the observed order falls
 outside [``ORDER_MIN``, ``ORDER_MAX``] — the estimate assumes first order and a safety factor:
-error = ``FALLBACK_FACTOR``·|z1 − z2|, extrapolated with p = 1. The interval reported is
-extrapolated ± error.
+error = ``FALLBACK_FACTOR``·|z1 − z2|, extrapolated with p = 1 (:func:`first_order`, also the estimate
+from two meshes). The interval reported is extrapolated ± error.
 """
 
 from __future__ import annotations
@@ -62,5 +62,12 @@ def richardson(h: tuple[float, float, float], z: tuple[float, float, float]) -> 
         c = (z2 - z1) / (h2**p - h1**p)
         extrapolated = z1 - c * h1**p
         return Estimate(extrapolated, abs(extrapolated - z1), p, True)
-    extrapolated = z1 - (z2 - z1) * h1 / (h2 - h1)  # first order
+    return first_order((h1, h2), (z1, z2))
+
+
+def first_order(h: tuple[float, float], z: tuple[float, float]) -> Estimate:
+    """The estimate of the fine answer z[0] from two meshes h[0] < h[1], no order observed: first order
+    extrapolated, error ``FALLBACK_FACTOR``·|z1 − z2|."""
+    (h1, h2), (z1, z2) = h, z
+    extrapolated = z1 - (z2 - z1) * h1 / (h2 - h1)
     return Estimate(extrapolated, FALLBACK_FACTOR * abs(z1 - z2), 1.0, False)

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from dsmv.convergence import FALLBACK_FACTOR, observed_order, richardson
+from dsmv.convergence import FALLBACK_FACTOR, first_order, observed_order, richardson
 
 
 @pytest.mark.parametrize("p", [0.7, 1.0, 2.0, 2.9])
@@ -30,6 +30,38 @@ def test_outside_the_regime_first_order_and_a_safety_factor():
     assert estimate.extrapolated == pytest.approx(0.140 + 0.006)
     slow = tuple(1.0 - hi**0.2 for hi in h)  # order 0.2: below the range, so not trusted
     assert not richardson(h, slow).asymptotic
+
+
+@pytest.mark.parametrize("h", [(0.0375, 0.075), (0.02, 0.0375)])
+def test_two_meshes_extrapolate_a_first_order_series_exactly(h):
+    """z = z* + C·h on two cell sizes of any ratio: the limit back to round-off, the error three times
+    the last change."""
+    z = tuple(0.115 + 0.02 * hi for hi in h)
+    estimate = first_order(h, z)
+    assert estimate.extrapolated == pytest.approx(0.115, rel=1e-12)
+    assert estimate.error == pytest.approx(FALLBACK_FACTOR * 0.02 * (h[1] - h[0]), rel=1e-9)
+    assert not estimate.asymptotic and estimate.order == 1.0
+
+
+@pytest.mark.parametrize("cell_m, grouser_m, factors", [
+    (0.0375, 0.05, (2,)),      # B/16: 2h = 0.075 m measures the 0.05 m grousers' soil, 4h = 0.15 m does not
+    (0.025, 0.05, (2, 4)),     # 4h = 0.1 m = 2·gh: the held wall is still the grousers'
+    (0.075, 0.05, ()),         # the default mesh: 2h = 0.15 m would not
+    (0.075, 0.075, (2,)),
+    (0.15, 0.0, (2, 4)),       # no grousers: no bound
+])
+def test_the_mesh_error_uses_only_meshes_that_measure_the_trapped_soil(compose_cfg, cell_m, grouser_m, factors):
+    """cel3d's trapped soil holds a wall of the grouser height gh only on cells up to 2·gh
+    (dsmv.cel.contact.trapped_shares): the coarser meshes of the mesh error stop there."""
+    from dsmv.cel.solver3d import Cel3DSolver
+    from dsmv.config.scene import build_scene
+
+    solver = Cel3DSolver(build_scene(compose_cfg(["solver=cel3d", f"mesh.cell_size_m={cell_m}",
+                                                  f"geometry.grouser_height_m={grouser_m}"])))
+    assert solver.coarsening_factors() == factors
+    for factor in factors:  # each coarser mesh: cells of at most 2·gh (with grousers)
+        coarse = solver.coarser(factor).scene.mesh.cell_size_m
+        assert coarse == pytest.approx(factor * cell_m) and (grouser_m == 0 or coarse <= 2 * grouser_m + 1e-12)
 
 
 def test_every_answer_can_carry_its_mesh_error(compose_cfg):

@@ -23,6 +23,7 @@ from typing import Callable
 
 import pytest
 
+from dsmv.convergence import first_order
 from dsmv.verify import report
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -132,9 +133,11 @@ QUANTITIES = (
              (r"dsmv: ok — max sinkage (?P<v>[\d.]+) m at the grouser tips, [\d.]+ m at the plates; extrapolated",
               r"m at the plates; extrapolated .*\n\s+message : came to rest at (?P<v>[\d.]+) m"),
              from_report("track_3d", "value", 0.0375)),
-    Quantity("the 3D track's extrapolated max sinkage (m)", "the report, track_3d",
+    Quantity("the 3D track's max sinkage extrapolated from B/16 and B/8 (m), solver.error_estimate's",
+             "the report, track_3d at 0.0375 and 0.075 m, first order (dsmv.convergence.first_order)",
              (r"m at the plates; extrapolated (?P<v>[\d.]+) m ±",),
-             from_report("track_3d", "extrapolated")),
+             lambda: first_order((0.0375, 0.075), (from_report("track_3d", "value", 0.0375)(),
+                                                   from_report("track_3d", "value", 0.075)())).extrapolated),
     Quantity("the fast model's share of the 257 Table 3 landings within 10 % (%)",
              "docs/verification/landings.md, The fast landing model against the CEL",
              (r"(?P<v>\d+) % of the 257 Table 3 landings within 10 %",

@@ -514,23 +514,40 @@ class CelSolver:
         return type(self)(replace(scene, mesh=scene.mesh.model_copy(update={"cell_size_m": factor * h}), solver=cfg,
                                   output=scene.output.model_copy(update={"fields": False})), checked=True)
 
+    def coarsening_factors(self) -> tuple[int, ...]:
+        """The coarser meshes the mesh error is measured on, in multiples of the core cell: 2h and 4h, but
+        none wider than twice a trapped-soil track's grouser height. On wider cells the held wall is the
+        base's half cell, not the grousers (:func:`dsmv.cel.contact.trapped_shares`), a jump that made three
+        meshes B/16, B/8 and B/4 read order 2.8 and ± 0.0001 m where B/30 lay 0.0003 m off (decision 0042)."""
+        gh, h = self.trapped_soil_m(), getattr(self, "h", self.scene.mesh.cell_size_m)
+        return tuple(f for f in (2, 4) if gh == 0.0 or f * h <= 2.0 * gh * (1.0 + 1e-9))
+
     def add_mesh_error(self, result: SolveResult) -> None:
         """The answer on h with its discretisation error from runs on 2h and 4h (dsmv.convergence):
         ``<name>_extrapolated``, ``<name>_error`` and ``<name>_order`` for the max sinkage (names in
         metres: ``max_sinkage_extrapolated_m``, ``max_sinkage_error_m``) and each bearing factor."""
-        from dsmv.convergence import richardson
+        from dsmv.convergence import first_order, richardson
 
-        runs = [result] + [self.coarser(factor).solve_on_mesh(None) for factor in (2, 4)]
+        factors = self.coarsening_factors()
+        if not factors:
+            result.message += (f"; no mesh error: cells of 2h would be wider than twice the grousers' "
+                               f"{self.trapped_soil_m():g} m, whose trapped soil they no longer measure")
+            return
+        runs = [result] + [self.coarser(factor).solve_on_mesh(None) for factor in factors]
         if any(r.status != "ok" for r in runs[1:]):
-            result.message += ("; no mesh error: the runs on 2h and 4h ended "
+            result.message += (f"; no mesh error: the runs on {' and '.join(f'{f}h' for f in factors)} ended "
                                + ", ".join(r.status for r in runs[1:]))
             return
+        if len(factors) == 1:
+            result.message += ("; mesh error from h and 2h, first order assumed: cells of 4h would be wider than "
+                               "twice the grouser height")
+        estimator = richardson if len(factors) == 2 else first_order
         h = tuple(r.metrics["core_cell_size_m"] for r in runs)
         answers = ["max_sinkage_m", *NC_SAMPLES, "nc_deep"] if self.scene.landing.kind == "push" else ["max_sinkage_m"]
         for name in answers:
             if not all(name in r.metrics for r in runs):
                 continue
-            estimate = richardson(h, tuple(r.metrics[name] for r in runs))
+            estimate = estimator(h, tuple(r.metrics[name] for r in runs))
             stem, unit = (name[:-2], "_m") if name.endswith("_m") else (name, "")
             result.metrics |= {f"{stem}_extrapolated{unit}": estimate.extrapolated, f"{stem}_error{unit}": estimate.error,
                                f"{stem}_order": estimate.order}
