@@ -1,8 +1,9 @@
 """``dsmv-bench --vehicle``: the default vehicle's 3D landing, time against its mesh error.
 
 The default vehicle scene (``dsmv geometry=vehicle_pioneer_i``: two tracks, the centre of gravity over
-their middle, upright, level seabed) landed by cel3d on core cells of B/4, B/8 (its default mesh) and
-B/16 across a track, each timed once after a warm-up, on the Numba threads NUMBA_NUM_THREADS gives
+their middle, upright, level seabed) landed by cel3d on core cells of B/30, B/16 and B/8 (its default
+mesh) across a track, the meshes of the verification report's ``vehicle_3d`` (each at most twice the
+grousers' height, so each measures the soil they trap), each timed once after a warm-up, on the Numba threads NUMBA_NUM_THREADS gives
 (unset: one per core). Its largest sinkage extrapolated from the three meshes
 (``dsmv.convergence.richardson``) is the reference: each mesh's error against it and its wall time
 against the two minutes a design answer may take, with the verdict against the limits of
@@ -16,10 +17,12 @@ from __future__ import annotations
 import tempfile
 from pathlib import Path
 
+from dsmv.verify.report import TRAPPED_SOIL_CELLS_M
+
 #: the design answer's time budget (s) and the mesh error it may carry (-)
 BUDGET_S, ERROR_BUDGET = 120.0, 0.02
-#: core cells (m): B/16, B/8 (the default mesh, snapped to the grouser pitch) and B/4 across a 0.6 m track
-CELLS_M = (0.0375, 0.075, 0.15)
+#: core cells (m), fine to coarse; the last is the default mesh
+CELLS_M = TRAPPED_SOIL_CELLS_M
 SCENE = ["geometry=vehicle_pioneer_i", "tracking=disabled", "output.plots=false", "solver.progress=off",
          "safety.max_sinkage_m=0.15", "safety.max_tilt_deg=1"]
 
@@ -43,7 +46,7 @@ def main(out: Path, quick: bool = False) -> dict:
     from dsmv.convergence import richardson
 
     out.mkdir(parents=True, exist_ok=True)
-    cells = CELLS_M[1:] if quick else CELLS_M
+    cells = CELLS_M[1:] if quick else CELLS_M  # quick: B/16 and B/8, no estimate
     with tempfile.TemporaryDirectory() as scratch:
         land(CELLS_M[-1], Path(scratch))  # the warm-up: the compiled kernels loaded before any timing
         runs = {cell: land(cell, Path(scratch)) for cell in cells}
@@ -64,7 +67,7 @@ def main(out: Path, quick: bool = False) -> dict:
     if estimate:
         lines += ["", f"Extrapolated {estimate.extrapolated:.5f} m ± {estimate.error:.2g} m "
                       f"(order {estimate.order:.2f}{'' if estimate.asymptotic else ', outside [0.5, 3]: first order'})."]
-        default = CELLS_M[1]
+        default = CELLS_M[-1]
         m = runs[default][1].metrics
         lines += [f"- default mesh ({default:g} m): wall / {BUDGET_S:.0f} s = {m['wall_s'] / BUDGET_S:.3f}, "
                   f"|error| / {100 * ERROR_BUDGET:.0f} % = {abs(m['max_sinkage_m'] / reference - 1) / ERROR_BUDGET:.3f}"]
