@@ -64,6 +64,20 @@ def test_the_mesh_error_uses_only_meshes_that_measure_the_trapped_soil(compose_c
         assert coarse == pytest.approx(factor * cell_m) and (grouser_m == 0 or coarse <= 2 * grouser_m + 1e-12)
 
 
+def test_a_track_on_cells_too_coarse_for_its_trapped_soil_says_why_it_has_no_mesh_error(compose_cfg):
+    """The default 3D track on cells wider than its 0.05 m grousers (0.15 m here; its default 0.075 m alike):
+    2h would not measure their soil, so no coarser run is made, no error reported, and the message says
+    why and which cells give one."""
+    from dsmv.cel.solver3d import Cel3DSolver
+    from dsmv.config.scene import build_scene
+
+    result = Cel3DSolver(build_scene(compose_cfg(["solver=cel3d", "solver.progress=off", "mesh.cell_size_m=0.15",
+                                                  "solver.error_estimate=true"]))).solve()
+    assert result.status == "ok" and "max_sinkage_error_m" not in result.metrics
+    assert "no mesh error: cells of 2h would be wider than twice the grousers' 0.05 m" in result.message
+    assert "core cells of at most 0.05 m give one" in result.message
+
+
 def test_every_answer_can_carry_its_mesh_error(compose_cfg):
     """solver.error_estimate=true: the default landing on h, 2h and 4h, its extrapolated sinkage and
     error (the interval holds the fine answer's distance to the limit by construction), and the same

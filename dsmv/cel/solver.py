@@ -530,8 +530,9 @@ class CelSolver:
 
         factors = self.coarsening_factors()
         if not factors:
-            result.message += (f"; no mesh error: cells of 2h would be wider than twice the grousers' "
-                               f"{self.trapped_soil_m():g} m, whose trapped soil they no longer measure")
+            gh = self.trapped_soil_m()
+            result.message += (f"; no mesh error: cells of 2h would be wider than twice the grousers' {gh:g} m, "
+                               f"whose trapped soil they no longer measure (core cells of at most {gh:g} m give one)")
             return
         runs = [result] + [self.coarser(factor).solve_on_mesh(None) for factor in factors]
         if any(r.status != "ok" for r in runs[1:]):
