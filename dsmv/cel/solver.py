@@ -534,7 +534,11 @@ class CelSolver:
             result.message += (f"; no mesh error: cells of 2h would be wider than twice the grousers' {gh:g} m, "
                                f"whose trapped soil they no longer measure (core cells of at most {gh:g} m give one)")
             return
-        runs = [result] + [self.coarser(factor).solve_on_mesh(None) for factor in factors]
+        coarse = [self.coarser(factor) for factor in factors]
+        if self.shows_progress():
+            print(f"  mesh error: the scene on {' and '.join(f'{f}h' for f in factors)} too, "
+                  f"{cost_model.duration(sum(c.cost()['wall_s'] for c in coarse))} more", file=sys.stderr)
+        runs = [result] + [c.solve_on_mesh(None) for c in coarse]
         if any(r.status != "ok" for r in runs[1:]):
             result.message += (f"; no mesh error: the runs on {' and '.join(f'{f}h' for f in factors)} ended "
                                + ", ".join(r.status for r in runs[1:]))
