@@ -162,7 +162,7 @@ CHECKS = (
           "end_moment_factor", None, "its own value extrapolated; under the scoop mechanism's rigorous 0.690",
           (*SMALL_STRAIN, "landing.velocity_m_s=0", "landing.roll_rate_rad_s=0.1", "landing.rotation_deg=4",
            "landing.free=[x,z]"),
-          (0.025, 0.05, 0.1), None, 1.0),
+          (0.0125, 0.025, 0.05, 0.1), None, 1.0),  # B/80: the edges' singular stress converges slowly
     *(Check(f"moment_no_tension_{ratio}", f"Rough strip that holds no tension, turned 4° while pushed down (its edge "
             f"{ratio}× as fast as its middle) free to slide, whole section, small strain: M over the effective "
             "width's at its V", "effective_width_factor", None,
