@@ -120,7 +120,7 @@ def test_no_page_retypes_a_figure_the_report_measured():
     assert not retyped, retyped
 
 
-def test_checks_rerun_alone_are_merged_into_the_report_each_with_its_commit(tmp_path, monkeypatch):
+def test_checks_rerun_alone_are_merged_into_the_report_each_with_its_commit(tmp_path, monkeypatch, capsys):
     """``dsmv-report --only KEY`` reruns that check and keeps every other one the committed report holds,
     with its outcomes and the commit that measured it; the page names both commits, and each section its
     own. A check the report held that no longer exists is dropped."""
@@ -140,7 +140,11 @@ def test_checks_rerun_alone_are_merged_into_the_report_each_with_its_commit(tmp_
     monkeypatch.setattr(report, "CHECKS", (first, second))
     monkeypatch.setattr(report, "provenance", lambda: new)
     monkeypatch.setattr(report, "run", lambda check, cell: report.Outcome(cell, "ok", 5.0 + 20.0 * cell**2, 2.0))
+    monkeypatch.setattr(report, "estimated_wall_s", lambda check, cell: 40.0)
     assert report.main(["--only", "second"]) == 0
+    said = capsys.readouterr().out  # the plan and each run's estimate before it runs
+    assert "dsmv-report: 1 check, 3 runs, about 2 min by the solvers' estimates" in said
+    assert said.index("second at 0.025 m, about 40 s ...") < said.index("Second check at 0.025 m: ok")
     numbers = json.loads(page.with_suffix(".json").read_text())
     assert [c["key"] for c in numbers["checks"]] == ["first", "second"]
     assert [c["stamp"]["commit"] for c in numbers["checks"]] == ["0ld0ld0ld0", "5e5e5e5e5e"]

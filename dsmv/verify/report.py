@@ -32,6 +32,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from dsmv import registry
+from dsmv.cel import cost as cost_model
 from dsmv.analytic.bearing import effective_width_moment, green_radial_factor
 from dsmv.convergence import richardson
 from dsmv.results import EXIT_CODES
@@ -218,12 +219,22 @@ class Outcome:
     wall_s: float
 
 
-def run(check: Check, cell_m: float) -> Outcome:
-    """The check's scene on core cells ``cell_m``, in this process (compile time not counted)."""
+def solver_of(check: Check, cell_m: float):
+    """The solver of the check's scene on core cells ``cell_m``."""
     from dsmv.config.tree import compose_scene
 
     scene = compose_scene([*check.overrides, f"mesh.cell_size_m={cell_m}", "solver.progress=off", *QUIET])
-    result = registry.load("solvers", scene.solver.name, "solver.name")(scene).solve()
+    return registry.load("solvers", scene.solver.name, "solver.name")(scene)
+
+
+def estimated_wall_s(check: Check, cell_m: float) -> float:
+    """The solver's own estimate of the run's wall time (s; ``dsmv.cel.cost``), before it runs."""
+    return float(solver_of(check, cell_m).cost()["wall_s"])
+
+
+def run(check: Check, cell_m: float) -> Outcome:
+    """The check's scene on core cells ``cell_m``, in this process (compile time not counted)."""
+    result = solver_of(check, cell_m).solve()
     metrics = result.metrics
     value = DERIVED[check.metric](metrics) if check.metric in DERIVED and result.status == "ok" else \
         metrics.get(check.metric, math.nan)
@@ -444,11 +455,17 @@ def main(argv: list[str] | None = None) -> int:
     page = QUICK_DIR / "report.md" if args.quick else PAGE
     page.parent.mkdir(parents=True, exist_ok=True)
     stamp = provenance()
+    plan = [(check, check.quick_cells_m if args.quick else check.cells_m) for check in checks]
+    estimates = {(check.key, cell): estimated_wall_s(check, cell) for check, cells in plan for cell in cells}
+    print(f"dsmv-report: {len(checks)} check{'s' * (len(checks) != 1)}, {len(estimates)} run{'s' * (len(estimates) != 1)}, "
+          f"{cost_model.duration(sum(estimates.values()))} "
+          f"by the solvers' estimates (compile time apart)", flush=True)
     results, failed = [], 0
-    for check in checks:
-        cells = check.quick_cells_m if args.quick else check.cells_m
+    for check, cells in plan:
         outcomes = []
         for cell in cells:
+            print(f"dsmv-report: {check.key} at {cell:g} m, {cost_model.duration(estimates[check.key, cell])} ...",
+                  flush=True)
             start = time.perf_counter()
             outcome = run(check, cell)
             failed += outcome.status != "ok"
