@@ -73,7 +73,8 @@ class Cel3DSolver(CelSolver):
     config_model = Cel3DConfig
     bodies = ("strip", "rectangular_plate", "circular_plate", "track")
     bytes_per_cell = BYTES_PER_CELL_3D
-    #: mesh=auto: 0.075 m core cells, within 1 % of the extrapolated answer (docs/verification/track-3d.md)
+    #: mesh=auto: 0.075 m core cells, 0.8 % above B/30 and 1.3 % above the answer extrapolated from B/30, B/16
+    #: and B/8 (± 1.1 %; docs/verification/track-3d.md)
     default_mesh = "coarse"
 
     @classmethod
