@@ -176,7 +176,7 @@ QUANTITIES = (
               r"of 2 \+ π \| rough [\d.]+ \(\+[\d.]+ %\) and (?P<v>[\d.]+) \(")),
     Quantity("compare_2d_3d with its mesh error estimates, wall time on two cores (min)",
              "docs/verification/track-3d.md, What the cross-section misses",
-             (r"0\.075 and 0\.15 m; (?P<v>\d+) minutes on two cores",
+             (r"0\.075 m, first order; (?P<v>\d+) minutes on two\s+cores",
               r"dsmv experiment=compare_2d_3d \(about (?P<v>\d+) minutes on two cores\)")),
     Quantity("the 3D track's mesh study, the 0.02 m run's wall time (min)",
              "docs/verification/track-3d.md, The mesh study in 3D",
