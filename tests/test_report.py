@@ -154,3 +154,25 @@ def test_checks_rerun_alone_are_merged_into_the_report_each_with_its_commit(tmp_
     assert "- commit `5e5e5e5e5e` (clean tree), 2026-02-01 00:00 UTC: 1 check" in text
     assert "- commit `0ld0ld0ld0` (clean tree), 2026-01-01 00:00 UTC: 1 check" in text
     assert text.count("Measured on commit `0ld0ld0ld0`") == 1 and text.count("Measured on commit `5e5e5e5e5e`") == 1
+
+
+def test_an_interrupted_report_keeps_the_checks_done_in_a_folder_it_makes(tmp_path, monkeypatch):
+    """SIGINT or SIGTERM during a run: the report stops after it and writes what it has under runs/report/,
+    made if missing (a fresh checkout has none), and exits with the code of ``interrupted``."""
+    import json
+
+    from dsmv.results import EXIT_CODES
+
+    first = report.Check("first", "First check", "nc_at_0p05B", 5.0, "a truth", (), (0.025, 0.05, 0.1), None, 1.0)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(report, "CHECKS", (first,))
+    monkeypatch.setattr(report, "PAGE", tmp_path / "docs" / "report.md")
+    monkeypatch.setattr(report, "provenance", lambda: {"commit": "5e5e5e5e5e", "tree": "clean", "date": "today",
+                                                       "machine": "a machine"})
+    monkeypatch.setattr(report, "estimated_wall_s", lambda check, cell: 1.0)
+    monkeypatch.setattr(report, "run", lambda check, cell: report.Outcome(
+        cell, "ok" if cell < 0.04 else "interrupted", 5.0 if cell < 0.04 else float("nan"), 1.0))
+    assert not (tmp_path / "runs").exists()
+    assert report.main(["--only", "first"]) == EXIT_CODES["interrupted"]
+    kept = json.loads((tmp_path / "runs" / "report" / "report.interrupted.json").read_text())
+    assert [o["status"] for o in kept["checks"][0]["outcomes"]] == ["ok", "interrupted"]

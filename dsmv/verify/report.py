@@ -333,7 +333,8 @@ def figure(path: Path, results: list[tuple[Check, list[Outcome]]]) -> Path:
     ax.set_xlabel("core cell / body size (h/B or h/D)")
     ax.set_ylabel("|error| (%)")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.02, 0.5))
+    if ax.get_legend_handles_labels()[0]:  # none when no check has two meshes that ended ok
+        ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.02, 0.5))
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return path
@@ -474,6 +475,7 @@ def main(argv: list[str] | None = None) -> int:
             outcomes.append(outcome)
             if outcome.status == "interrupted":  # a signal stopped the run: stop the report, keep what it has
                 results.append((check, outcomes))
+                QUICK_DIR.mkdir(parents=True, exist_ok=True)
                 partial = write_page(QUICK_DIR / "report.interrupted.md", results, args.quick, stamp)
                 print(f"dsmv-report: interrupted; the checks done so far are in {partial}", file=sys.stderr)
 
