@@ -3,8 +3,8 @@
 The default vehicle scene (``dsmv geometry=vehicle_pioneer_i``: two tracks, the centre of gravity over
 their middle, upright, level seabed) landed by cel3d on core cells of B/30, B/16 and B/8 (its default
 mesh) across a track, the meshes of the verification report's ``vehicle_3d`` (each at most twice the
-grousers' height, so each measures the soil they trap), each timed once after a warm-up, on the Numba threads NUMBA_NUM_THREADS gives
-(unset: one per core). Its largest sinkage extrapolated from the three meshes
+grousers' height, so each measures the soil they trap), each timed once after a warm-up, on the Numba
+threads NUMBA_NUM_THREADS gives (unset: one per core). Its largest sinkage extrapolated from the three meshes
 (``dsmv.convergence.richardson``) is the reference: each mesh's error against it and its wall time
 against the two minutes a design answer may take, with the verdict against the limits of
 ``experiment=study_vehicle_safety`` (0.15 m, 1°). The default landing sinks only (its centre of gravity
