@@ -111,6 +111,26 @@ def test_past_the_expected_duration_the_progress_gives_no_time_left(monkeypatch,
     assert "past the expected 0.100 s, still moving: no estimate" in line and "about" not in line
 
 
+def test_the_progress_of_a_body_free_to_slide_and_turn_says_how_far_and_how_fast(monkeypatch, capsys):
+    """A vehicle set down on a slope runs for seconds at one sinkage while it slides: its line gives the
+    slide along the seabed (m, from the body's x and y displacement) and its speed, and the largest turn."""
+    from dsmv.cel import controller
+    from dsmv.cel.layout import B_MAXROT, B_OFFSET_X, B_OFFSET_Y, B_VX, B_VY
+
+    monkeypatch.setattr(controller.time, "perf_counter", lambda: 20.0)
+    progress = controller.Progress(expected_s=5.0, terminal=False, slides=True, turns=True)
+    progress.started = progress.last = 0.0
+    body = np.zeros(45)
+    body[B_OFFSET_X], body[B_OFFSET_Y], body[B_VX], body[B_VY] = 0.3, 0.4, 0.06, -0.08
+    body[B_MAXROT] = np.radians(0.25)
+    run = type("Run", (), {"time_s": 1.5, "sinkage_m": 0.0848, "body": body, "steps": 20000})()
+    progress.after_chunk(run)
+    line = capsys.readouterr().err
+    assert "sinkage 0.0848 m, velocity 0.000 m/s, slid 0.5000 m at 0.100 m/s, turned 0.25° at most, 20,000 steps" in line
+    vertical = controller.Progress(expected_s=5.0, terminal=False)
+    assert "slid" not in vertical.line(run) and "turned" not in vertical.line(run)
+
+
 def test_the_benchmark_reads_the_progress_line_s_estimate_at_a_quarter_of_the_run():
     probe = EtaProbe(expected_s=0.1)
     probe.samples = [(1.0, 0.02, None), (3.0, 0.05, 2.5), (6.0, 0.1, 0.0)]

@@ -342,8 +342,9 @@ class Progress(Tracker):
     PLAIN_EVERY_S = 10.0
     slow_start_notice = "  compiling the CEL kernels (once; later runs load them from the cache) ..."
 
-    def __init__(self, expected_s: float, terminal: bool):
+    def __init__(self, expected_s: float, terminal: bool, slides: bool = False, turns: bool = False):
         self.expected_s, self.terminal = max(expected_s, 1e-9), terminal
+        self.slides, self.turns = slides, turns  # the body's freedoms beyond the vertical the line reports
         self.bar = None
         self.last = 0.0
         self.origin: Optional[tuple[float, float]] = None  # (wall, simulated) after the first chunk
@@ -370,7 +371,14 @@ class Progress(Tracker):
                                        "[{elapsed}<{remaining}] {postfix}")
 
     def line(self, run: Run) -> str:
-        return f"sinkage {run.sinkage_m:.4f} m, velocity {-run.body[B_VEL]:.3f} m/s, {run.steps:,} steps"
+        body = run.body
+        moves = ""
+        if self.slides:  # a slide along the seabed is what a long run on a slope is doing
+            moves += (f", slid {math.hypot(body[B_OFFSET_X], body[B_OFFSET_Y]):.4f} m at "
+                      f"{math.hypot(body[B_VX], body[B_VY]):.3f} m/s")
+        if self.turns:
+            moves += f", turned {math.degrees(body[B_MAXROT]):.2f}° at most"
+        return f"sinkage {run.sinkage_m:.4f} m, velocity {0.0 - body[B_VEL]:.3f} m/s{moves}, {run.steps:,} steps"
 
     def where(self, run: Run) -> str:
         """The run's time against the expected duration in words; past it, that the body still moves (a

@@ -408,7 +408,9 @@ class CelSolver:
             trackers.append(C.MotionLimit(cfg.core_margin_widths * B, self.reach_m()))
         trackers.append(C.StepBudget(cfg.max_steps))
         if self.shows_progress():
-            trackers.append(C.Progress(self.expected_duration_s(), sys.stderr.isatty()))
+            moving = set(self.moving_freedoms())
+            trackers.append(C.Progress(self.expected_duration_s(), sys.stderr.isatty(), slides=bool(moving & {"x", "y"}),
+                                       turns=bool(moving & {"rx", "ry", "rz"})))
         return trackers, zigzag
 
     def shows_progress(self) -> bool:
