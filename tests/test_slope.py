@@ -159,7 +159,9 @@ def test_a_strip_on_a_slope_stays_or_slides_where_greens_envelope_says(compose_c
     (su = 100 kPa ≫ ρ'·g·B): V = W·cos β, H = W·sin β. On Green's (1954) envelope V/(B·su) = 1.73 < 1 + π/2
     lies on its sliding branch, H = B·su: it slides from sin β = B·su/W, 30°. 10 % below (27°) it comes to
     rest having slid 0.014 B (measured); 10 % above (33°) it slides 0.18 B before the soil it pushes ahead
-    stops it (measured); at 40° it slides a width without slowing: bearing_failure."""
+    stops it (measured); at 45° it speeds up over a whole width: bearing_failure. (At 40° it speeds up to
+    0.73 m/s over 0.8 B, then slows by 12 % over the next 0.9 B as its berm grows, until the soil it pushes
+    reaches the top of its domain: undecided.)"""
     def landing(slope_deg):
         su, w = 100000.0, 2.0
         scene = build_scene(compose_cfg(["geometry=strip", "soil.law=tresca", f"soil.su0_pa={su}", "soil.ks_pa_per_m=0",
@@ -168,7 +170,7 @@ def test_a_strip_on_a_slope_stays_or_slides_where_greens_envelope_says(compose_c
                                          "solver.progress=off"]))
         return Cel2DSolver(scene).solve()
 
-    below, above, steep = landing(27), landing(33), landing(40)
+    below, above, steep = landing(27), landing(33), landing(45)
     assert below.status == above.status == "ok"
     assert 0.0 < below.metrics["horizontal_displacement_m"] < 0.03
     assert above.metrics["horizontal_displacement_m"] > 0.1
@@ -181,6 +183,28 @@ def test_the_summary_names_the_slope_and_gives_no_3d_estimate_measured_on_level_
     assert done.returncode == 0, done.stderr
     assert "on a 5° slope falling towards 0° from +x" in done.stdout
     assert "not estimated on a sloping seabed" in done.stdout and "slid" in done.stdout
+
+
+@pytest.mark.parametrize("speeds, fails", [
+    ([0.1, 0.2, 0.3, 0.42, 0.42, 0.40, 0.35, 0.26, 0.17], False),  # set off from rest, then slowing: held so far
+    ([0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9], True),          # speeding up: not held
+    ([0.3] * 9, True),                                                # as fast as ever over the last width
+])
+def test_a_slide_fails_only_when_it_has_not_slowed_from_its_fastest_over_the_last_width(speeds, fails):
+    """SlideFailure, B = 0.6 m, chunks 0.1 m of slide apart: past a width, the body fails only if it slides
+    as fast as it has at any point over the last width. The vehicle set down 17 % past its envelope slowed
+    from 0.42 to 0.17 m/s and was called a failure by the speed it had a width before, nearly 0."""
+    from dsmv.cel import controller
+    from dsmv.cel.layout import B_OFFSET_X, B_VX, N_BODY
+
+    guard = controller.SlideFailure(0.6)
+    endings = []
+    for k, speed in enumerate(speeds):
+        body = np.zeros(N_BODY)
+        body[B_OFFSET_X], body[B_VX] = 0.1 * k, speed
+        endings.append(guard.after_chunk(type("Run", (), {"body": body})()))
+    assert all(e is None for e in endings[:6])  # within a width nothing is judged
+    assert (endings[-1] is not None and endings[-1].status == "bearing_failure") == fails
 
 
 def test_a_drift_that_slows_is_no_sliding_failure(compose_cfg):
