@@ -571,7 +571,7 @@ class SlideFailure(Tracker):
     a body that slid one width B and slides no slower than it has at any point over the last width cannot
     be held by the soil, as one that sinks a width without slowing (:class:`BearingFailure`). Against the
     fastest over the last width, not the speed a width ago: a slide set off from rest speeds up first, and
-    the vehicle set down on a slope 17 % past its envelope, slowing from 0.42 to 0.17 m/s, was ended after
+    the vehicle set down on a slope 18 % past its envelope, slowing from 0.42 to 0.17 m/s, was ended after
     a width as sliding "without slowing down" by the speed it had a width before, nearly 0. The slide and
     its speed are the body's own (displacement and velocity along x and y), kept chunk by chunk."""
 

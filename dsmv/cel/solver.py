@@ -505,11 +505,15 @@ class CelSolver:
             self.add_mesh_error(result)
         return result
 
+    def core_cell_m(self) -> float:
+        """The core cell size (m): the grid's once it is built, else the one the scene asks for."""
+        return getattr(self, "h", self.scene.mesh.cell_size_m)
+
     def coarser(self, factor: int) -> "CelSolver":
         """This scene on cells ``factor`` times the core size (a cone: ``factor`` times fewer cells
         across its depth), without fields, progress or a further estimate."""
         scene = self.scene
-        h = self.h if hasattr(self, "h") else scene.mesh.cell_size_m
+        h = self.core_cell_m()
         cfg = scene.solver.model_copy(update={
             "error_estimate": False, "progress": "off",
             "cone_cells_per_depth": max(4, round(scene.solver.cone_cells_per_depth / factor))})
@@ -521,7 +525,7 @@ class CelSolver:
         none wider than twice a trapped-soil track's grouser height. On wider cells the held wall is the
         base's half cell, not the grousers (:func:`dsmv.cel.contact.trapped_shares`), a jump that made three
         meshes B/16, B/8 and B/4 read order 2.8 and ± 0.0001 m where B/30 lay 0.0003 m off (decision 0042)."""
-        gh, h = self.trapped_soil_m(), getattr(self, "h", self.scene.mesh.cell_size_m)
+        gh, h = self.trapped_soil_m(), self.core_cell_m()
         return tuple(f for f in (2, 4) if gh == 0.0 or f * h <= 2.0 * gh * (1.0 + 1e-9))
 
     def add_mesh_error(self, result: SolveResult) -> None:
