@@ -14,6 +14,7 @@ import math
 import numpy as np
 import pytest
 
+from dsmv.app.runner import EARLY_TOUCH_SHALLOW, attitude_note
 from dsmv.cel.body import Pose
 from dsmv.cel.layout import B_ROT_X, B_ROT_Y
 from dsmv.cel.solver2d import Cel2DSolver
@@ -105,3 +106,27 @@ def test_an_attitude_a_model_cannot_draw_is_refused_naming_its_key(run_cli, over
     result = run_cli("dsmv", "tracking=disabled", *overrides)
     assert result.returncode == 2
     assert key in result.stderr and len(result.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("drop_m, cell_m, expected", [
+    (0.05, 0.075, "under one cell, the staircase draws it level"),
+    (0.112, 0.075, "read 35 % shallow at 1.4 cells across"),
+    (0.223, 0.075, "read 21 % shallow at 2.8 cells across"),
+    (0.0835, 0.0075, "read 6 % shallow at 11.1 cells across"),
+])
+def test_the_summary_says_how_shallow_a_tilted_touchdown_reads_on_its_cells(drop_m, cell_m, expected):
+    """A tilted base meets the soil about a cell early: the summary gives its drop in core cells and the
+    rolled section's measured shallowness at the drop nearest to it (decision 0030's table)."""
+    note = attitude_note(drop_m, cell_m)
+    assert f"{drop_m / cell_m:.2g} core cells" in note and expected in note
+
+
+def test_the_shallowness_the_summary_quotes_is_the_rolled_sections_own():
+    """EARLY_TOUCH_SHALLOW is decision 0030's series: the deepest points 0.1251, 0.1533, 0.1684 and 0.1822 m
+    on cells of 0.06 to 0.0075 m against 0.1936 m on 0.00375 m, the drop 0.6·sin 8° across."""
+    drop = 0.6 * math.sin(math.radians(8.0))
+    finest = 0.1936
+    for (cells, shallow), (cell_m, deepest) in zip(EARLY_TOUCH_SHALLOW, ((0.06, 0.1251), (0.03, 0.1533),
+                                                                        (0.015, 0.1684), (0.0075, 0.1822))):
+        assert cells == pytest.approx(drop / cell_m, abs=0.05)
+        assert shallow == pytest.approx(1.0 - deepest / finest, abs=0.005)

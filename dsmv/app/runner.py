@@ -36,10 +36,24 @@ from dsmv.tracking import runs
 from dsmv.tracking.run_writer import WriterError
 
 RESOLVED_CONFIG_FILE = "config_resolved.yaml"
-#: a touchdown tilt whose drop across the base is under this many core cells is not what the soil meets: the
-#: default vehicle rolled 2° (1.5 cells of 0.075 m) bears on its high track from 4 ms, the cells the mudline
-#: cuts pressing on all their corners; rolled 4° (3 cells), not before 40 ms (docs/decisions/0030)
-RESOLVED_DROP_CELLS = 2.0
+#: a tilted base meets the soil about a cell early (docs/decisions/0030): how much shallower the track's section
+#: rolled 8° (cel2d, Tresca, free to sink, slide and roll) read its base's deepest point with its drop across so
+#: many core cells than on 0.00375 m cells (22 across; itself still 6 % deeper than on 0.0075 m)
+EARLY_TOUCH_SHALLOW = ((1.4, 0.35), (2.8, 0.21), (5.6, 0.13), (11.1, 0.06))
+
+
+def attitude_note(drop_m: float, cell_m: float) -> str:
+    """The summary's line on a tilted touchdown: its drop across the base in core cells, and what the staircase
+    makes of it (a level drawing under one cell; else an early touch, with the measured shallowness nearest
+    to this many cells)."""
+    cells = drop_m / cell_m
+    note = f"its base drops {drop_m:.3g} m across at touchdown, {cells:.2g} core cells"
+    if cells < 1.0:
+        return note + ": under one cell, the staircase draws it level (finer mesh.cell_size_m shows the tilt)"
+    measured, shallow = min(EARLY_TOUCH_SHALLOW, key=lambda point: abs(math.log(point[0] / cells)))
+    return note + (f"; its high side meets the soil about a cell early, so its deepest point reads shallow (the "
+                   f"track's section rolled 8° read {100 * shallow:.0f} % shallow at {measured:g} cells across; finer "
+                   f"mesh.cell_size_m shows more)")
 
 
 def pin_numba_threads(n: int) -> None:
@@ -429,11 +443,7 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
                                     "none: the landing " + ("or the seabed's slope " if scene.soil.slope_deg else "")
                                     + "is not symmetric about the body's mid-planes, the whole body is modelled"))
         if "attitude_drop_m" in m:  # a tilted touchdown: whether its staircase shows the tilt
-            drop, cells = m["attitude_drop_m"], m["attitude_drop_m"] / m["core_cell_size_m"]
-            print(f"  attitude: its base drops {drop:.3g} m across at touchdown, {cells:.2g} core cells" + (
-                ": under one cell, the staircase draws it level (finer mesh.cell_size_m shows the tilt)"
-                if cells < 1.0 else ": under two, its high side meets the soil from touchdown, through the cells the "
-                "mudline cuts (finer mesh.cell_size_m shows the tilt)" if cells < RESOLVED_DROP_CELLS else ""))
+            print("  attitude: " + attitude_note(m["attitude_drop_m"], m["core_cell_size_m"]))
         if "redraws" in m:  # a body redrawn as it turned: whether its soil may part from it
             parts = ContactRules.of(scene, False, draws_turns=True).separation
             def step_deg(span_m):  # one core cell across a span, as an angle
