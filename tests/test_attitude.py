@@ -122,11 +122,11 @@ def test_the_summary_says_how_shallow_a_tilted_touchdown_reads_on_its_cells(drop
 
 
 def test_the_shallowness_the_summary_quotes_is_the_rolled_sections_own():
-    """EARLY_TOUCH_SHALLOW is decision 0030's series: the deepest points 0.1251, 0.1533, 0.1684 and 0.1822 m
+    """EARLY_TOUCH_SHALLOW is decision 0030's series: the deepest points 0.1250, 0.1533, 0.1684 and 0.1822 m
     on cells of 0.06 to 0.0075 m against 0.1936 m on 0.00375 m, the drop 0.6·sin 8° across."""
     drop = 0.6 * math.sin(math.radians(8.0))
     finest = 0.1936
-    for (cells, shallow), (cell_m, deepest) in zip(EARLY_TOUCH_SHALLOW, ((0.06, 0.1251), (0.03, 0.1533),
+    for (cells, shallow), (cell_m, deepest) in zip(EARLY_TOUCH_SHALLOW, ((0.06, 0.1250), (0.03, 0.1533),
                                                                         (0.015, 0.1684), (0.0075, 0.1822))):
         assert cells == pytest.approx(drop / cell_m, abs=0.05)
         assert shallow == pytest.approx(1.0 - deepest / finest, abs=0.005)
