@@ -192,7 +192,7 @@ def test_the_summary_names_the_slope_and_gives_no_3d_estimate_measured_on_level_
 ])
 def test_a_slide_fails_only_when_it_has_not_slowed_from_its_fastest_over_the_last_width(speeds, fails):
     """SlideFailure, B = 0.6 m, chunks 0.1 m of slide apart: past a width, the body fails only if it slides
-    as fast as it has at any point over the last width. The vehicle set down 17 % past its envelope slowed
+    as fast as it has at any point over the last width. The vehicle set down 18 % past its envelope slowed
     from 0.42 to 0.17 m/s and was called a failure by the speed it had a width before, nearly 0."""
     from dsmv.cel import controller
     from dsmv.cel.layout import B_OFFSET_X, B_VX, N_BODY
