@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 from dsmv import registry
-from dsmv.analytic.bearing import (effective_width_moment, green_radial_factor, scoop_moment_upper_bound,
-                                   spherical_scoop_moment_upper_bound)
+from dsmv.analytic.bearing import (bonded_moment_upper_bound, effective_width_inclined_moment, effective_width_moment,
+                                   green_radial_factor, scoop_moment_upper_bound, spherical_scoop_moment_upper_bound)
 from dsmv.cel.layout import B_VEL, B_VX, B_WY, N_BODY, freedom_mask
 from dsmv.cel.ledger import N_ENERGY
 from dsmv.cel.stepper import move_body
@@ -149,6 +149,42 @@ def test_the_pure_moment_of_a_bonded_strip_converges_below_the_scoop_bound(compo
     estimate = richardson((0.025, 0.05, 0.1), tuple(reversed(moments)))
     assert estimate.order >= 0.5  # the three cells are in the asymptotic range, so the estimate holds
     assert estimate.extrapolated <= scoop_moment_upper_bound()
+
+
+def test_the_bonded_v_m_bounds_meet_the_pure_moment_scoop_fellenius_and_the_effective_width():
+    """The circular scoop with its centre free: at V = 0 the pure-moment scoop (0.690); V does no work on
+    it while its chord spans the base, so it stays 0.690 up to v ≈ 2.8; its moment reaches 0 at
+    Fellenius' 5.52, the circle through one edge under pure V. Green's field under the effective width
+    is Meyerhof's at H = 0, loses moment to H either way, and holds no moment without V."""
+    from scipy.optimize import brentq
+
+    assert bonded_moment_upper_bound(0.0) == pytest.approx(scoop_moment_upper_bound(), rel=1e-8)
+    assert bonded_moment_upper_bound(2.5) == pytest.approx(scoop_moment_upper_bound(), rel=1e-8)
+    assert bonded_moment_upper_bound(3.3) < scoop_moment_upper_bound() - 0.02
+    assert brentq(bonded_moment_upper_bound, 4.5, 6.0) == pytest.approx(5.52, abs=0.005)
+    # H towards the edge pressed down opposes the base's slide towards the other: the bound rises
+    assert bonded_moment_upper_bound(2.0, 0.05) > bonded_moment_upper_bound(2.0) > bonded_moment_upper_bound(2.0, -0.05)
+    for v in (0.5, 2.0, 3.3, 4.7):
+        assert effective_width_inclined_moment(v) == pytest.approx(effective_width_moment(v), rel=1e-12)
+        assert effective_width_inclined_moment(v, 0.05) == effective_width_inclined_moment(v, -0.05)
+        assert effective_width_inclined_moment(v, 0.05) < effective_width_inclined_moment(v)
+        assert effective_width_inclined_moment(v) < bonded_moment_upper_bound(v)
+    assert effective_width_inclined_moment(0.0, 0.3) == 0.0
+
+
+@pytest.mark.parametrize("ratio, measured", [(2.0, (0.919, 1.046)), (4.0, (0.994, 1.118))])
+def test_a_bonded_strip_pushed_while_turned_lies_between_the_v_m_bounds(compose_cfg, ratio, measured):
+    """Bonded, turned 4° while pushed down (its edge ``ratio`` times as fast as its middle), free to slide:
+    its end load (v ≈ 3.34 and 2.29 at B/20) carries a moment under the circular scoop's upper bound and
+    over the lower bound of Green's field under the effective width, at its own V and H (measured
+    ``measured``: M over each). On B/10 the faster turn's moment still lies 3.4 % over the upper bound;
+    its ratio falls with the cell (1.034, 0.994, 0.981 on B/10, B/20, B/40)."""
+    v, moment, metrics = turn(compose_cfg, 0.05, ratio)
+    h_towards_dip = math.copysign(1.0, moment) * metrics["end_horizontal_factor"]
+    assert abs(h_towards_dip) < 0.06  # free to slide: H only rocks about 0
+    assert abs(moment) <= bonded_moment_upper_bound(v, h_towards_dip)
+    assert abs(moment) >= effective_width_inclined_moment(v, h_towards_dip)
+    assert metrics["energy_error"] < 0.01
 
 
 def test_a_landing_mirrored_tilts_and_slides_mirrored(compose_cfg):

@@ -130,6 +130,48 @@ def effective_width_moment(v: float) -> float:
     return 0.5 * v * (1.0 - v / PRANDTL_NC)
 
 
+def bonded_moment_upper_bound(v: float, h_toward_dip: float = 0.0) -> float:
+    """A kinematic (upper) bound on the moment M/(B²·su) a rough strip bonded to weightless Tresca soil
+    carries with the vertical load v = V/(B·su) and the horizontal load h = H/(B·su) (positive towards
+    the edge the turn presses down); derived here. The soil within a circle turns with the strip as a
+    rigid segment, the arc meeting the surface at a ≤ −B/2 and b ≥ B/2 (beyond an edge the free surface
+    turns with it) about its centre, height d above the surface (below it where d < 0), over the middle
+    of the chord, xc = (a + b)/2 towards the edge that rises. Per unit turn the arc dissipates
+    su·2α·R² (2α the arc's angle, R its radius), V works through the middle's descent xc and H through
+    the base's slide d towards the rising edge: M ≤ min 2α·R² − v·xc + h·d. With xc = 0 it is the
+    pure-moment scoop, 0.690 (:func:`scoop_moment_upper_bound`), which V does not move: the bound is
+    flat at 0.690 up to v ≈ 2.8, then falls, to 0 at v = 5.52 (Fellenius' circle, 7 % over Prandtl)."""
+    from scipy.optimize import minimize
+
+    def moment(p) -> float:  # p: how far each end lies beyond its edge (squared: ≥ 0) and the height d
+        a, b, d = -0.5 - p[0] ** 2, 0.5 + p[1] ** 2, p[2]
+        half_chord = 0.5 * (b - a)
+        return 2.0 * math.atan2(half_chord, d) * (half_chord**2 + d * d) - v * 0.5 * (a + b) + h_toward_dip * d
+
+    starts = ((0.0, 0.0, 0.2), (0.0, 0.3, 0.2), (0.0, 0.8, 0.4), (0.3, 0.0, 0.2), (0.0, 0.3, -0.2))
+    return min(minimize(moment, start, method="Nelder-Mead",
+                        options={"xatol": 1e-10, "fatol": 1e-13, "maxiter": 20000}).fun for start in starts)
+
+
+def effective_width_inclined_moment(v: float, h: float = 0.0) -> float:
+    """The lower bound of :func:`effective_width_moment` with a horizontal load h = H/(B·su) too: Green's
+    (1954) field under the narrowest width B' = b·B whose envelope holds (v, h) (h ≤ b and
+    v ≤ b·(1 + π − arcsin(h/b) + √(1 − (h/b)²))), none beside it: M = V·(B − B')/2. A bonded strip
+    may carry it as well as one that holds no tension (its base need not pull)."""
+    h = abs(h)
+    if not (0.0 <= v and h <= 1.0 and v <= green_vertical(h)):
+        raise ValueError(f"(v, h) = ({v}, {h}) lies beyond Green's envelope of the whole width")
+
+    def holds(b: float) -> bool:
+        return h <= b and v <= b * green_vertical(h / b)
+
+    low, high = 0.0, 1.0  # holds(high) always; the envelope grows with b
+    for _ in range(80):
+        mid = 0.5 * (low + high)
+        low, high = (low, mid) if holds(mid) else (mid, high)
+    return 0.5 * v * (1.0 - high)
+
+
 def green_radial_factor(h: float, v: float) -> float:
     """How far the load point (h, v) = (H, V)/(B·su) lies from Green's envelope along its ray from the
     origin: λ with (h, v)/λ on the envelope (1: on it, > 1: beyond it). Bisection on λ, the envelope

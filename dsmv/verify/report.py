@@ -33,7 +33,7 @@ from pathlib import Path
 
 from dsmv import registry
 from dsmv.cel import cost as cost_model
-from dsmv.analytic.bearing import effective_width_moment, green_radial_factor
+from dsmv.analytic.bearing import bonded_moment_upper_bound, effective_width_moment, green_radial_factor
 from dsmv.convergence import richardson
 from dsmv.results import EXIT_CODES
 from dsmv.verify.regression import QUIET
@@ -48,11 +48,14 @@ SMALL_STRAIN = ("experiment=verify_prandtl", "hydra.mode=RUN", "solver.remap=fal
 
 
 #: the figures a check may read that a run does not report itself, each from the run's own metrics:
-#: how far the strip's end load lies beyond Green's V–H envelope along its ray (1: on it), and the
-#: moment of a strip that holds no tension over Meyerhof's effective width's at the same V
+#: how far the strip's end load lies beyond Green's V–H envelope along its ray (1: on it), the
+#: moment of a strip that holds no tension over Meyerhof's effective width's at the same V, and the
+#: bonded strip's over the circular scoop's upper bound at the same V and H (H towards the edge pressed down)
 DERIVED = {
     "green_radial_factor": lambda m: green_radial_factor(abs(m["end_horizontal_factor"]), m["end_vertical_factor"]),
     "effective_width_factor": lambda m: abs(m["end_moment_factor"]) / effective_width_moment(m["end_vertical_factor"]),
+    "scoop_factor": lambda m: abs(m["end_moment_factor"]) / bonded_moment_upper_bound(
+        m["end_vertical_factor"], math.copysign(1.0, m["end_moment_factor"]) * m["end_horizontal_factor"]),
 }
 
 
@@ -173,6 +176,15 @@ CHECKS = (
              "landing.free=[x]", "landing.roll_rate_rad_s=0.1", f"landing.velocity_m_s={0.05 / ratio:g}",
              "landing.rotation_deg=4", "landing.displacement_m=0.05"), (0.025, 0.05, 0.1), None, 1.0)
       for ratio in (2, 4)),
+    *(Check(f"moment_bonded_vm_{ratio}", f"Bonded rough strip turned 4° while pushed down (its edge {ratio}× as "
+            "fast as its middle) free to slide, whole section, small strain: M over the circular scoop's upper bound "
+            "at its V and H", "scoop_factor", None,
+            "its own value extrapolated; the scoop (`bonded_moment_upper_bound`) is an upper bound: at most 1; Green's "
+            f"field under the effective width (`effective_width_inclined_moment`) a lower bound: at least about {floor} there",
+            (*SMALL_STRAIN, "landing.free=[x]", "landing.roll_rate_rad_s=0.1", f"landing.velocity_m_s={0.05 / ratio:g}",
+             "landing.rotation_deg=4", "landing.displacement_m=0.05"), (0.0125, 0.025, 0.05, 0.1), None, 1.0)
+      # the lower bound over the upper at the (V, H)/(B·su) each probe ends near (B/40: (3.36, 0.01), (2.40, 0.03))
+      for ratio, floor in ((2, 0.88), (4, 0.91))),
     Check("moment_turned", "Bonded rough strip turned 4° free to slide, redrawn as it turns (large deformation), "
           "whole section, M/(B²·su) at its end", "end_moment_factor", None,
           "its own value extrapolated; the small-strain moment above",
