@@ -65,8 +65,23 @@ def test_the_derived_figures_read_the_runs_signs():
         assert report.DERIVED["green_radial_factor"](on_green) == pytest.approx(1.0, abs=1e-9)
         on_width = {"end_moment_factor": -sign * effective_width_moment(2.0), "end_vertical_factor": 2.0}
         assert report.DERIVED["effective_width_factor"](on_width) == pytest.approx(1.0, abs=1e-12)
+        # turned either way, H towards the edge pressed down raises the scoop's bound: mirrored, one figure
+        from dsmv.analytic.bearing import bonded_moment_upper_bound
+
+        on_scoop = {"end_moment_factor": sign * bonded_moment_upper_bound(3.3, 0.05), "end_vertical_factor": 3.3,
+                    "end_horizontal_factor": sign * 0.05}
+        assert report.DERIVED["scoop_factor"](on_scoop) == pytest.approx(1.0, abs=1e-9)
     beyond = {"end_horizontal_factor": -1.1, "end_vertical_factor": 0.0}  # a slide 10 % over B·su
     assert report.DERIVED["green_radial_factor"](beyond) == pytest.approx(1.1, abs=1e-9)
+
+
+def test_the_figure_draws_more_checks_than_its_palette_has_colours(tmp_path):
+    """A report of 30 checks, the palette 20 colours: the figure is drawn (a report of 24 checks had lost
+    its page to an index past the palette)."""
+    checks = [report.Check(f"c{k}", f"Check {k}", "nc", 5.0, "a truth", (), (0.025, 0.05, 0.1), None, 1.0)
+              for k in range(30)]
+    results = [(check, _outcomes(5.0, 1.0 + k, 1.0, check.cells_m)) for k, check in enumerate(checks)]
+    assert report.figure(tmp_path / "f.png", results).stat().st_size > 10_000
 
 
 def test_a_figure_the_report_does_not_have_fails_in_one_line():

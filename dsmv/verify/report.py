@@ -331,7 +331,8 @@ def figure(path: Path, results: list[tuple[Check, list[Outcome]]]) -> Path:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(10, 5), constrained_layout=True)
-    colours, markers = plt.get_cmap("tab20").colors, "osD^v<>ph*"
+    # 20 colours and 9 markers: no two of the first 180 checks alike
+    colours, markers = plt.get_cmap("tab20").colors, "osD^v<>ph"
     for k, (check, outcomes) in enumerate(results):
         est = estimate(outcomes)
         reference = check.reference if check.reference is not None else (est.extrapolated if est else None)
@@ -339,7 +340,7 @@ def figure(path: Path, results: list[tuple[Check, list[Outcome]]]) -> Path:
                   if reference and o.status == "ok" and math.isfinite(o.value) and o.value != reference]
         if points:
             h, err = zip(*points)
-            colour = colours[(2 * k) % 20 + k // 10]  # the dark tab20 shades first, then the light ones
+            colour = colours[(2 * k) % 20 + (k // 10) % 2]  # the dark tab20 shades first, then the light ones
             ax.loglog(h, [100 * e for e in err], marker=markers[k % len(markers)], color=colour,
                       label=short_name(check) + ("" if check.reference is not None else " (vs extrapolated)"))
     ax.set_xlabel("core cell / body size (h/B or h/D)")
