@@ -139,7 +139,7 @@ def test_the_benchmark_reads_the_progress_line_s_estimate_at_a_quarter_of_the_ru
 
 def test_the_estimate_of_a_landing_that_may_turn_says_it_is_at_least(compose_cfg, capsys):
     """The duration is the fast model's vertical landing; a body free to slide or turn comes to rest later
-    (the 2D landing with its centre of gravity 0.1 m off takes 5.4 times the steps, dsmv-bench --freedoms)."""
+    (the 2D landing with its centre of gravity 0.1 m off takes 7.1 times the steps, dsmv-bench --freedoms)."""
     from dsmv.cel.solver2d import Cel2DSolver
     from dsmv.config.scene import build_scene
 
