@@ -157,7 +157,8 @@ def effective_width_inclined_moment(v: float, h: float = 0.0) -> float:
     """The lower bound of :func:`effective_width_moment` with a horizontal load h = H/(B·su) too: Green's
     (1954) field under the narrowest width B' = b·B whose envelope holds (v, h) (h ≤ b and
     v ≤ b·(1 + π − arcsin(h/b) + √(1 − (h/b)²))), none beside it: M = V·(B − B')/2. A bonded strip
-    may carry it as well as one that holds no tension (its base need not pull)."""
+    may carry it as well as one that holds no tension (its base need not pull). Its rigour rests on the
+    field's extension into the rigid soil, shown for Prandtl's (h = 0; Bishop 1953), taken as for it with h."""
     h = abs(h)
     if not (0.0 <= v and h <= 1.0 and v <= green_vertical(h)):
         raise ValueError(f"(v, h) = ({v}, {h}) lies beyond Green's envelope of the whole width")
