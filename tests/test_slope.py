@@ -189,11 +189,15 @@ def test_the_summary_names_the_slope_and_gives_no_3d_estimate_measured_on_level_
     ([0.1, 0.2, 0.3, 0.42, 0.42, 0.40, 0.35, 0.26, 0.17], False),  # set off from rest, then slowing: held so far
     ([0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9], True),          # speeding up: not held
     ([0.3] * 9, True),                                                # as fast as ever over the last width
+    ([0.6, 0.678, 0.6781, 0.678, 0.6779, 0.678, 0.6779, 0.6778, 0.678], True),  # steady, a hair under its fastest
+    ([0.5, 0.6, 0.6, 0.6, 0.59, 0.58, 0.57, 0.56, 0.55], False),      # slowed 8 % over the last width
 ])
 def test_a_slide_fails_only_when_it_has_not_slowed_from_its_fastest_over_the_last_width(speeds, fails):
-    """SlideFailure, B = 0.6 m, chunks 0.1 m of slide apart: past a width, the body fails only if it slides
-    as fast as it has at any point over the last width. The vehicle set down 18 % past its envelope slowed
-    from 0.42 to 0.17 m/s and was called a failure by the speed it had a width before, nearly 0."""
+    """SlideFailure, B = 0.6 m, chunks 0.1 m of slide apart: past a width, the body fails only if it has
+    slowed by less than 5 % from its fastest over the last width (at that rate it would slide ten widths
+    more). The vehicle set down 18 % past its envelope slowed from 0.42 to 0.17 m/s and was called a
+    failure by the speed it had a width before, nearly 0; the 30 t vehicle on 45° (B/16) slid on at a
+    steady 0.678 m/s, a hair under its fastest, and was not."""
     from dsmv.cel import controller
     from dsmv.cel.layout import B_OFFSET_X, B_VX, N_BODY
 
