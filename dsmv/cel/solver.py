@@ -453,8 +453,10 @@ class CelSolver:
         return energy_estimate(scene).solve()
 
     def fast_model_slides_on(self) -> bool:
-        """Whether the expected duration is the modelled landing's slide of one width (it does not rest)."""
-        return self.scene.landing.kind == "drop" and self.slid_a_width_s(self.modelled_landing) is not None
+        """Whether the expected duration is the modelled landing's slide of one width (it does not rest): only
+        a drop free to slide is asked (a cone's duration is its fall's, and no model lands it)."""
+        return (self.scene.landing.kind == "drop" and not self.cone and bool({"x", "y"} & set(self.moving_freedoms()))
+                and self.slid_a_width_s(self.modelled_landing) is not None)
 
     def slid_a_width_s(self, landed: SolveResult) -> Optional[float]:
         """When a modelled landing that slides on (the fast models end theirs after 20 B) has slid one width B,
