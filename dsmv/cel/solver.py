@@ -431,10 +431,9 @@ class CelSolver:
                     else self.travel / max(landing.velocity_m_s, 0.1))
         if landing.kind == "push":
             return landing.push_duration_s
-        landed = self.modelled_landing
-        rest = landed.metrics.get("time_to_rest_s", math.inf)
-        if (slid := self.slid_a_width_s(landed)) is not None:
+        if (slid := self.slid_a_width_s()) is not None:
             return slid
+        rest = self.modelled_landing.metrics.get("time_to_rest_s", math.inf)
         if not math.isfinite(rest):  # the soil will not stop it: it runs through the travel near its speed
             return self.travel / max(landing.velocity_m_s, 0.1)
         return rest if until_rest or self.scene.solver.economies.stop_at_rest else 2.0 * rest
@@ -453,21 +452,22 @@ class CelSolver:
         return energy_estimate(scene).solve()
 
     def fast_model_slides_on(self) -> bool:
-        """Whether the expected duration is the modelled landing's slide of one width (it does not rest): only
-        a drop free to slide is asked (a cone's duration is its fall's, and no model lands it)."""
-        return (self.scene.landing.kind == "drop" and not self.cone and bool({"x", "y"} & set(self.moving_freedoms()))
-                and self.slid_a_width_s(self.modelled_landing) is not None)
+        """Whether the expected duration is the modelled landing's slide of one width (it does not rest)."""
+        return self.slid_a_width_s() is not None
 
-    def slid_a_width_s(self, landed: SolveResult) -> Optional[float]:
+    def slid_a_width_s(self) -> Optional[float]:
         """When a modelled landing that slides on (the fast models end theirs after 20 B) has slid one width B,
         where the CEL's slide guard first may end a slide that does not slow
         (:class:`~dsmv.cel.controller.SlideFailure`); None for a body not free to slide, or a landing that
-        rests or never slides that far. The 30 t vehicle on 45°, 10 % past its envelope: 1.09 s, where the
-        fast model's 20 B took 6.45 s; cel3d on B/12 slid 0.54 m in 1.6 s, slowing, and on 48° was ended
-        by the guard at 1.07 s."""
+        rests or never slides that far. Only a drop free to slide is asked (a cone's duration is its fall's,
+        and no model lands it). The 30 t vehicle on 45°, 10 % past its envelope: 1.09 s, where the fast
+        model's 20 B took 6.45 s; cel3d on B/12 slid 0.54 m in 1.6 s, slowing, and on 48° was ended by the
+        guard at 1.07 s."""
+        if self.scene.landing.kind != "drop" or self.cone or not {"x", "y"} & set(self.moving_freedoms()):
+            return None
+        landed = self.modelled_landing
         history = landed.history
-        if (landed.status != "bearing_failure" or not ({"x", "y"} & set(self.moving_freedoms())) or not history
-                or "horizontal_displacement_m" not in history):
+        if landed.status != "bearing_failure" or not history or "horizontal_displacement_m" not in history:
             return None
         slide = np.hypot(np.asarray(history["horizontal_displacement_m"], dtype=float),
                          np.asarray(history.get("lateral_displacement_m", 0.0), dtype=float))
