@@ -197,7 +197,7 @@ CHECKS = (
           "& Power (2014) tabulate 0.67",
           (*SMALL_STRAIN, "solver=cel3d", "geometry=circular_plate", "solver.yield_surface=tresca",
            "landing.velocity_m_s=0", "landing.roll_rate_rad_s=0.1", "landing.rotation_deg=4", "landing.free=[x,y,z]"),
-          (0.05, 0.1, 0.2), None, 1.0, "D"),
+          (0.025, 0.05, 0.1, 0.2), None, 1.0, "D"),
     Check("moment_rectangle_3d", "Bonded rough rectangular plate L/B = 2 turned 4° across B free to slide, 3D half "
           "model, small strain, M/(A·B·su)", "end_moment_factor", None,
           "its own value extrapolated; under the cylindrical scoop's rigorous 0.790 (`scoop_moment_upper_bound(2)`)",
