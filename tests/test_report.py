@@ -191,3 +191,22 @@ def test_an_interrupted_report_keeps_the_checks_done_in_a_folder_it_makes(tmp_pa
     assert report.main(["--only", "first"]) == EXIT_CODES["interrupted"]
     kept = json.loads((tmp_path / "runs" / "report" / "report.interrupted.json").read_text())
     assert [o["status"] for o in kept["checks"][0]["outcomes"]] == ["ok", "interrupted"]
+
+
+def test_a_check_whose_scene_does_not_compose_stops_the_report_in_one_line(tmp_path, monkeypatch, capsys):
+    """A check's overrides that a scene refuses: one line naming the key, the value and what is allowed,
+    exit 2, before any run; a fine mesh's run time is no refusal (the report states its estimate first)."""
+    bad = report.Check("bad", "A bad check", "nc_at_0p05B", 5.0, "a truth",
+                       (*report.SMALL_STRAIN, "geometry.roughness=sticky"), (0.1,), None, 1.0)
+    monkeypatch.setattr(report, "CHECKS", (bad,))
+    monkeypatch.setattr(report, "PAGE", tmp_path / "report.md")
+    assert report.main(["--only", "bad"]) == 2
+    said = capsys.readouterr()
+    assert said.out == "" and len(said.err.strip().splitlines()) == 1
+    assert "geometry.roughness" in said.err and "sticky" in said.err
+    # a 3D circle on D/40 cells is estimated at over an hour, past cel3d's default refusal of 3600 s
+    fine = report.Check("fine", "A fine 3D check", "end_moment_factor", 0.67, "a truth",
+                        (*report.SMALL_STRAIN, "solver=cel3d", "geometry=circular_plate", "landing.velocity_m_s=0",
+                         "landing.roll_rate_rad_s=0.1", "landing.rotation_deg=4", "landing.free=[x,y,z]"),
+                        (0.025,), None, 1.0, "D")
+    assert report.estimated_wall_s(fine, 0.025) > 3600.0

@@ -11,7 +11,8 @@ its figure beside it. ``dsmv-report --only WORD …`` reruns the checks named an
 committed page: each check keeps the stamp of the commit it was measured on, and the page lists them.
 ``dsmv-report --quick`` runs coarse meshes of a subset in a few minutes and writes under
 ``runs/report/``, never over the committed page. Exit codes: 0 written, 1 a check did
-not end ``ok`` (the page is still written, the run marked), 2 bad arguments; SIGINT or SIGTERM stops
+not end ``ok`` (the page is still written, the run marked), 2 bad arguments or a check whose scene does
+not compose (one line: the key, the value, what is allowed); SIGINT or SIGTERM stops
 the report after the run under way, writes the checks done to ``runs/report/report.interrupted.md``
 and exits with the code of ``interrupted``.
 """
@@ -35,10 +36,12 @@ from dsmv import registry
 from dsmv.cel import cost as cost_model
 from dsmv.analytic.bearing import bonded_moment_upper_bound, effective_width_moment, green_radial_factor
 from dsmv.convergence import richardson
+from dsmv.errors import ConfigError
 from dsmv.results import EXIT_CODES
 from dsmv.verify.regression import QUIET
 
 PAGE = Path("docs/verification/report.md")
+NO_WALL_LIMIT_S = 1e9  # solver.max_wall_s for the report's runs (s): about 32 years
 QUICK_DIR = Path("runs/report")
 FIGURE = "report_convergence.png"
 
@@ -235,7 +238,9 @@ def solver_of(check: Check, cell_m: float):
     """The solver of the check's scene on core cells ``cell_m``."""
     from dsmv.config.tree import compose_scene
 
-    scene = compose_scene([*check.overrides, f"mesh.cell_size_m={cell_m}", "solver.progress=off", *QUIET])
+    # no refusal by run time: the report states its runs' estimated time before it starts them
+    scene = compose_scene([*check.overrides, f"mesh.cell_size_m={cell_m}", "solver.progress=off",
+                           f"solver.max_wall_s={NO_WALL_LIMIT_S:g}", *QUIET])
     return registry.load("solvers", scene.solver.name, "solver.name")(scene)
 
 
@@ -470,7 +475,11 @@ def main(argv: list[str] | None = None) -> int:
     page.parent.mkdir(parents=True, exist_ok=True)
     stamp = provenance()
     plan = [(check, check.quick_cells_m if args.quick else check.cells_m) for check in checks]
-    estimates = {(check.key, cell): estimated_wall_s(check, cell) for check, cells in plan for cell in cells}
+    try:
+        estimates = {(check.key, cell): estimated_wall_s(check, cell) for check, cells in plan for cell in cells}
+    except ConfigError as error:
+        print(f"dsmv-report: {error}", file=sys.stderr)
+        return 2
     print(f"dsmv-report: {len(checks)} check{'s' * (len(checks) != 1)}, {len(estimates)} run{'s' * (len(estimates) != 1)}, "
           f"{cost_model.duration(sum(estimates.values()))} "
           f"by the solvers' estimates (compile time apart)", flush=True)
