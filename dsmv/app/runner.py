@@ -300,8 +300,8 @@ def _answer(scene: Scene, result: SolveResult) -> str:
     motion = _motion(result.metrics, scene.landing)
     if scene.landing.kind != "push":
         plates = result.metrics.get("plate_sinkage_m", sinkage)
-        where = (f" at the grouser tips, {plates:.4f} m at the plates" if plates != sinkage else
-                 " of the 2D cross-section" if is_cross_section(scene) else "")
+        section = " of the 2D cross-section" if is_cross_section(scene) else ""
+        where = f" at the grouser tips, {plates:.4f} m at the plates{section}" if plates != sinkage else section
         if scene.geometry.vehicle:  # the middle of its base: each track's own, when it tilts, follows
             where = (where + ", each track" if "max_sinkage_left_track_m" not in result.metrics
                      else " (the base's middle)" + where)
@@ -360,11 +360,16 @@ def is_cross_section(scene: Scene) -> bool:
     return scene.solver.name in ("cel2d", "cel2d_check") or flat_section
 
 
+def section_at_grouser_tips(scene: Scene) -> bool:
+    """A cross-section of the track cel3d lands (``geometry.section_base=grouser_tips``), not the study's."""
+    return is_cross_section(scene) and getattr(scene.geometry, "section_base", "plates") == "grouser_tips"
+
+
 def holds_trapped_soil(scene: Scene) -> bool:
     """A CEL track drawn as its grousers' envelope, whose trapped soil holds under contact separation."""
     body = scene.geometry
     return (body.kind == "track" and getattr(body, "grousers", None) == "trapped_soil" and body.grouser_height_m > 0
-            and scene.solver.name in ("cel2d", "cel3d") and not is_cross_section(scene))
+            and scene.solver.name in ("cel2d", "cel3d") and (not is_cross_section(scene) or section_at_grouser_tips(scene)))
 
 
 def track_sinkage_bound(scene: Scene, result: SolveResult) -> float | None:
@@ -372,7 +377,7 @@ def track_sinkage_bound(scene: Scene, result: SolveResult) -> float | None:
     3D track sinks by it (the section + the largest measured difference, m); None for anything else."""
     sinkage = result.metrics.get("max_sinkage_m")
     if (sinkage is None or scene.landing.kind == "push" or not is_cross_section(scene) or scene.soil.slope_deg
-            or scene.geometry.grouser_height_m != SECTION_TO_TRACK_M["grouser_height_m"]):
+            or section_at_grouser_tips(scene) or scene.geometry.grouser_height_m != SECTION_TO_TRACK_M["grouser_height_m"]):
         return None
     return sinkage + SECTION_TO_TRACK_M["largest"]
 
@@ -384,9 +389,12 @@ def track_estimate(scene: Scene, result: SolveResult, overrides: list[str] = ())
     if result.status != "ok" or sinkage is None or scene.landing.kind == "push" or not is_cross_section(scene):
         return None
     # quoted as a shell reads it: a table's braces and brackets would expand
-    kept = [o for o in overrides if not o.split("=")[0].lstrip("+~").startswith(("solver", "mesh"))]
+    kept = [o for o in overrides if not o.split("=")[0].lstrip("+~").startswith(("solver", "mesh", "geometry.section_base"))]
     command = shlex.join(["dsmv", "solver=cel3d", *kept])
     offset = SECTION_TO_TRACK_M
+    if section_at_grouser_tips(scene):
+        return ("not estimated for the section at the grousers' tips (the 3D–2D difference is measured on the "
+                f"study's section, on its plates); the 3D answer: {command}")
     if scene.soil.slope_deg:
         return f"not estimated on a sloping seabed (the 3D–2D difference is measured on level ones); the 3D answer: {command}"
     if scene.geometry.grouser_height_m != offset["grouser_height_m"]:

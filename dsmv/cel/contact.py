@@ -305,10 +305,11 @@ def tie_arms(axes, node: np.ndarray, split_node: np.ndarray, split_parent: np.nd
     return np.ascontiguousarray(arm)
 
 
-def build_contact(rules: ContactRules, shape, grid: Grid2D, j_base: int) -> BodyContact:
-    """The body's cells, openings and contact table on a grid, from the rules."""
+def build_contact(rules: ContactRules, shape, grid: Grid2D, j_base: int, trapped_m: float = 0.0) -> BodyContact:
+    """The body's cells, openings and contact table on a grid, from the rules; the ties' share of the face
+    within ``trapped_m`` of the base holds (:func:`trapped_shares`)."""
     if rules.turning:
-        return build_turned_contact(shape, grid, grid.y[j_base])
+        return build_turned_contact(shape, grid, grid.y[j_base], trapped_m)
     solid = solid_cells(shape, grid)
     openings = Openings.of_circle(grid, shape.radius, shape.radius) if rules.cut_cells else Openings.of_cells(solid)
     tie_i, tie_j, full, normal, cap = _ties(rules, shape, grid, j_base, solid)
@@ -338,7 +339,7 @@ def build_contact(rules: ContactRules, shape, grid: Grid2D, j_base: int) -> Body
         fixed_node=fixed_node, fixed_axis=fixed_axis,
         merge=sliver_pairs(openings),
         arm=tie_arms((grid.x, grid.y), node, split_node, split_parent, grid.y[j_base]),
-        bond=np.zeros(len(node)),
+        bond=trapped_shares(np.concatenate([grid.y[tie_j] - grid.y[j_base], np.zeros(len(splits))]), trapped_m, grid.h),
     )
     factor = np.ones(solid.shape)
     if rules.cut_cells:

@@ -292,14 +292,20 @@ class CelSolver:
         (:meth:`dsmv.cel.body.TrackSideView.of`), and its landing starts once the grousers have cut in
         (:meth:`start`). docs/decisions/0019 says why and what it was measured against."""
         body = self.scene.geometry
-        if body.kind != "track" or body.grousers != "trapped_soil" or not self.models_track_side:
+        if body.kind != "track" or body.grousers != "trapped_soil" or not self.base_at_grouser_tips:
             return 0.0
         return body.grouser_height_m
 
     def plates_above_base_m(self) -> float:
-        """How far a track's plates lie above the body's base (m): the grouser height where the model has
-        its side (the base is the grousers' tips), 0 in its cross-section (the base is the plates)."""
-        return self.scene.geometry.grouser_height_m if self.models_track_side else 0.0
+        """How far a track's plates lie above the body's base (m): the grouser height where the base is the
+        grousers' tips, 0 in the study's cross-section (the base is the plates)."""
+        return self.scene.geometry.grouser_height_m if self.base_at_grouser_tips else 0.0
+
+    @property
+    def base_at_grouser_tips(self) -> bool:
+        """Whether a track's base is its grousers' tips: where its side is modelled, and in a cross-section
+        asked for so (``geometry.section_base=grouser_tips``: the section of the track cel3d lands)."""
+        return self.models_track_side or getattr(self.scene.geometry, "section_base", "plates") == "grouser_tips"
 
     @property
     def models_track_side(self) -> bool:

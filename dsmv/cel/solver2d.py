@@ -125,7 +125,7 @@ class Cel2DSolver(CelSolver):
     def body_contact(self, grid, angles=(0.0, 0.0, 0.0)):
         """The body's cells, openings and contact table on ``grid`` (:func:`dsmv.cel.contact.build_contact`)
         turned by ``angles``."""
-        return build_contact(self.rules, self.body_shape(grid, angles), grid, grid.row_of(0.0))
+        return build_contact(self.rules, self.body_shape(grid, angles), grid, grid.row_of(0.0), self.trapped_soil_m())
 
     def far_sides(self, axis: int) -> tuple[int, ...]:
         """The half model's axis (x = 0) is its symmetry plane."""

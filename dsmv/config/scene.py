@@ -301,9 +301,23 @@ class TrackGeometry(BodyConfig):
         "how the side view (longitudinal, 3D) models the grousers: trapped_soil, the soil between them "
         "moves with the track (a flat base at their tips, the same on every mesh) | cells, a column of "
         "core cells at every pitch, at least one cell high"))
+    section_base: Literal["plates", "grouser_tips"] = Field("plates", description=(
+        "the cross-section's base (cel2d, view=cross_section): plates, the study's section, the grousers left "
+        "out | grouser_tips, the section of the track cel3d lands: the grousers' envelope, its base at their "
+        "tips, landing once they have cut in, the soil they trap moving with it and holding the soil beside "
+        "it (the side view and cel3d always model it so)"))
     gauge_m: Optional[Number] = Field(None, gt=0, description=(
         "a vehicle: the distance between its two tracks' centres (m), the weight shared by them "
         "(landing.n_tracks = 2); cel3d lands both as one rigid body; null: one track alone"))
+
+    @field_validator("section_base")
+    @classmethod
+    def _section_of_the_trapped_soil(cls, base, info: ValidationInfo):
+        if base == "grouser_tips" and info.data.get("view") == "longitudinal":
+            raise ValueError("the side view models the grousers itself: the section's base is the cross-section's")
+        if base == "grouser_tips" and info.data.get("grousers") != "trapped_soil":
+            raise ValueError("a base at the grousers' tips is their trapped soil's envelope: geometry.grousers=trapped_soil")
+        return base
 
     @field_validator("gauge_m")
     @classmethod
@@ -665,7 +679,9 @@ class Scene:
                 (k == "profile" and v is None) or (k == "profile_scale" and v == 1.0)
                 or (k in ("slope_deg", "downslope_direction_deg") and self.soil.slope_deg == 0))},
             # a lone track keeps the hash it had before vehicles existed
-            "geometry": {k: v for k, v in self.geometry.model_dump().items() if k != "gauge_m" or v is not None},
+            # (and a section on its plates, the hash it had before sections at the grousers' tips existed)
+            "geometry": {k: v for k, v in self.geometry.model_dump().items()
+                         if not ((k == "gauge_m" and v is None) or (k == "section_base" and v == "plates"))},
             # the keys of the body's other freedoms count once they differ from a vertical landing's,
             # so a vertical scene keeps the hash it had before they existed (its runs still resume)
             "landing": {k: v for k, v in self.landing.model_dump().items()
@@ -768,6 +784,9 @@ def build_scene(cfg: DictConfig | dict) -> Scene:
     if geometry.vehicle and landing.n_tracks != 2:
         raise ConfigError("landing.n_tracks", landing.n_tracks, f"a vehicle ({geometry.name}: geometry.gauge_m set) "
                           "stands on two tracks that share its weight: 2")
+    if getattr(geometry, "section_base", "plates") == "grouser_tips" and not solver.name.startswith("cel2d"):
+        raise ConfigError("geometry.section_base", geometry.section_base, "a section at the grousers' tips is cel2d's: "
+                          "cel3d models the grousers' envelope itself, the fast models count grousers by solver.grousers")
     scene = Scene(study, soil, geometry, landing, mesh, solver, output, safety)
     check_touchdown_speed(scene)
     check_slope(scene, solver_cls)
