@@ -314,9 +314,10 @@ class VehicleModel:
     def along_seabed(self, tracks, rates, depth_cg, speed, slide, drift, slip, force, given, soil, factor):
         """The soil's force along the seabed on each track's base (vehicles, x y, tracks) and the tracks' slip:
         elastic from where the base last slipped, up to Green's (1954) capacity of a rough strip at the
-        track's load, h = H/(A·s) at v = V/(A·s) (:func:`dsmv.analytic.bearing.green_horizontal`), with s the
+        track's load, h = H/(A·su) at v = V/(A·s) (:func:`dsmv.analytic.bearing.green_horizontal`), with s the
         strength for which the track's capacity is Prandtl's, the fast model's pressure at its depth and speed
-        over 2 + π (while it sinks, the envelope's point whose normal is its motion's, if larger), plus the
+        over 2 + π, and su the soil's at the base (:meth:`base_shear_n`; while it sinks, the envelope's point
+        whose normal is its motion's, if larger), plus the
         passive push on the trapped soil's faces (:meth:`passive_push`, docs/decisions/0036); and the
         base's radiation dashpot while it bears and holds. Also each track's h (the base's share of the
         push), which the patches' next pressures are inclined by. ``tracks``: each track's base middle from the
@@ -330,6 +331,7 @@ class VehicleModel:
         down = speed[:, None] - rates[:, :1] * tracks[:, 1] + rates[:, 1:] * tracks[:, 0]
         area = self.scene.geometry.contact_area_m2
         strength = area * self.pressure(depth, down, soil, factor) / PRANDTL_NC
+        shear = self.base_shear_n(depth, soil)
         bearing = (load > 0.0) & (strength > 0.0)
         with np.errstate(divide="ignore", invalid="ignore"):
             capacity = green_horizontal(np.where(bearing, load / strength, 0.0))
@@ -339,7 +341,7 @@ class VehicleModel:
             ratio2 = np.where(down > 0.0, (velocity[:, 0]**2 + velocity[:, 1]**2) / np.where(down > 0.0, down, 1.0)**2,
                               0.0)
             flowing = np.where(down > 0.0, np.maximum((ratio2 - 1.0) / (ratio2 + 1.0), 0.0), 0.0)
-            base = np.where(bearing, strength * np.maximum(capacity, flowing), 0.0)
+            base = np.where(bearing, shear * np.maximum(capacity, flowing), 0.0)
             stiffness = given["slide_stiffness"][:, :, None]
             trial = -stiffness * (moved - slip)
             size = np.hypot(trial[:, 0], trial[:, 1])
@@ -353,11 +355,19 @@ class VehicleModel:
         with np.errstate(divide="ignore", invalid="ignore"):
             # the base's share of the push (base and faces mobilised alike: in proportion to their capacities)
             share = np.where(capacity > 0.0, base / np.where(capacity > 0.0, capacity, 1.0), 0.0)
-            ratio = np.where(bearing, np.minimum(share * np.hypot(resisted[:, 0], resisted[:, 1]) / strength, 1.0),
+            ratio = np.where(bearing, np.minimum(share * np.hypot(resisted[:, 0], resisted[:, 1]) / shear, 1.0),
                              0.0)
         # the dashpot radiates the base's vibration while it holds: a base slipping along the seabed radiates none
         holding = (bearing & ~over)[:, None, :]
         return resisted - given["slide_dashpot"][:, None, None] * velocity * holding, slip, ratio
+
+    def base_shear_n(self, depth: np.ndarray, soil: Landing) -> np.ndarray:
+        """A·su (N): the most the soil resists a track's base sliding along its plane, su the intact strength
+        at the grousers' tips ``depth`` deep, without rate gain, as on the faces (:meth:`passive_push`). The
+        base sliding with the faces' wedges is a mechanism whatever the load V, so A·su plus the faces bounds
+        the push from above; the bearing strength p/(2 + π), depth and overburden in it, would not
+        (decision 0035)."""
+        return self.scene.geometry.contact_area_m2 * strength_at(soil, np.maximum(depth, 0.0))[0]
 
     def passive_push(self, depth: np.ndarray, soil: Landing) -> np.ndarray:
         """The push (N per m of face) the soil a track's grousers trap, its tips ``depth`` deep (m), meets on a
@@ -383,18 +393,20 @@ class VehicleModel:
     def sliding_slope_deg(self, depth_m: float) -> float:
         """The seabed slope (degrees, across the tracks) at which a track whose grousers' tips are ``depth_m``
         deep reaches its capacity along the seabed, set down slowly: V = W·cos β and H = W·sin β per track,
-        its base on Green's (1954) envelope with the strength s of its bearing pressure at that depth,
-        A·p/(2 + π), and the faces of the soil its grousers trap along its length (:meth:`passive_push`):
+        its base on Green's (1954) envelope, V over the strength of its bearing pressure at that depth,
+        A·p/(2 + π), H over A·su (:meth:`base_shear_n`), and the faces of the soil its grousers trap along its
+        length (:meth:`passive_push`):
         where a vehicle with that embedment starts to slide, by the strip's inclined-load capacity."""
         from scipy.optimize import brentq
 
         weight, body = 0.5 * float(self.weight_n[0]), self.scene.geometry
         depth = np.array([[depth_m]])
         strength = body.contact_area_m2 * float(self.pressure(depth, np.zeros_like(depth))[0, 0]) / PRANDTL_NC
+        shear = float(self.base_shear_n(depth, self.patch_soil)[0, 0])
         faces = float(self.passive_push(depth, self.patch_soil)[0, 0]) * body.contact_length_m
 
         def unheld(slope):  # the push along the seabed over what the track holds there (N)
-            return weight * math.sin(slope) - strength * float(green_horizontal(weight * math.cos(slope) / strength)) - faces
+            return weight * math.sin(slope) - shear * float(green_horizontal(weight * math.cos(slope) / strength)) - faces
 
         return math.degrees(brentq(unheld, 1e-6, 0.5 * math.pi))
 
