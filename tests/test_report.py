@@ -204,9 +204,10 @@ def test_a_check_whose_scene_does_not_compose_stops_the_report_in_one_line(tmp_p
     said = capsys.readouterr()
     assert said.out == "" and len(said.err.strip().splitlines()) == 1
     assert "geometry.roughness" in said.err and "sticky" in said.err
-    # a 3D circle on D/40 cells is estimated at over an hour, past cel3d's default refusal of 3600 s
+    # a 3D circle on D/40 cells is estimated at about an hour (on these machines 38 to 71 min), near or past
+    # cel3d's default refusal of 3600 s: the report's runs are not refused by run time
     fine = report.Check("fine", "A fine 3D check", "end_moment_factor", 0.67, "a truth",
                         (*report.SMALL_STRAIN, "solver=cel3d", "geometry=circular_plate", "landing.velocity_m_s=0",
                          "landing.roll_rate_rad_s=0.1", "landing.rotation_deg=4", "landing.free=[x,y,z]"),
                         (0.025,), None, 1.0, "D")
-    assert report.estimated_wall_s(fine, 0.025) > 3600.0
+    assert report.solver_of(fine, 0.025).scene.solver.max_wall_s == report.NO_WALL_LIMIT_S > 1e6
