@@ -195,6 +195,32 @@ def test_a_vehicle_set_down_slowly_slides_where_green_s_envelope_says(compose_cf
     assert slides.metrics["max_horizontal_displacement_m"] > 10.0 * level.geometry.width_m
 
 
+@pytest.mark.parametrize("mass_kg", [10000, 20000, 30000, 45000])
+def test_the_slope_a_track_holds_is_bounded_by_its_base_sliding_with_the_faces(compose_cfg, mass_kg):
+    """Upper-bound theorem: the base sliding on its plane, with the passive wedge ahead over the embedment
+    and the active one behind over the grousers' height, is a mechanism whatever V, so no slope past
+    sin β = (A·su + faces)/W holds a track, W its share of the weight. The envelope reaches that bound on
+    Green's sliding branch (V at most (1 + π/2)·A·s) and lies under it past the branch. (With the base at
+    the bearing strength A·s, as first written, the 30 t vehicle's envelope at 0.09 m stood 9° past it.)"""
+    level = fast_vehicle(build_scene(compose_cfg([*VEHICLE, *SET_DOWN[:-2], f"landing.mass_kg={mass_kg}",
+                                                  "landing.free=[z,x,ry]"])))
+    body, weight = level.scene.geometry, 0.5 * float(level.weight_n[0])
+    for depth in (0.06, 0.09, 0.12):
+        d = np.array([[depth]])
+        bound = float(level.base_shear_n(d, level.patch_soil)[0, 0]) + \
+            float(level.passive_push(d, level.patch_soil)[0, 0]) * body.contact_length_m
+        slope = level.sliding_slope_deg(depth)
+        strength = body.contact_area_m2 * float(level.pressure(d, np.zeros_like(d))[0, 0]) / vehicle.PRANDTL_NC
+        on_branch = weight * math.cos(math.radians(slope)) <= (1.0 + 0.5 * math.pi) * strength
+        held = weight * math.sin(math.radians(slope))
+        if slope == 90.0:  # held on any slope: the bound is the weight's whole pull or more
+            assert bound >= weight, (mass_kg, depth)
+        elif on_branch:
+            assert held == pytest.approx(bound, rel=1e-9), (mass_kg, depth)
+        else:
+            assert held < bound, (mass_kg, depth)
+
+
 def test_a_vehicle_slides_down_its_slope_as_its_mirror_image(compose_cfg):
     """A slope falling towards +x and one towards −x (10°), the centre of gravity high above the base:
     the vehicle slides downhill and rolls the same, mirrored, to round-off."""

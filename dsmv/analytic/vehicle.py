@@ -396,7 +396,8 @@ class VehicleModel:
         its base on Green's (1954) envelope, V over the strength of its bearing pressure at that depth,
         A·p/(2 + π), H over A·su (:meth:`base_shear_n`), and the faces of the soil its grousers trap along its
         length (:meth:`passive_push`):
-        where a vehicle with that embedment starts to slide, by the strip's inclined-load capacity."""
+        where a vehicle with that embedment starts to slide, by the strip's inclined-load capacity; 90 where
+        it holds the track on any slope."""
         from scipy.optimize import brentq
 
         weight, body = 0.5 * float(self.weight_n[0]), self.scene.geometry
@@ -408,6 +409,8 @@ class VehicleModel:
         def unheld(slope):  # the push along the seabed over what the track holds there (N)
             return weight * math.sin(slope) - shear * float(green_horizontal(weight * math.cos(slope) / strength)) - faces
 
+        if unheld(0.5 * math.pi) <= 0.0:  # a light track held on any slope (the seabed fails first)
+            return 90.0
         return math.degrees(brentq(unheld, 1e-6, 0.5 * math.pi))
 
     def solve(self) -> SolveResult:
