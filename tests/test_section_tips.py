@@ -44,16 +44,13 @@ def test_the_section_at_the_tips_starts_once_its_grousers_have_cut_in(compose_cf
         assert start.inertia_kg == pytest.approx(landing.inertia_per_track_kg + trapped_kg, rel=1e-14)
         grid = solver.build()
         contact = solver.body_contact(grid).contact
-        ny1 = len(grid.y)
-        i, j = contact.node[: len(contact.node) - len(contact.split_node)] // ny1, \
-            contact.node[: len(contact.node) - len(contact.split_node)] % ny1
-        j_base = grid.row_of(0.0)
-        wall = (np.abs(np.abs(grid.x[i]) - 0.5 * body.width_m) < 1e-9) & (j > j_base)
-        held = contact.bond[: len(i)][wall]
-        sides = np.unique(np.sign(grid.x[i][wall]))  # the half model's one wall, or both
+        i, j = np.divmod(contact.node[: len(contact.node) - len(contact.split_node)], len(grid.y))  # grid ties
+        wall = (np.abs(np.abs(grid.x[i]) - 0.5 * body.width_m) < 1e-9) & (j > grid.row_of(0.0))
+        held, side_of = contact.bond[: len(i)][wall], np.sign(grid.x[i][wall])
+        sides = np.unique(side_of)  # the half model's one wall, or both
         assert len(sides) >= 1
         for side in sides:
-            on_side = np.sign(grid.x[i][wall]) == side
+            on_side = side_of == side
             assert grid.h * (held[on_side].sum() + 0.5) == pytest.approx(gh, rel=1e-12), (cell, side)
 
 
