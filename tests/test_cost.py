@@ -152,9 +152,9 @@ def test_the_estimate_of_a_landing_that_may_turn_says_it_is_at_least(compose_cfg
 
 
 def test_a_vehicle_that_slides_on_is_expected_to_take_its_slide_of_one_width(compose_cfg, capsys):
-    """The 30 t vehicle set down on 45°, a third past its envelope (33.3°): the fast vehicle model slides on
-    (its guard ends it after 20 B, 3.68 s), the CEL's slide guard may end the run after one width B: the
-    expected duration is the fast model's time to slide B (0.73 s; the section at the grousers' tips slid a
+    """The 30 t vehicle set down on 45°, 17 % past its envelope (38.4°): the fast vehicle model slides on
+    (its guard ends it after 20 B, 4.80 s), the CEL's slide guard may end the run after one width B: the
+    expected duration is the fast model's time to slide B (0.89 s; the section at the grousers' tips slid a
     width on 45.25° on B/8 and was ended by the guard), and the estimate line says what it counts. On 30°
     it rests, and the expected duration is its rest."""
     from dsmv.cel.solver2d import Cel2DSolver

@@ -50,6 +50,8 @@ from dsmv.results import SolveResult, add_plate_sinkage, add_vehicle_answers
 PATCHES_ALONG, PATCHES_ACROSS = 24, 4
 #: the step as a fraction of the period √(M/K) of the patches' stiffness K
 STEP_FRACTION = 0.05
+#: Gauss–Legendre points on each smooth piece of an end arc's run (:meth:`VehicleModel.end_arcs_n`)
+ARC_POINTS = 6
 #: the longest landing it steps (s): beyond, it has not settled
 LONGEST_S = 30.0
 #: history samples kept (at most)
@@ -176,9 +178,8 @@ class VehicleModel:
         vertical = body.contact_area_m2 * self.floor_pa / np.maximum(self.elastic_depth_m, 1e-6 * body.width_m)
         self.slide_stiffness = np.outer(vertical, ratios)  # per track along x and y (N/m)
         self.slide_dashpot = np.sqrt(shear_pa * density) * body.contact_area_m2  # per track (N·s/m)
-        # the faces of the soil a track's grousers trap, which a push along x and along y meets: its sides
-        # (the track's length) and its ends (its width) (m)
-        self.face_lengths_m = np.array([body.contact_length_m, body.width_m])
+        # the envelope of its grousers' tips past the flat run: sprocket arcs of radius R + gh, as cel3d's
+        self.arc_radius_m = body.sprocket_radius_m + body.grouser_height_m
 
     def pressure(self, depth: np.ndarray, speed: np.ndarray, soil: Landing | None = None, factor=None) -> np.ndarray:
         """The fast landing model's pressure (Pa) on patches (vehicles × patches) whose grousers' tips are
@@ -331,7 +332,7 @@ class VehicleModel:
         down = speed[:, None] - rates[:, :1] * tracks[:, 1] + rates[:, 1:] * tracks[:, 0]
         area = self.scene.geometry.contact_area_m2
         strength = area * self.pressure(depth, down, soil, factor) / PRANDTL_NC
-        shear = self.base_shear_n(depth, soil)
+        shear, *faces = self.sliding_resistance_n(depth, soil)
         bearing = (load > 0.0) & (strength > 0.0)
         with np.errstate(divide="ignore", invalid="ignore"):
             capacity = green_horizontal(np.where(bearing, load / strength, 0.0))
@@ -345,9 +346,8 @@ class VehicleModel:
             stiffness = given["slide_stiffness"][:, :, None]
             trial = -stiffness * (moved - slip)
             size = np.hypot(trial[:, 0], trial[:, 1])
-            # the trapped soil's faces the push meets, their length across its direction (m)
-            faces = (np.abs(trial) * self.face_lengths_m[None, :, None]).sum(axis=1) / np.where(size > 0.0, size, 1.0)
-            passive = self.passive_push(depth, soil) * faces
+            # the trapped soil's faces a push along x and along y meets, weighed by its direction
+            passive = (np.abs(trial) * np.stack(faces, axis=1)).sum(axis=1) / np.where(size > 0.0, size, 1.0)
             capacity = base + passive
             over = size > capacity
             resisted = trial * np.where(over, capacity / np.where(over, size, 1.0), 1.0)[:, None, :]
@@ -390,6 +390,43 @@ class VehicleModel:
         overburden = density_at(soil, 0.5 * (held + d)) * soil.gravity_m_s2 * 0.5 * (d * d - held * held)
         return k * (strength_over(d) + strength_over(held)) + overburden
 
+    def end_arcs_n(self, depth: np.ndarray, soil: Landing) -> tuple[np.ndarray, np.ndarray]:
+        """The track's ends (docs/decisions/0044), the two sprocket arcs' runs below the mudline past the flat
+        run, the envelope of the grousers' tips, radius ρ = R + gh, as cel3d draws them: at the angle θ from
+        the arc's lowest point the envelope lies d(θ) = D − ρ·(1 − cos θ) deep, ``depth`` = D at the tips.
+        A push across the track shears their underside (su at d over the arc, B wide: B·∫ su ρ dθ) and meets
+        their sides' faces (:meth:`passive_push` at d over the run, ∫ push ρ cos θ dθ). Returns both (N),
+        the two ends together: the slice of each run pushed as the flat run's section is, whose neighbours'
+        differing depths the sum leaves out. Gauss–Legendre over θ, split where d = gh (where the push's
+        held face stops growing), so each piece is smooth."""
+        rho, gh = self.arc_radius_m, self.grouser_height_m
+        d = np.maximum(depth, 0.0)
+        top = np.arccos(np.clip(1.0 - d / rho, 0.0, 1.0))  # where the arc meets the mudline (at most its side)
+        kink = np.arccos(np.clip(1.0 - np.maximum(d - gh, 0.0) / rho, 0.0, 1.0))
+        nodes, weights = np.polynomial.legendre.leggauss(ARC_POINTS)
+        shape = d.shape
+        underside = faces = 0.0
+        for start, end in ((0.0, kink), (kink, top)):
+            half = 0.5 * (end - start)
+            theta = (start + half)[..., None] + half[..., None] * nodes  # (…, points)
+            deep = (d[..., None] - rho * (1.0 - np.cos(theta))).reshape(shape[0], -1)
+            su = strength_at(soil, deep)[0].reshape(*shape, ARC_POINTS)
+            push = self.passive_push(deep, soil).reshape(*shape, ARC_POINTS)
+            underside = underside + half * (weights * su).sum(axis=-1) * rho
+            faces = faces + half * (weights * push * np.cos(theta)).sum(axis=-1) * rho
+        return 2.0 * self.scene.geometry.width_m * underside, 2.0 * faces
+
+    def sliding_resistance_n(self, depth: np.ndarray, soil: Landing) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The most the soil resists a track, its tips ``depth`` deep, sliding along the seabed (N): its
+        underside's (the flat run's A·su, :meth:`base_shear_n`, and the end arcs', :meth:`end_arcs_n`), and
+        the push on the faces of the soil its grousers trap (:meth:`passive_push`) pushed along x (across
+        the track: its sides, the flat run's length L and the end arcs' runs) and along y (along it: its
+        ends, B wide)."""
+        body = self.scene.geometry
+        arcs, arc_faces = self.end_arcs_n(depth, soil)
+        push = self.passive_push(depth, soil)
+        return self.base_shear_n(depth, soil) + arcs, push * body.contact_length_m + arc_faces, push * body.width_m
+
     def sliding_slope_deg(self, depth_m: float) -> float:
         """The seabed slope (degrees, across the tracks) at which a track whose grousers' tips are ``depth_m``
         deep reaches its capacity along the seabed, set down slowly: V = W·cos β and H = W·sin β per track,
@@ -403,8 +440,7 @@ class VehicleModel:
         weight, body = 0.5 * float(self.weight_n[0]), self.scene.geometry
         depth = np.array([[depth_m]])
         strength = body.contact_area_m2 * float(self.pressure(depth, np.zeros_like(depth))[0, 0]) / PRANDTL_NC
-        shear = float(self.base_shear_n(depth, self.patch_soil)[0, 0])
-        faces = float(self.passive_push(depth, self.patch_soil)[0, 0]) * body.contact_length_m
+        shear, faces, _ = (float(force[0, 0]) for force in self.sliding_resistance_n(depth, self.patch_soil))
 
         def unheld(slope):  # the push along the seabed over what the track holds there (N)
             return weight * math.sin(slope) - shear * float(green_horizontal(weight * math.cos(slope) / strength)) - faces
