@@ -427,20 +427,25 @@ class VehicleModel:
         push = self.passive_push(depth, soil)
         return self.base_shear_n(depth, soil) + arcs, push * body.contact_length_m + arc_faces, push * body.width_m
 
-    def sliding_slope_deg(self, depth_m: float) -> float:
+    def sliding_slope_deg(self, depth_m: float, ends: bool = True) -> float:
         """The seabed slope (degrees, across the tracks) at which a track whose grousers' tips are ``depth_m``
         deep reaches its capacity along the seabed, set down slowly: V = W·cos β and H = W·sin β per track,
         its base on Green's (1954) envelope, V over the strength of its bearing pressure at that depth,
-        A·p/(2 + π), H over A·su (:meth:`base_shear_n`), and the faces of the soil its grousers trap along its
-        length (:meth:`passive_push`):
-        where a vehicle with that embedment starts to slide, by the strip's inclined-load capacity; 90 where
-        it holds the track on any slope."""
+        A·p/(2 + π), H over its underside's strength (A·su, :meth:`base_shear_n`, and with ``ends`` its end
+        arcs', :meth:`end_arcs_n`), and the faces of the soil its grousers trap along its length
+        (:meth:`passive_push`, and with ``ends`` along its end arcs' runs): where a vehicle with that
+        embedment starts to slide, by the strip's inclined-load capacity; 90 where it holds the track on
+        any slope. Without ``ends``: the flat run's, as in the track's section (``section_base=grouser_tips``)."""
         from scipy.optimize import brentq
 
         weight, body = 0.5 * float(self.weight_n[0]), self.scene.geometry
         depth = np.array([[depth_m]])
         strength = body.contact_area_m2 * float(self.pressure(depth, np.zeros_like(depth))[0, 0]) / PRANDTL_NC
-        shear, faces, _ = (float(force[0, 0]) for force in self.sliding_resistance_n(depth, self.patch_soil))
+        if ends:
+            shear, faces, _ = (float(force[0, 0]) for force in self.sliding_resistance_n(depth, self.patch_soil))
+        else:
+            shear = float(self.base_shear_n(depth, self.patch_soil)[0, 0])
+            faces = float(self.passive_push(depth, self.patch_soil)[0, 0]) * body.contact_length_m
 
         def unheld(slope):  # the push along the seabed over what the track holds there (N)
             return weight * math.sin(slope) - shear * float(green_horizontal(weight * math.cos(slope) / strength)) - faces

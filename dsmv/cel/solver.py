@@ -466,8 +466,8 @@ class CelSolver:
         where the CEL's slide guard first may end a slide that does not slow
         (:class:`~dsmv.cel.controller.SlideFailure`); None for a body not free to slide, or a landing that
         rests or never slides that far. Only a drop free to slide is asked (a cone's duration is its fall's,
-        and no model lands it). The 30 t vehicle on 45°, a third past its envelope: 0.73 s, where the fast
-        model's 20 B took 3.68 s; cel3d on B/12 slid 0.54 m in 1.6 s, slowing, and on 48° was ended by the
+        and no model lands it). The 30 t vehicle on 45°, 17 % past its envelope: 0.89 s, where the fast
+        model's 20 B took 4.80 s; cel3d on B/12 slid 0.54 m in 1.6 s, slowing, and on 48° was ended by the
         guard at 1.07 s."""
         if self.scene.landing.kind != "drop" or self.cone or not {"x", "y"} & set(self.moving_freedoms()):
             return None
