@@ -50,8 +50,9 @@ from dsmv.results import SolveResult, add_plate_sinkage, add_vehicle_answers
 PATCHES_ALONG, PATCHES_ACROSS = 24, 4
 #: the step as a fraction of the period √(M/K) of the patches' stiffness K
 STEP_FRACTION = 0.05
-#: Gauss–Legendre points on each smooth piece of an end arc's run (:meth:`VehicleModel.end_arcs_n`)
-ARC_POINTS = 6
+#: Gauss–Legendre nodes and weights on [−1, 1], six on each smooth piece of an end arc's run
+#: (:meth:`VehicleModel.end_arcs_n`)
+ARC_NODES, ARC_WEIGHTS = np.polynomial.legendre.leggauss(6)
 #: the longest landing it steps (s): beyond, it has not settled
 LONGEST_S = 30.0
 #: history samples kept (at most)
@@ -403,18 +404,15 @@ class VehicleModel:
         d = np.maximum(depth, 0.0)
         top = np.arccos(np.clip(1.0 - d / rho, 0.0, 1.0))  # where the arc meets the mudline (at most its side)
         kink = np.arccos(np.clip(1.0 - np.maximum(d - gh, 0.0) / rho, 0.0, 1.0))
-        nodes, weights = np.polynomial.legendre.leggauss(ARC_POINTS)
-        shape = d.shape
-        underside = faces = 0.0
-        for start, end in ((0.0, kink), (kink, top)):
-            half = 0.5 * (end - start)
-            theta = (start + half)[..., None] + half[..., None] * nodes  # (…, points)
-            deep = (d[..., None] - rho * (1.0 - np.cos(theta))).reshape(shape[0], -1)
-            su = strength_at(soil, deep)[0].reshape(*shape, ARC_POINTS)
-            push = self.passive_push(deep, soil).reshape(*shape, ARC_POINTS)
-            underside = underside + half * (weights * su).sum(axis=-1) * rho
-            faces = faces + half * (weights * push * np.cos(theta)).sum(axis=-1) * rho
-        return 2.0 * self.scene.geometry.width_m * underside, 2.0 * faces
+        halves = 0.5 * np.stack([kink, top - kink], axis=-1)  # (…, pieces): each piece's half-width
+        middles = np.stack([halves[..., 0], kink + halves[..., 1]], axis=-1)
+        theta = (middles[..., None] + halves[..., None] * ARC_NODES).reshape(*d.shape, -1)  # (…, pieces · points)
+        weight = (halves[..., None] * ARC_WEIGHTS).reshape(theta.shape) * rho
+        deep = (d[..., None] - rho * (1.0 - np.cos(theta))).reshape(d.shape[0], -1)  # rows stay the soil's
+        su = strength_at(soil, deep)[0].reshape(theta.shape)
+        push = self.passive_push(deep, soil).reshape(theta.shape)
+        return (2.0 * self.scene.geometry.width_m * (weight * su).sum(axis=-1),
+                2.0 * (weight * push * np.cos(theta)).sum(axis=-1))
 
     def sliding_resistance_n(self, depth: np.ndarray, soil: Landing) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The most the soil resists a track, its tips ``depth`` deep, sliding along the seabed (N): its
