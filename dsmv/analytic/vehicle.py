@@ -414,14 +414,15 @@ class VehicleModel:
         return (2.0 * self.scene.geometry.width_m * (weight * su).sum(axis=-1),
                 2.0 * (weight * push * np.cos(theta)).sum(axis=-1))
 
-    def sliding_resistance_n(self, depth: np.ndarray, soil: Landing) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def sliding_resistance_n(self, depth: np.ndarray, soil: Landing,
+                             ends: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The most the soil resists a track, its tips ``depth`` deep, sliding along the seabed (N): its
         underside's (the flat run's A·su, :meth:`base_shear_n`, and the end arcs', :meth:`end_arcs_n`), and
         the push on the faces of the soil its grousers trap (:meth:`passive_push`) pushed along x (across
         the track: its sides, the flat run's length L and the end arcs' runs) and along y (along it: its
-        ends, B wide)."""
+        ends, B wide). Without ``ends``: the flat run's alone, as the track's section has it."""
         body = self.scene.geometry
-        arcs, arc_faces = self.end_arcs_n(depth, soil)
+        arcs, arc_faces = self.end_arcs_n(depth, soil) if ends else (0.0, 0.0)
         push = self.passive_push(depth, soil)
         return self.base_shear_n(depth, soil) + arcs, push * body.contact_length_m + arc_faces, push * body.width_m
 
@@ -433,17 +434,13 @@ class VehicleModel:
         arcs', :meth:`end_arcs_n`), and the faces of the soil its grousers trap along its length
         (:meth:`passive_push`, and with ``ends`` along its end arcs' runs): where a vehicle with that
         embedment starts to slide, by the strip's inclined-load capacity; 90 where it holds the track on
-        any slope. Without ``ends``: the flat run's, as in the track's section (``section_base=grouser_tips``)."""
+        any slope. Without ``ends``: the flat run's, as the track's section (``section_base=grouser_tips``)."""
         from scipy.optimize import brentq
 
         weight, body = 0.5 * float(self.weight_n[0]), self.scene.geometry
         depth = np.array([[depth_m]])
         strength = body.contact_area_m2 * float(self.pressure(depth, np.zeros_like(depth))[0, 0]) / PRANDTL_NC
-        if ends:
-            shear, faces, _ = (float(force[0, 0]) for force in self.sliding_resistance_n(depth, self.patch_soil))
-        else:
-            shear = float(self.base_shear_n(depth, self.patch_soil)[0, 0])
-            faces = float(self.passive_push(depth, self.patch_soil)[0, 0]) * body.contact_length_m
+        shear, faces, _ = (float(force[0, 0]) for force in self.sliding_resistance_n(depth, self.patch_soil, ends))
 
         def unheld(slope):  # the push along the seabed over what the track holds there (N)
             return weight * math.sin(slope) - shear * float(green_horizontal(weight * math.cos(slope) / strength)) - faces
