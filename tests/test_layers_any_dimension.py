@@ -306,6 +306,17 @@ def test_the_kinetic_energy_guard_ends_a_run_past_ten_times_the_energy_put_in():
     assert ending.status == "unstable" and "kinetic energy" in ending.message and "solver.cfl (now 0.5)" in ending.message
 
 
+def test_the_top_of_the_domain_ends_a_run_on_soil_that_bears_not_on_a_trace():
+    """The closed top holds a trace that carries no stress (under ``solver.stress_cutoff``); soil that
+    bears there ends the run out of the domain, with the advice."""
+    run = C.Run(state=None, body=np.zeros(N_BODY), energy=np.zeros(1))
+    cutoff = 0.01
+    assert C.TopOfDomain(lambda: 3e-6, 0.1, cutoff).after_chunk(run) is None
+    assert C.TopOfDomain(lambda: cutoff, 0.1, cutoff).after_chunk(run) is None
+    ending = C.TopOfDomain(lambda: 2 * cutoff, 0.1, cutoff).after_chunk(run)
+    assert ending.status == "out_of_domain" and "solver.initial_travel_m" in ending.message
+
+
 @pytest.mark.parametrize("ndim", [2, 3])
 def test_the_hourglass_force_acts_around_cut_cells_only(ndim):
     """solver.hourglass_region: cut_cells keeps the force in the cells a curved body cuts (0 < open

@@ -385,7 +385,7 @@ class CelSolver:
             C.NonFinite(lambda: self.state_arrays(state), cfg.cfl),
             C.EnergyRunaway(lambda: self.soil_kinetic_energy(state), state.kinetic_in, state.scale, cfg.cfl),
             C.SpeedLimit(lambda: self.largest_speed(state), speed_limit, cfg.cfl, cfg.hourglass),
-            C.TopOfDomain(lambda: self.top_fill(state), self.travel),
+            C.TopOfDomain(lambda: self.top_fill(state), self.travel, max(cfg.stress_cutoff, 1e-6)),
         ]
         if drop:
             # a body must slow down within one width of its own. A cone dropped from rest
