@@ -113,20 +113,24 @@ def test_past_the_expected_duration_the_progress_gives_no_time_left(monkeypatch,
 
 def test_the_progress_of_a_body_free_to_slide_and_turn_says_how_far_and_how_fast(monkeypatch, capsys):
     """A vehicle set down on a slope runs for seconds at one sinkage while it slides: its line gives the
-    slide along the seabed (m, from the body's x and y displacement) and its speed, and the largest turn."""
+    slide along the seabed (m, from the body's x and y displacement) and its speed, its tilt now and at
+    most, and, beside its base's middle, its base's lowest point so far (a body touching down tilted
+    starts with its middle above the mudline)."""
     from dsmv.cel import controller
-    from dsmv.cel.layout import B_MAXROT, B_OFFSET_X, B_OFFSET_Y, B_VX, B_VY
+    from dsmv.cel.layout import B_MAXEDGE, B_MAXROT, B_OFFSET_X, B_OFFSET_Y, B_ROT_Y, B_VX, B_VY
 
     monkeypatch.setattr(controller.time, "perf_counter", lambda: 20.0)
     progress = controller.Progress(expected_s=5.0, terminal=False, slides=True, turns=True)
     progress.started = progress.last = 0.0
     body = np.zeros(45)
     body[B_OFFSET_X], body[B_OFFSET_Y], body[B_VX], body[B_VY] = 0.3, 0.4, 0.06, -0.08
-    body[B_MAXROT] = np.radians(0.25)
-    run = type("Run", (), {"time_s": 1.5, "sinkage_m": 0.0848, "body": body, "steps": 20000})()
+    body[B_MAXROT], body[B_ROT_Y], body[B_MAXEDGE] = np.radians(0.25), np.radians(-0.2), 0.0412
+    run = type("Run", (), {"time_s": 1.5, "sinkage_m": 0.0848, "start_sinkage_m": 0.05, "turned_deg": 0.2,
+                           "body": body, "steps": 20000})()
     progress.after_chunk(run)
     line = capsys.readouterr().err
-    assert "sinkage 0.0848 m, velocity 0.000 m/s, slid 0.5000 m at 0.100 m/s, turned 0.25° at most, 20,000 steps" in line
+    assert ("sinkage 0.0848 m at the base's middle, its lowest point 0.0912 m deep at most, velocity 0.000 m/s, "
+            "slid 0.5000 m at 0.100 m/s, tilted 0.20° (0.25° at most), 20,000 steps") in line
     vertical = controller.Progress(expected_s=5.0, terminal=False)
     assert "slid" not in vertical.line(run) and "turned" not in vertical.line(run)
 

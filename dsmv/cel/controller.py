@@ -39,7 +39,7 @@ import numpy as np
 from dsmv.cel import ledger
 from dsmv.cel.kernels.common import all_finite
 from dsmv.cel.layout import (
-    B_FCOUNT, B_MAXDISP, B_MAXROT, B_MAXSLIDE, B_OFFSET, B_OFFSET_X, B_OFFSET_Y, B_ROT_X, B_ROT_Y, B_ROT_Z, B_SINKAGE,
+    B_FCOUNT, B_MAXDISP, B_MAXEDGE, B_MAXROT, B_MAXSLIDE, B_OFFSET, B_OFFSET_X, B_OFFSET_Y, B_ROT_X, B_ROT_Y, B_ROT_Z, B_SINKAGE,
     B_TIME, B_VEL, B_VX, B_VY, FORCE_SLOTS, FREEDOMS, POSE_SLOTS,
 )
 from dsmv.cel.stepper import AT_REST, NOT_FINITE, OUTRAN, RUNNING
@@ -376,9 +376,12 @@ class Progress(Tracker):
         if self.slides:  # a slide along the seabed is what a long run on a slope is doing
             moves += (f", slid {math.hypot(body[B_OFFSET_X], body[B_OFFSET_Y]):.4f} m at "
                       f"{math.hypot(body[B_VX], body[B_VY]):.3f} m/s")
-        if self.turns:
-            moves += f", turned {math.degrees(body[B_MAXROT]):.2f}° at most"
-        return f"sinkage {run.sinkage_m:.4f} m, velocity {0.0 - body[B_VEL]:.3f} m/s{moves}, {run.steps:,} steps"
+        sinkage = f"sinkage {run.sinkage_m:.4f} m"
+        if self.turns:  # a tilted base's middle may stand above the mudline while its lowest point is deep in
+            sinkage += (f" at the base's middle, its lowest point {run.start_sinkage_m + body[B_MAXEDGE]:.4f} m "
+                        f"deep at most")
+            moves += f", tilted {run.turned_deg:.2f}° ({math.degrees(body[B_MAXROT]):.2f}° at most)"
+        return f"{sinkage}, velocity {0.0 - body[B_VEL]:.3f} m/s{moves}, {run.steps:,} steps"
 
     def where(self, run: Run) -> str:
         """The run's time against the expected duration in words; past it, that the body still moves (a
