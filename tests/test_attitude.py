@@ -14,7 +14,7 @@ import math
 import numpy as np
 import pytest
 
-from dsmv.app.runner import EARLY_TOUCH_SHALLOW, attitude_note
+from dsmv.app.runner import BLADES_DRAWN_M, EARLY_TOUCH_SHALLOW, ENVELOPE_FROM_TIPS_M, attitude_note
 from dsmv.cel.body import Pose
 from dsmv.cel.layout import B_ROT_X, B_ROT_Y
 from dsmv.cel.solver2d import Cel2DSolver
@@ -119,6 +119,15 @@ def test_the_summary_says_how_shallow_a_tilted_touchdown_reads_on_its_cells(drop
     rolled section's measured shallowness at the drop nearest to it (decision 0030's table)."""
     note = attitude_note(drop_m, cell_m)
     assert f"{drop_m / cell_m:.2g} core cells" in note and expected in note
+
+
+def test_the_summary_says_a_tilted_envelope_bears_from_its_grousers_tips():
+    """A track whose grousers are the soil they trap bears from their tips on a tilted touchdown, on any mesh:
+    the note says so, with the side view's two landings (decision 0045); a base without them does not."""
+    note = attitude_note(0.223, 0.075, envelope=True)
+    assert "read 21 % shallow" in note and "envelope bears from their tips" in note
+    assert f"{ENVELOPE_FROM_TIPS_M:g} m, its grousers drawn {BLADES_DRAWN_M:g} m" in note
+    assert "envelope" not in attitude_note(0.223, 0.075)
 
 
 def test_the_shallowness_the_summary_quotes_is_the_rolled_sections_own():

@@ -42,18 +42,32 @@ RESOLVED_CONFIG_FILE = "config_resolved.yaml"
 EARLY_TOUCH_SHALLOW = ((1.4, 0.35), (2.8, 0.21), (5.6, 0.13), (11.1, 0.06))
 
 
-def attitude_note(drop_m: float, cell_m: float) -> str:
+#: the track's side view landing (cel2d, geometry.view=longitudinal, default scene) on 0.01 m cells: its
+#: grousers' envelope bearing from its tips' first touch, and its grousers drawn as blades 0.01 m thick
+#: cutting in from the mudline (m; decision 0045)
+ENVELOPE_FROM_TIPS_M, BLADES_DRAWN_M = 0.0707, 0.116
+
+
+def attitude_note(drop_m: float, cell_m: float, envelope: bool = False) -> str:
     """The summary's line on a tilted touchdown: its drop across the base in core cells, and what the staircase
     makes of it (a level drawing under one cell; else an early touch, with the measured shallowness nearest
-    to this many cells)."""
+    to this many cells); for a track whose grousers are the soil they trap (``envelope``), that the envelope
+    bears from their tips wherever its plates are still above the mudline, on any mesh."""
     cells = drop_m / cell_m
     note = f"its base drops {drop_m:.3g} m across at touchdown, {cells:.2g} core cells"
     if cells < 1.0:
-        return note + ": under one cell, the staircase draws it level (finer mesh.cell_size_m shows the tilt)"
-    measured, shallow = min(EARLY_TOUCH_SHALLOW, key=lambda point: abs(math.log(point[0] / cells)))
-    return note + (f"; its high side meets the soil about a cell early, so its deepest point reads shallow (the "
-                   f"track's section rolled 8° read {100 * shallow:.0f} % shallow at {measured:g} cells across; finer "
-                   f"mesh.cell_size_m shows more)")
+        note += ": under one cell, the staircase draws it level (finer mesh.cell_size_m shows the tilt)"
+    else:
+        measured, shallow = min(EARLY_TOUCH_SHALLOW, key=lambda point: abs(math.log(point[0] / cells)))
+        note += (f"; its high side meets the soil about a cell early, so its deepest point reads shallow (the "
+                 f"track's section rolled 8° read {100 * shallow:.0f} % shallow at {measured:g} cells across; finer "
+                 f"mesh.cell_size_m shows more)")
+    if envelope:
+        note += (f"; and its grousers' envelope bears from their tips where its plates are still above the mudline, "
+                 f"on any mesh, where the blades would cut in: shallow again (the side view landing so read "
+                 f"{ENVELOPE_FROM_TIPS_M:g} m, its grousers drawn {BLADES_DRAWN_M:g} m; the fast vehicle model's "
+                 f"patches bear from their plates)")
+    return note
 
 
 def pin_numba_threads(n: int) -> None:
@@ -451,7 +465,9 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
                                     "none: the landing " + ("or the seabed's slope " if scene.soil.slope_deg else "")
                                     + "is not symmetric about the body's mid-planes, the whole body is modelled"))
         if "attitude_drop_m" in m:  # a tilted touchdown: whether its staircase shows the tilt
-            print("  attitude: " + attitude_note(m["attitude_drop_m"], m["core_cell_size_m"]))
+            envelope = (getattr(scene.geometry, "grousers", None) == "trapped_soil"  # a base at the grousers' tips
+                        and m.get("plate_sinkage_m", m.get("max_sinkage_m")) != m.get("max_sinkage_m"))
+            print("  attitude: " + attitude_note(m["attitude_drop_m"], m["core_cell_size_m"], envelope))
         if "redraws" in m:  # a body redrawn as it turned: whether its soil may part from it
             parts = ContactRules.of(scene, False, draws_turns=True).separation
             def step_deg(span_m):  # one core cell across a span, as an angle
