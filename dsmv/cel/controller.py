@@ -39,8 +39,8 @@ import numpy as np
 from dsmv.cel import ledger
 from dsmv.cel.kernels.common import all_finite
 from dsmv.cel.layout import (
-    B_FCOUNT, B_MAXDISP, B_MAXEDGE, B_MAXROT, B_MAXSLIDE, B_OFFSET, B_OFFSET_X, B_OFFSET_Y, B_ROT_X, B_ROT_Y, B_ROT_Z, B_SINKAGE,
-    B_TIME, B_VEL, B_VX, B_VY, FORCE_SLOTS, FREEDOMS, POSE_SLOTS,
+    B_FCOUNT, B_MAXDISP, B_MAXEDGE, B_MAXROT, B_MAXSLIDE, B_OFFSET, B_OFFSET_X, B_OFFSET_Y, B_ROT_X, B_ROT_Y, B_ROT_Z,
+    B_SINKAGE, B_TIME, B_VEL, B_VX, B_VY, FORCE_SLOTS, FREEDOMS, POSE_SLOTS,
 )
 from dsmv.cel.stepper import AT_REST, NOT_FINITE, OUTRAN, RUNNING
 
