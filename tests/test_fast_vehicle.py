@@ -396,8 +396,8 @@ def test_the_end_arcs_runs_are_the_sprocket_arcs_below_the_mudline(compose_cfg, 
 def test_a_patch_bears_once_its_plates_reach_the_mudline_not_its_grousers_tips(compose_cfg):
     """Decision 0045: the blades cut in freely (the soil between them follows only past s·Nc/2, eight
     grouser heights), so a patch presses nothing until its tips are gh deep, then the fast landing
-    model's pressure. A pitched vehicle's first force then acts under its low
-    end alone, where cel3d's envelope bears from the tips along the whole stretch already in the soil."""
+    model's pressure. A pitched vehicle's first force then acts under its low end alone, where cel3d's
+    envelope bears from the tips along the whole stretch already in the soil."""
     model = fast_vehicle(build_scene(compose_cfg([*VEHICLE, "landing.pitch_deg=1", "landing.free=[z,rx]"])))
     gh = model.grouser_height_m
     depth = np.array([[0.0, 0.5 * gh, gh, gh * (1 + 1e-9), 2 * gh]])

@@ -465,9 +465,7 @@ def print_summary(scene: Scene, result: SolveResult, run_dir: Path, tracker, mul
                                     "none: the landing " + ("or the seabed's slope " if scene.soil.slope_deg else "")
                                     + "is not symmetric about the body's mid-planes, the whole body is modelled"))
         if "attitude_drop_m" in m:  # a tilted touchdown: whether its staircase shows the tilt
-            envelope = (getattr(scene.geometry, "grousers", None) == "trapped_soil"  # a base at the grousers' tips
-                        and m.get("plate_sinkage_m", m.get("max_sinkage_m")) != m.get("max_sinkage_m"))
-            print("  attitude: " + attitude_note(m["attitude_drop_m"], m["core_cell_size_m"], envelope))
+            print("  attitude: " + attitude_note(m["attitude_drop_m"], m["core_cell_size_m"], holds_trapped_soil(scene)))
         if "redraws" in m:  # a body redrawn as it turned: whether its soil may part from it
             parts = ContactRules.of(scene, False, draws_turns=True).separation
             def step_deg(span_m):  # one core cell across a span, as an angle

@@ -510,7 +510,7 @@ class TopOfDomain(Tracker):
 
     top_fill: Callable[[], float]
     travel: float
-    bearing_fill: float = 1e-6
+    bearing_fill: float
 
     def after_chunk(self, run: Run) -> Optional[Ending]:
         if self.top_fill() > self.bearing_fill:
